@@ -1,0 +1,85 @@
+"""Neutral result containers shared by the method packages and the I/O layer.
+
+Methods (``inins.table``, ``inins.calibration``) return a :class:`CommandResult`
+of plain numpy arrays; :mod:`inins.io` writes it to HDF5, a text report and
+``summary.json``. Methods that produce more data than fits in memory stream it
+into a :class:`SeriesSink` handed to them by the caller. Nothing here imports
+h5py, yaml or the CLI.
+"""
+
+from dataclasses import dataclass, field
+from typing import Protocol
+
+import numpy as np
+
+
+@dataclass(frozen=True)
+class Series:
+    """One dataset: an array with its unit and frame.
+
+    Attributes
+    ----------
+    data : ndarray
+        Leading axis is time (or the item index).
+    units : str
+        SI unit string (``"rad"``, ``"m/s"``, ``"s"``, ``"1"`` for dimensionless).
+    frame : str
+        Frame of vector or matrix data (``"n"``, ``"b"``, ``"t"``, ``"nb"`` for
+        ``mat_nb``/``quat_nb``); ``""`` for scalars.
+    description : str
+        One line saying what the dataset is.
+    """
+
+    data: np.ndarray
+    units: str
+    frame: str = ""
+    description: str = ""
+
+
+@dataclass(frozen=True)
+class CommandResult:
+    """Everything one command produced.
+
+    Attributes
+    ----------
+    command : str
+        ``"simulate-table"``, ``"calibrate-bias"``, ...
+    results : dict
+        Flat name -> number (or None where a method is not applicable); names
+        carry their lab unit as a suffix (``beta_x_dph``).
+    truth : dict
+        The same names, where truth is known (simulation).
+    datasets : dict
+        HDF5 path (``"group/name"``) -> :class:`Series`.
+    attrs : dict
+        HDF5 group path (``""`` for the root) -> attributes (SI, unit in the name).
+    report : str
+        Body of the text report (the I/O layer adds the header and checks).
+    warnings : tuple of str
+        Things the user should know (a method not applicable, a fallback taken).
+    """
+
+    command: str
+    results: dict
+    truth: dict = field(default_factory=dict)
+    datasets: dict = field(default_factory=dict)
+    attrs: dict = field(default_factory=dict)
+    report: str = ""
+    warnings: tuple = ()
+
+
+class SeriesSink(Protocol):
+    """Where a method streams long series, chunk by chunk.
+
+    ``create`` declares a dataset once; ``append`` adds rows along the leading
+    axis; ``set_attrs`` attaches attributes to a group or dataset path.
+    """
+
+    def create(
+        self, path: str, row_shape: tuple, dtype, units: str, frame: str = "",
+        description: str = "", expected_rows: int | None = None, attrs: dict | None = None,
+    ) -> None: ...
+
+    def append(self, path: str, rows: np.ndarray) -> None: ...
+
+    def set_attrs(self, path: str, attrs: dict) -> None: ...
