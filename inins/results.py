@@ -83,3 +83,34 @@ class SeriesSink(Protocol):
     def append(self, path: str, rows: np.ndarray) -> None: ...
 
     def set_attrs(self, path: str, attrs: dict) -> None: ...
+
+
+class MemorySink:
+    """A :class:`SeriesSink` that keeps everything in memory (tests, short runs)."""
+
+    def __init__(self):
+        self.meta = {}
+        self.attrs = {}
+        self._rows = {}
+
+    def create(self, path, row_shape, dtype, units, frame="", description="",
+               expected_rows=None, attrs=None):
+        self.meta[path] = (tuple(row_shape), np.dtype(dtype), units, frame, description)
+        self._rows[path] = []
+        if attrs:
+            self.attrs.setdefault(path, {}).update(attrs)
+
+    def append(self, path, rows):
+        row_shape, dtype = self.meta[path][:2]
+        rows = np.asarray(rows, dtype=dtype)
+        if rows.shape[1:] != row_shape:
+            raise ValueError(f"{path}: rows of shape {rows.shape[1:]}, declared {row_shape}")
+        self._rows[path].append(rows)
+
+    def set_attrs(self, path, attrs):
+        self.attrs.setdefault(path, {}).update(attrs)
+
+    def __getitem__(self, path):
+        row_shape, dtype = self.meta[path][:2]
+        parts = self._rows[path]
+        return np.concatenate(parts) if parts else np.empty((0, *row_shape), dtype)

@@ -1,0 +1,307 @@
+"""Rate-table kinematics: the true attitude, angular rate and specific force of an IMU
+on a gimbaled table through an anti-vibration mount.
+
+Chain of frames (package docstring): n (local level NED at the site) -> table
+base -> gimbals, outer first -> t (table platform, innermost gimbal) -> b (IMU)::
+
+    mat_nt = mat_n_base @ R_1(theta_1) @ ... @ R_g(theta_g)
+    mat_tb = mat_tb0 @ exp([m x])          (m: mount rotation vector, b frame)
+    mat_nb = mat_nt @ mat_tb
+
+``R_i`` turns about gimbal axis ``a_i`` (unit vector in its parent frame; the
+nominal axes are table x = roll, y = pitch, z = yaw, and may carry small
+non-orthogonality). The rate of gimbal i's frame relative to n, in its own
+axes, is ``w_i = R_i^T w_(i-1) + a_i dtheta_i/dt`` (``w_0 = 0``). The mount
+rate is ``omega_tb_b = J_r(m) dm/dt`` with the right Jacobian of SO(3).
+The table stands still on the Earth and the IMU sits at the centre of
+rotation (no lever arm), so::
+
+    omega_ib_b = mat_bn omega_ie_n + mat_bt omega_nt_t + omega_tb_b
+    f_b        = -mat_bn g_n
+"""
+
+from dataclasses import dataclass
+
+import numba
+import numpy as np
+
+from inins.core import earth, rotation
+
+GIMBAL_AXES = {"roll": 0, "pitch": 1, "yaw": 2}
+"""Nominal gimbal axis names -> table axis index (x, y, z of the FRD table frame)."""
+
+
+@dataclass(frozen=True)
+class MountRotation:
+    """A rotation of the IMU on its mount about a fixed body axis.
+
+    Attributes
+    ----------
+    axis : ndarray, shape (3,)
+        Unit rotation axis in the b frame.
+    angle : float
+        Total rotation (rad).
+    start, duration : float
+        Time (s) the rotation starts and how long it takes (> 0).
+    smooth : bool
+        False: constant rate (linear ramp). True: ``(1 - cos(pi s)) / 2`` ramp,
+        rate continuous at both ends.
+    """
+
+    axis: np.ndarray
+    angle: float
+    start: float
+    duration: float
+    smooth: bool = False
+
+
+_jit = numba.njit(cache=True, nogil=True)
+
+
+@_jit
+def _mm(a, b, out):
+    """out = a @ b for 3x3 matrices, without allocating."""
+    for i in range(3):
+        for j in range(3):
+            out[i, j] = a[i, 0] * b[0, j] + a[i, 1] * b[1, j] + a[i, 2] * b[2, j]
+
+
+@_jit
+def _mtv(a, v, out):
+    """out = a.T @ v for a 3x3 matrix, without allocating."""
+    for j in range(3):
+        out[j] = a[0, j] * v[0] + a[1, j] * v[1] + a[2, j] * v[2]
+
+
+@_jit
+def _rodrigues(axis, angle, out):
+    """out = exp(angle [axis x]) for a unit axis."""
+    s, c = np.sin(angle), np.cos(angle)
+    v = 1.0 - c
+    x, y, z = axis[0], axis[1], axis[2]
+    out[0, 0] = c + v * x * x
+    out[0, 1] = v * x * y - s * z
+    out[0, 2] = v * x * z + s * y
+    out[1, 0] = v * x * y + s * z
+    out[1, 1] = c + v * y * y
+    out[1, 2] = v * y * z - s * x
+    out[2, 0] = v * x * z - s * y
+    out[2, 1] = v * y * z + s * x
+    out[2, 2] = c + v * z * z
+
+
+@_jit
+def _mount_terms(m, mdot, exp_m, jr_mdot):
+    """exp([m x]) and J_r(m) @ mdot for a small or large rotation vector m."""
+    angle = np.sqrt(m[0] * m[0] + m[1] * m[1] + m[2] * m[2])
+    if angle < 1e-5:
+        a = 1.0 - angle * angle / 6.0
+        b = 0.5 - angle * angle / 24.0
+        cb = 1.0 / 6.0 - angle * angle / 120.0
+    else:
+        a = np.sin(angle) / angle
+        b = (1.0 - np.cos(angle)) / angle**2
+        cb = (angle - np.sin(angle)) / angle**3
+    # exp([m x]) = I + a [m x] + b [m x]^2
+    for i in range(3):
+        for j in range(3):
+            exp_m[i, j] = b * m[i] * m[j] - (b * angle * angle if i == j else 0.0) + (
+                1.0 if i == j else 0.0
+            )
+    exp_m[0, 1] -= a * m[2]
+    exp_m[0, 2] += a * m[1]
+    exp_m[1, 0] += a * m[2]
+    exp_m[1, 2] -= a * m[0]
+    exp_m[2, 0] -= a * m[1]
+    exp_m[2, 1] += a * m[0]
+    # J_r(m) v = v - b (m x v) + cb (m x (m x v))
+    c0 = m[1] * mdot[2] - m[2] * mdot[1]
+    c1 = m[2] * mdot[0] - m[0] * mdot[2]
+    c2 = m[0] * mdot[1] - m[1] * mdot[0]
+    jr_mdot[0] = mdot[0] - b * c0 + cb * (m[1] * c2 - m[2] * c1)
+    jr_mdot[1] = mdot[1] - b * c1 + cb * (m[2] * c0 - m[0] * c2)
+    jr_mdot[2] = mdot[2] - b * c2 + cb * (m[0] * c1 - m[1] * c0)
+
+
+@_jit
+def _mount_state(t, m_axis, m_angle, m_start, m_duration, m_smooth, m, mdot):
+    """Mount rotation vector m (rad) and its rate (rad/s) at time t."""
+    m[:] = 0.0
+    mdot[:] = 0.0
+    for j in range(m_angle.size):
+        s = (t - m_start[j]) / m_duration[j]
+        if s <= 0.0:
+            continue
+        if s >= 1.0:
+            theta, rate = m_angle[j], 0.0
+        elif m_smooth[j]:
+            theta = m_angle[j] * 0.5 * (1.0 - np.cos(np.pi * s))
+            rate = m_angle[j] * 0.5 * np.pi * np.sin(np.pi * s) / m_duration[j]
+        else:
+            theta, rate = m_angle[j] * s, m_angle[j] / m_duration[j]
+        for i in range(3):
+            m[i] += m_axis[j, i] * theta
+            mdot[i] += m_axis[j, i] * rate
+
+
+@_jit
+def _kinematics_kernel(time, seg_t0, seg_theta0, seg_rate0, seg_accel, axes, mat_n_base,
+                       mat_tb0, m_axis, m_angle, m_start, m_duration, m_smooth,
+                       omega_ie_n, f_n, want_mat, omega_ib_b, f_b, mat_nb, angles_out):
+    n, n_gimbals = time.size, axes.shape[0]
+    rot = np.empty((3, 3))
+    mat_nt = np.empty((3, 3))
+    tmp = np.empty((3, 3))
+    exp_m = np.empty((3, 3))
+    mat_tb = np.empty((3, 3))
+    c_nb = np.empty((3, 3))
+    w = np.zeros(3)
+    w2 = np.empty(3)
+    m = np.empty(3)
+    mdot = np.empty(3)
+    jr = np.empty(3)
+    v1 = np.empty(3)
+    v2 = np.empty(3)
+    seg = np.searchsorted(seg_t0, time, side="right") - 1
+    last_seg = -1
+    for k in range(n):
+        s = max(seg[k], 0)
+        tau = time[k] - seg_t0[s]
+        moving = False
+        for g in range(n_gimbals):
+            angles_out[k, g] = seg_theta0[s, g] + tau * (
+                seg_rate0[s, g] + 0.5 * tau * seg_accel[s, g])
+            moving = moving or seg_rate0[s, g] != 0.0 or seg_accel[s, g] != 0.0
+        if moving or s != last_seg:  # a hold reuses mat_nt and w of its segment
+            mat_nt[:, :] = mat_n_base
+            w[:] = 0.0
+            for g in range(n_gimbals):
+                _rodrigues(axes[g], angles_out[k, g], rot)
+                _mm(mat_nt, rot, tmp)
+                mat_nt[:, :] = tmp
+                _mtv(rot, w, w2)
+                rate = seg_rate0[s, g] + seg_accel[s, g] * tau
+                for i in range(3):
+                    w[i] = w2[i] + axes[g, i] * rate
+            last_seg = s
+        _mount_state(time[k], m_axis, m_angle, m_start, m_duration, m_smooth, m, mdot)
+        _mount_terms(m, mdot, exp_m, jr)
+        _mm(mat_tb0, exp_m, mat_tb)
+        _mm(mat_nt, mat_tb, c_nb)
+        _mtv(c_nb, omega_ie_n, v1)
+        _mtv(mat_tb, w, v2)
+        for i in range(3):
+            omega_ib_b[k, i] = v1[i] + v2[i] + jr[i]
+        _mtv(c_nb, f_n, v1)
+        f_b[k, :] = v1
+        if want_mat:
+            mat_nb[k] = c_nb
+
+
+@dataclass(frozen=True)
+class TableTrajectory:
+    """Truth of an IMU on a rate table: implements the trajectory protocol of
+    :mod:`inins.core.trajectory` (``breakpoints``, ``rates``, ``state``).
+
+    Attributes
+    ----------
+    program : Program
+        Compiled motion program (:func:`inins.table.program.compile_program`).
+    axes : ndarray, shape (g, 3)
+        Unit gimbal axes, outer first, each in its parent frame.
+    mat_n_base : ndarray, shape (3, 3)
+        Table base to NED (azimuth of the base from true north and base tilt).
+    mat_tb0 : ndarray, shape (3, 3)
+        IMU body to table platform with the mount at rest (nominal mounting
+        times the constant mount misalignment).
+    mounts : tuple of MountRotation
+        Time-varying mount rotations.
+    lla : ndarray, shape (3,)
+        Site latitude (rad), longitude (rad), height (m).
+    """
+
+    program: object
+    axes: np.ndarray
+    mat_n_base: np.ndarray
+    mat_tb0: np.ndarray
+    mounts: tuple
+    lla: np.ndarray
+
+    @property
+    def breakpoints(self):
+        """Times (s) where gimbal or mount rates are not smooth."""
+        mount_times = [t for mr in self.mounts for t in (mr.start, mr.start + mr.duration)]
+        return np.unique(np.concatenate([self.program.breakpoints, mount_times]))
+
+    def _evaluate(self, time, want_mat):
+        time = np.ascontiguousarray(np.atleast_1d(time), dtype=float)
+        n = time.size
+        seg = self.program.segments
+        n_mounts = len(self.mounts)
+        m_axis = np.array([mr.axis for mr in self.mounts], dtype=float).reshape(n_mounts, 3)
+        omega_ib_b, f_b = np.empty((n, 3)), np.empty((n, 3))
+        mat_nb = np.empty((n if want_mat else 1, 3, 3))
+        angles = np.empty((n, seg.theta0.shape[1]))
+        f_n = -earth.gravity_n(self.lla[0], self.lla[2])
+        _kinematics_kernel(
+            time, seg.t0, seg.theta0, seg.rate0, seg.accel, np.asarray(self.axes, float),
+            np.asarray(self.mat_n_base, float), np.asarray(self.mat_tb0, float), m_axis,
+            np.array([mr.angle for mr in self.mounts], dtype=float),
+            np.array([mr.start for mr in self.mounts], dtype=float),
+            np.array([mr.duration for mr in self.mounts], dtype=float),
+            np.array([mr.smooth for mr in self.mounts], dtype=np.bool_),
+            earth.rate_ie_n(self.lla[0]), f_n, want_mat, omega_ib_b, f_b, mat_nb, angles,
+        )
+        return omega_ib_b, f_b, mat_nb, angles
+
+    def rates(self, time):
+        """True ``omega_ib_b`` (rad/s) and ``f_b`` (m/s^2), each shape (n, 3)."""
+        omega_ib_b, f_b, _, _ = self._evaluate(time, False)
+        return omega_ib_b, f_b
+
+    def state(self, time):
+        """True ``mat_nb`` (n, 3, 3), ``vel_n`` (n, 3) (zero) and ``lla`` (n, 3)."""
+        _, _, mat_nb, _ = self._evaluate(time, True)
+        n = mat_nb.shape[0]
+        return mat_nb, np.zeros((n, 3)), np.broadcast_to(self.lla, (n, 3)).copy()
+
+    def table_angles(self, time):
+        """True gimbal angles (rad), shape (n, g), outer first."""
+        return self.program.segments.evaluate(time)[0]
+
+    def mount_rotvec(self, time):
+        """Mount rotation vector m (rad, b frame), shape (n, 3)."""
+        time = np.atleast_1d(np.asarray(time, dtype=float))
+        m = np.zeros((time.size, 3))
+        for mr in self.mounts:
+            s = np.clip((time - mr.start) / mr.duration, 0.0, 1.0)
+            ramp = 0.5 * (1.0 - np.cos(np.pi * s)) if mr.smooth else s
+            m += np.outer(ramp * mr.angle, mr.axis)
+        return m
+
+
+def gimbal_axes(names, nonorthogonality=None):
+    """Unit gimbal axes from names (outer first), optionally tilted by small angles.
+
+    Parameters
+    ----------
+    names : sequence of str
+        ``"yaw"``, ``"pitch"`` or ``"roll"`` per gimbal, outer first.
+    nonorthogonality : array_like, shape (g, 2), optional
+        Small tilts (rad) of each axis toward the two other table axes, in
+        cyclic order (yaw axis z tilts toward x then y; pitch y toward z then x;
+        roll x toward y then z).
+    """
+    axes = np.zeros((len(names), 3))
+    for g, name in enumerate(names):
+        i = GIMBAL_AXES[name]
+        axes[g, i] = 1.0
+        if nonorthogonality is not None:
+            axes[g, (i + 1) % 3] += nonorthogonality[g][0]
+            axes[g, (i + 2) % 3] += nonorthogonality[g][1]
+    return axes / np.linalg.norm(axes, axis=1, keepdims=True)
+
+
+def base_matrix(azimuth, tilt_roll=0.0, tilt_pitch=0.0):
+    """``mat_n_base`` of a table base whose x axis points at ``azimuth`` (rad from north)."""
+    return rotation.mat_from_euler(tilt_roll, tilt_pitch, azimuth)

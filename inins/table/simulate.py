@@ -1,0 +1,238 @@
+"""simulate-table: an IMU on a rate table running a motion program (spec §3, 000 §2).
+
+The simulation streams chunk by chunk into a :class:`inins.results.SeriesSink`:
+exact increments from the table kinematics (:mod:`inins.table.kinematics`),
+then the disturbances of 000 §2 (accelerometer bias change after a rotation,
+chamber temperature), then the sensor error model
+(:func:`inins.core.imu.apply_errors`). Memory is bounded by the chunk size,
+whatever the length of the run.
+
+The datasets written are the table-data layout documented in
+:mod:`inins.io.tabledata`.
+"""
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from inins.core import imu, rotation, trajectory
+from inins.core.units import DPH, UG
+from inins.results import Series
+
+CHUNK_SAMPLES = 1 << 18
+
+
+@dataclass(frozen=True)
+class AfterRotationBias:
+    """Accelerometer bias change after each table rotation (000 §2, Fig. 2).
+
+    Every rotate or spin step adds ``step`` (m/s^2, b frame), reached
+    exponentially with time constant ``settle_time`` (s; 0 = at once) from the
+    end of the rotation; the changes of successive rotations add up.
+    """
+
+    step: np.ndarray
+    settle_time: float = 0.0
+
+    def bias(self, time, rotation_ends):
+        """Bias change (m/s^2), shape (n, 3), at ``time`` (s)."""
+        time = np.asarray(time, dtype=float)
+        total = np.zeros((time.size, 3))
+        for t_end in rotation_ends:
+            age = time - t_end
+            if self.settle_time > 0.0:
+                weight = -np.expm1(-np.clip(age, 0.0, None) / self.settle_time)
+            else:
+                weight = (age > 0.0).astype(float)
+            total += np.outer(weight, self.step)
+        return total
+
+
+@dataclass(frozen=True)
+class Chamber:
+    """Chamber temperature offset from the sensors' reference (K), piecewise linear in time."""
+
+    time: np.ndarray
+    delta: np.ndarray
+
+    def at(self, time):
+        """Temperature offset (K) at ``time`` (s)."""
+        return np.interp(time, self.time, self.delta)
+
+
+@dataclass(frozen=True)
+class TableSimulation:
+    """Everything simulate-table needs, in SI.
+
+    Attributes
+    ----------
+    trajectory : inins.table.kinematics.TableTrajectory
+    sensor : inins.core.imu.SensorErrors
+    sample_rate : float
+        IMU sample rate (Hz).
+    gimbal_names : tuple of str
+        Outer gimbal first.
+    encoder_noise : float
+        White noise of the encoder readings (rad, 1 sigma).
+    truth_decimation : int
+        Truth and encoder readings are kept every ``truth_decimation`` samples.
+    after_rotation : AfterRotationBias or None
+    chamber : Chamber or None
+    """
+
+    trajectory: object
+    sensor: imu.SensorErrors
+    sample_rate: float
+    gimbal_names: tuple
+    encoder_noise: float = 0.0
+    truth_decimation: int = 10
+    after_rotation: AfterRotationBias | None = None
+    chamber: Chamber | None = None
+
+    @property
+    def dt(self):
+        """Sample interval (s)."""
+        return 1.0 / self.sample_rate
+
+    @property
+    def n_samples(self):
+        """Whole samples in the program, rounded down to a multiple of the decimation."""
+        n = int(np.floor(self.trajectory.program.duration * self.sample_rate + 1e-9))
+        return n - n % self.truth_decimation
+
+    def rotation_ends(self):
+        """End times (s) of the rotate and spin steps."""
+        return [s.end for s in self.trajectory.program.steps if s.kind != "hold"]
+
+
+def _declare(sink, sim):
+    n, d = sim.n_samples, sim.truth_decimation
+    m = n // d
+    n_g = len(sim.gimbal_names)
+    s = sim.sensor
+    quantized = (np.any(s.gyro_pulse_weight > 0), np.any(s.accel_pulse_weight > 0))
+    for name, q, unit, weights in (("dtheta", quantized[0], "rad", s.gyro_pulse_weight),
+                                   ("dv", quantized[1], "m/s", s.accel_pulse_weight)):
+        attrs = {"pulse_weight": weights} if q else None
+        what = "pulse counts" if q else "increments"
+        sink.create(f"imu/{name}", (3,), np.int32 if q else np.float64,
+                    "count" if q else unit, "b", f"IMU {name} {what} per sample",
+                    expected_rows=n, attrs=attrs)
+    truth = (("truth/time", (), "s", "", "time of the truth samples"),
+             ("truth/quat_nb", (4,), "1", "nb", "true attitude quaternion, scalar first"),
+             ("truth/table_angles", (n_g,), "rad", "t", "true gimbal angles, outer first"),
+             ("truth/mount_rotvec", (3,), "rad", "b", "mount rotation vector"),
+             ("truth/gyro_bias", (3,), "rad/s", "b", "total gyro bias, mean over the interval"),
+             ("truth/accel_bias", (3,), "m/s^2", "b", "total accel bias, mean over the interval"),
+             ("table/time", (), "s", "", "time of the encoder readings"),
+             ("table/encoder", (n_g,), "rad", "t", "encoder readings, outer gimbal first"))
+    for path, row, unit, frame, text in truth:
+        sink.create(path, row, np.float64, unit, frame, text, expected_rows=m)
+    return quantized
+
+
+def _chunk(sim, k0, k1, rng, encoder_rng, err_state):
+    """Measured increments and decimated truth of samples k0..k1-1."""
+    dt, d = sim.dt, sim.truth_decimation
+    edges = dt * np.arange(k0, k1 + 1)
+    ideal = trajectory.ideal_increments(sim.trajectory, edges, nodes=1)
+    mid = edges[:-1] + 0.5 * dt
+    temp = sim.chamber.at(mid) if sim.chamber is not None else None
+    extra = (sim.after_rotation.bias(mid, sim.rotation_ends())
+             if sim.after_rotation is not None else None)
+    dtheta, dv, err_state, bias = imu.apply_errors(
+        ideal[0], ideal[1], dt, sim.sensor, rng, err_state,
+        temperature_delta=temp, accel_bias_extra=extra)
+    t_truth = edges[d::d]
+    mat_nb, _, _ = sim.trajectory.state(t_truth)
+    angles = sim.trajectory.table_angles(t_truth)
+    truth = {
+        "truth/time": t_truth,
+        "truth/quat_nb": rotation.quat_from_mat(mat_nb),
+        "truth/table_angles": angles,
+        "truth/mount_rotvec": sim.trajectory.mount_rotvec(t_truth),
+        "truth/gyro_bias": bias[0].reshape(-1, d, 3).mean(axis=1),
+        "truth/accel_bias": bias[1].reshape(-1, d, 3).mean(axis=1),
+        "table/time": t_truth,
+        "table/encoder": angles + sim.encoder_noise * encoder_rng.standard_normal(angles.shape),
+    }
+    return dtheta, dv, truth, err_state
+
+
+def simulation_chunks(sim, rng):
+    """Yield ``(k0, dtheta, dv, truth)`` chunk by chunk: measured increments (SI) of
+    samples k0.. and the truth rows (dict of arrays) falling in that chunk."""
+    n, d = sim.n_samples, sim.truth_decimation
+    if n == 0:
+        raise ValueError("the motion program is shorter than one truth interval")
+    chunk = max(d, CHUNK_SAMPLES - CHUNK_SAMPLES % d)
+    encoder_rng = rng.spawn(1)[0]  # own stream: results do not depend on the chunk size
+    err_state = None
+    for k0 in range(0, n, chunk):
+        dtheta, dv, truth, err_state = _chunk(sim, k0, min(n, k0 + chunk), rng, encoder_rng,
+                                              err_state)
+        yield k0, dtheta, dv, truth
+
+
+def simulate_table(sim, rng, sink, progress=None):
+    """Run the simulation and stream the table-data layout into ``sink``.
+
+    Parameters
+    ----------
+    sim : TableSimulation
+    rng : numpy.random.Generator
+    sink : inins.results.SeriesSink
+    progress : callable, optional
+        Called as ``progress(samples_done, samples_total)`` after each chunk.
+    """
+    quantized = _declare(sink, sim)
+    s = sim.sensor
+    for k0, dtheta, dv, truth in simulation_chunks(sim, rng):
+        sink.append("imu/dtheta", imu.counts_from_increments(dtheta, s.gyro_pulse_weight)
+                    if quantized[0] else dtheta)
+        sink.append("imu/dv", imu.counts_from_increments(dv, s.accel_pulse_weight)
+                    if quantized[1] else dv)
+        for path, rows in truth.items():
+            sink.append(path, rows)
+        if progress is not None:
+            progress(k0 + dtheta.shape[0], sim.n_samples)
+
+
+def step_schedule(sim):
+    """The step schedule as datasets: which samples belong to which step."""
+    steps = sim.trajectory.program.steps
+    dt = sim.dt
+
+    def first(t):  # first sample whose interval starts at or after t
+        return min(sim.n_samples, int(np.ceil(t / dt - 1e-9)))
+
+    def stop(t):  # one past the last sample whose interval ends by t
+        return min(sim.n_samples, int(np.floor(t / dt + 1e-9)))
+
+    return {
+        "steps/kind": Series(np.array([s.kind for s in steps], dtype="S8"), "1", "",
+                             "hold, rotate or spin"),
+        "steps/label": Series(np.array([s.label for s in steps], dtype="S32"), "1", "",
+                              "label given in the scenario"),
+        "steps/axis": Series(np.array([s.axis for s in steps], dtype=np.int32), "1", "",
+                             "moving gimbal index (outer = 0), -1 for a hold"),
+        "steps/start_time": Series(np.array([s.start for s in steps]), "s", "", "step start"),
+        "steps/end_time": Series(np.array([s.end for s in steps]), "s", "", "step end"),
+        "steps/start_index": Series(np.array([first(s.start) for s in steps], dtype=np.int64),
+                                    "1", "", "first IMU sample starting at or after the start"),
+        "steps/stop_index": Series(np.array([stop(s.end) for s in steps], dtype=np.int64),
+                                   "1", "", "one past the last IMU sample ending by the end"),
+        "steps/angles_start": Series(np.array([s.angles_start for s in steps]), "rad", "t",
+                                     "gimbal angles at the step start"),
+        "steps/angles_end": Series(np.array([s.angles_end for s in steps]), "rad", "t",
+                                   "gimbal angles at the step end"),
+    }
+
+
+def truth_scalars(sensor):
+    """Sensor error truth in lab units for summary.json (deg/h, ug)."""
+    out = {}
+    for i, axis in enumerate("xyz"):
+        out[f"gyro_bias_{axis}_dph"] = float(sensor.gyro_bias[i] / DPH)
+        out[f"accel_bias_{axis}_ug"] = float(sensor.accel_bias[i] / UG)
+    return out
