@@ -214,7 +214,7 @@ def axis_rotation(axis, angle):
     ``axis_rotation(2, h)`` is ``Rz(h)`` of :func:`mat_from_euler`, i.e. it maps the
     rotated frame to the original one.
     """
-    vec = np.zeros(np.shape(angle) + (3,))
+    vec = np.zeros((*np.shape(angle), 3))
     vec[..., axis] = angle
     return mat_from_rotvec(vec)
 
