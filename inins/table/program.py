@@ -173,6 +173,8 @@ def compile_program(steps, initial_angles, start_time=0.0):
             rate = rate + accel * duration
             t += duration
         rate[np.abs(rate) < 1e-12] = 0.0  # end of a rest-to-rest turn: exactly at rest
+        if isinstance(step, Rotate):  # and exactly at the commanded angle
+            angles[axis] = angles_start[axis] + step.angle
         kind = type(step).__name__.lower()
         records.append(
             StepRecord(index, kind, step.label, axis, start, t, angles_start, angles.copy())

@@ -16,8 +16,9 @@ from dataclasses import dataclass
 import numpy as np
 
 from inins.core import imu, rotation, trajectory
-from inins.core.units import DPH, UG
-from inins.results import Series
+from inins.core.units import DEG_RTH, DPH, PPM, UG, UG_RTHZ
+from inins.io.report import format_table
+from inins.results import CommandResult, Series
 
 CHUNK_SAMPLES = 1 << 18
 
@@ -35,16 +36,21 @@ class AfterRotationBias:
     settle_time: float = 0.0
 
     def bias(self, time, rotation_ends):
-        """Bias change (m/s^2), shape (n, 3), at ``time`` (s)."""
+        """Bias change (m/s^2), shape (n, 3), at ``time`` (s, increasing)."""
         time = np.asarray(time, dtype=float)
-        total = np.zeros((time.size, 3))
-        for t_end in rotation_ends:
+        ends = np.asarray(rotation_ends, dtype=float)
+        if time.size == 0:
+            return np.zeros((0, 3))
+        # a change is complete (to the last bit) 40 time constants after its rotation
+        settled = ends <= time[0] - 40.0 * self.settle_time
+        total = np.tile(np.count_nonzero(settled) * self.step, (time.size, 1))
+        for t_end in ends[~settled & (ends < time[-1])]:
             age = time - t_end
             if self.settle_time > 0.0:
                 weight = -np.expm1(-np.clip(age, 0.0, None) / self.settle_time)
             else:
                 weight = (age > 0.0).astype(float)
-            total += np.outer(weight, self.step)
+            total += weight[:, None] * self.step
         return total
 
 
@@ -135,7 +141,7 @@ def _chunk(sim, k0, k1, rng, encoder_rng, err_state):
     """Measured increments and decimated truth of samples k0..k1-1."""
     dt, d = sim.dt, sim.truth_decimation
     edges = dt * np.arange(k0, k1 + 1)
-    ideal = trajectory.ideal_increments(sim.trajectory, edges, nodes=1)
+    ideal = trajectory.ideal_increments(sim.trajectory, edges, nodes=1, chunk=edges.size)
     mid = edges[:-1] + 0.5 * dt
     temp = sim.chamber.at(mid) if sim.chamber is not None else None
     extra = (sim.after_rotation.bias(mid, sim.rotation_ends())
@@ -236,3 +242,71 @@ def truth_scalars(sensor):
         out[f"gyro_bias_{axis}_dph"] = float(sensor.gyro_bias[i] / DPH)
         out[f"accel_bias_{axis}_ug"] = float(sensor.accel_bias[i] / UG)
     return out
+
+
+def run_simulation(sim, rng, sink, progress=None):
+    """simulate-table end to end: stream the data into ``sink`` and describe the run.
+
+    Returns
+    -------
+    inins.results.CommandResult
+        Step schedule datasets, layout attributes (site, imu, table, truth),
+        summary numbers and the report body.
+    """
+    simulate_table(sim, rng, sink, progress)
+    lla = sim.trajectory.lla
+    attrs = {
+        "site": {"lat_rad": lla[0], "lon_rad": lla[1], "height_m": lla[2]},
+        "imu": {"t0_s": 0.0, "dt_s": sim.dt, "sample_rate_hz": sim.sample_rate},
+        "table": {"gimbals": list(sim.gimbal_names), "axes": sim.trajectory.axes,
+                  "mat_n_base": sim.trajectory.mat_n_base},
+        "truth": {"mat_tb0": sim.trajectory.mat_tb0, "truth_decimation": sim.truth_decimation,
+                  **{f"sensor.{k}": np.asarray(v, dtype=float)
+                     for k, v in vars(sim.sensor).items()}},
+    }
+    results = {"samples": sim.n_samples, "duration_s": sim.n_samples * sim.dt,
+               "sample_rate_hz": sim.sample_rate,
+               "steps": len(sim.trajectory.program.steps)}
+    return CommandResult(command="simulate-table", results=results,
+                         truth=truth_scalars(sim.sensor), datasets=step_schedule(sim),
+                         attrs=attrs, report=report(sim))
+
+
+def report(sim):
+    """Report body: site, table, motion program, sensor errors."""
+    lla = sim.trajectory.lla
+    s = sim.sensor
+    steps = [[st.index, st.kind, st.label, sim.gimbal_names[st.axis] if st.axis >= 0 else "",
+              st.start, st.end, *np.degrees(st.angles_end)]
+             for st in sim.trajectory.program.steps]
+    gimbals = [f"{g} end" for g in sim.gimbal_names]
+    sensors = [
+        ["gyro bias", *(s.gyro_bias / DPH), "deg/h"],
+        ["gyro ARW", *(s.gyro_arw / DEG_RTH), "deg/sqrt(h)"],
+        ["gyro scale", *(s.gyro_scale / PPM), "ppm"],
+        ["accel bias", *(s.accel_bias / UG), "ug"],
+        ["accel VRW", *(s.accel_vrw / UG_RTHZ), "ug/sqrt(Hz)"],
+        ["accel scale", *(s.accel_scale / PPM), "ppm"],
+    ]
+    lines = [
+        f"site: latitude {np.degrees(lla[0]):.6f} deg, longitude {np.degrees(lla[1]):.6f} "
+        f"deg, height {lla[2]:.1f} m",
+        f"table: gimbals {', '.join(sim.gimbal_names)} (outer first)",
+        f"IMU: {sim.sample_rate:g} Hz, {sim.n_samples} samples "
+        f"({sim.n_samples * sim.dt:.1f} s); truth every {sim.truth_decimation} samples",
+        "", "motion program",
+        format_table(steps, ["#", "kind", "label", "axis", "start", "end", *gimbals],
+                     ["", "", "", "", "s", "s", *["deg"] * len(gimbals)], fmt=".6g"),
+        "", "sensor errors (truth)",
+        format_table(sensors, ["term", "x", "y", "z", "unit"], fmt=".6g"),
+    ]
+    if sim.after_rotation is not None:
+        lines += ["", "accelerometer bias change after each rotation: "
+                  f"{np.array2string(sim.after_rotation.step / UG, precision=1)} ug, "
+                  f"settling {sim.after_rotation.settle_time:g} s"]
+    if sim.trajectory.mounts:
+        for m in sim.trajectory.mounts:
+            lines.append(f"mount rotation: {np.degrees(m.angle):.6g} deg about body "
+                         f"{np.array2string(m.axis, precision=3)} from {m.start:g} s "
+                         f"over {m.duration:g} s")
+    return "\n".join(lines)

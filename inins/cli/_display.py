@@ -1,0 +1,131 @@
+"""Terminal output of the CLI (rich): run outcome, summaries, dataset listings.
+
+User text is never parsed as rich markup (key paths like ``bias_dph[1]`` and
+check expressions would be mangled).
+"""
+
+from rich import box
+from rich.console import Console
+from rich.table import Table
+from rich.text import Text
+
+from inins.io.report import format_value
+
+MAX_ROWS = 40
+
+
+def console() -> Console:
+    """A console on the current stdout (created per call, so test runners capture it)."""
+    return Console(highlight=False, soft_wrap=True)
+
+
+def results_table(summary: dict) -> Table | None:
+    """Results with truth and error where known (at most :data:`MAX_ROWS` rows)."""
+    results, truth = summary.get("results", {}), summary.get("truth", {})
+    if not results:
+        return None
+    has_truth = any(k in truth for k in results)
+    table = Table(title="results", title_justify="left", show_edge=False, pad_edge=False,
+                  box=box.SIMPLE_HEAD)
+    table.add_column("name")
+    table.add_column("value", justify="right")
+    if has_truth:
+        table.add_column("truth", justify="right")
+        table.add_column("error", justify="right")
+    for name, value in list(results.items())[:MAX_ROWS]:
+        row = [Text(name), Text(format_value(value))]
+        if has_truth:
+            true = truth.get(name)
+            err = value - true if _numbers(value, true) else None
+            row += [Text(format_value(true)), Text(format_value(err))]
+        table.add_row(*row)
+    if len(results) > MAX_ROWS:
+        table.caption = f"... {len(results) - MAX_ROWS} more in summary.json"
+    return table
+
+
+def _numbers(*values) -> bool:
+    return all(isinstance(v, int | float) and not isinstance(v, bool) for v in values)
+
+
+def checks_table(summary: dict) -> Table | None:
+    """The checks with PASS/FAIL."""
+    checks = summary.get("checks", [])
+    if not checks:
+        return None
+    table = Table(title="checks", title_justify="left", show_edge=False, pad_edge=False,
+                  box=box.SIMPLE_HEAD)
+    for col, justify in (("check", "left"), ("value", "right"), ("result", "left")):
+        table.add_column(col, justify=justify)
+    for c in checks:
+        result = Text("PASS", style="green") if c["passed"] else Text("FAIL", style="bold red")
+        if c.get("reason"):
+            result.append(f" ({c['reason']})")
+        table.add_row(Text(c["name"]), Text(format_value(c.get("value"))), result)
+    return table
+
+
+def print_summary(summary: dict, out: Console | None = None) -> None:
+    """Results and checks tables, then the verdict."""
+    out = out or console()
+    for table in (results_table(summary), checks_table(summary)):
+        if table is not None:
+            out.print(table)
+            out.print()
+    checks = summary.get("checks", [])
+    if checks:
+        passed = sum(c["passed"] for c in checks)
+        style = "bold green" if summary.get("passed") else "bold red"
+        verdict = "PASSED" if summary.get("passed") else "FAILED"
+        out.print(Text(f"{verdict}: {passed} of {len(checks)} checks passed", style=style))
+
+
+def print_outcome(summary: dict, paths, elapsed_s: float) -> None:
+    """What a finished run prints: summary, then the files written."""
+    out = console()
+    out.print(Text(f"inins {summary['command']}: done in {elapsed_s:.1f} s "
+                   f"(scenario {summary['scenario']}, seed {summary['seed']})"))
+    print_summary(summary, out)
+    out.print(Text("wrote " + ", ".join(str(p) for p in paths)))
+
+
+def print_datasets(datasets, out: Console | None = None) -> None:
+    """A listing of datasets: path, shape, dtype, units, frame, description."""
+    out = out or console()
+    table = Table(title="datasets", title_justify="left", show_edge=False, pad_edge=False,
+                  box=box.SIMPLE_HEAD)
+    for col in ("path", "shape", "dtype", "units", "frame", "description"):
+        table.add_column(col, overflow="fold")
+    for d in datasets:
+        shape = "x".join(str(n) for n in d["shape"]) or "scalar"
+        table.add_row(*(Text(str(v)) for v in (d["path"], shape, d["dtype"], d["units"],
+                                                d["frame"], d["description"])))
+    out.print(table)
+
+
+class ProgressBar:
+    """A transient progress bar on stderr for long runs: ``bar(done, total)``.
+
+    Shown only on a terminal; in a pipe or a CI log it stays silent.
+    """
+
+    def __init__(self, label: str):
+        from rich.progress import BarColumn, Progress, TextColumn, TimeRemainingColumn
+
+        self._progress = Progress(
+            TextColumn(label), BarColumn(), TextColumn("{task.percentage:>3.0f}%"),
+            TimeRemainingColumn(), console=Console(stderr=True), transient=True,
+            disable=not Console(stderr=True).is_terminal)
+        self._task = None
+
+    def __enter__(self):
+        self._progress.__enter__()
+        return self
+
+    def __exit__(self, *exc):
+        return self._progress.__exit__(*exc)
+
+    def __call__(self, done: int, total: int) -> None:
+        if self._task is None:
+            self._task = self._progress.add_task("", total=total)
+        self._progress.update(self._task, completed=done)

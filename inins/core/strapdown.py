@@ -1,0 +1,416 @@
+"""Strapdown inertial navigation in NED from gyro and accelerometer increments.
+
+Algorithm (Savage, *Strapdown Analytics*, 2nd ed., ch. 7; spec section 2). Sample
+``k`` holds ``dtheta_k = int omega_ib_b dt`` and ``dv_k = int f_b dt`` over
+``[t_k, t_k + dt]``; the state before it is at ``t_k`` and after it at ``t_k + dt``.
+``a, b`` are the previous sample's ``dtheta, dv`` (zero at the start: no
+correction). Quantities marked ``_m`` are taken at mid-interval, extrapolated
+from the state at ``t_k`` (a midpoint rule for the slow Earth terms, so the
+scheme is second order).
+
+1. Body rotation vector with the two-sample coning correction::
+
+       phi = dtheta + (1/12) a x dtheta
+
+2. Specific-force increment with rotation compensation and two-sample sculling,
+   resolved in ``n(t_k)`` and rotated to the mid nav frame::
+
+       dv_b  = dv + 1/2 dtheta x dv + (1/12) (a x dv + b x dtheta)
+       dv_sf = (I - 1/2 [zeta x]) mat_nb(t_k) dv_b,   zeta = (omega_ie_n + omega_en_n)_m dt
+
+3. Velocity, with normal gravity ``g_n = [0, 0, gamma(lat, h)]`` and Coriolis at
+   the predicted mid velocity ``v_m = v + 1/2 (dv_sf + (g_n - (2 omega_ie + omega_en) x v) dt)``::
+
+       v_{k+1} = v_k + dv_sf + (g_n - (2 omega_ie_n + omega_en_n) x v_m) dt
+
+4. Attitude, body and nav-frame rotations by exact quaternions::
+
+       quat_nb <- q(-zeta) * quat_nb * q(phi),   q(r) = [cos |r|/2, sin(|r|/2) r/|r|]
+
+   followed by a first-order renormalisation ``q <- q (3 - |q|^2) / 2``.
+
+5. Position with the trapezoidal velocity ``vbar = (v_k + v_{k+1}) / 2``::
+
+       h += -vbar_D dt,  lat += vbar_N dt / (R_N + h)_m,  lon += vbar_E dt / ((R_E + h) cos lat)_m
+
+With ``fixed_position=True`` (rate-table "stationary navigation", 000 eqs. 9-10)
+the position stays at its initial value, ``omega_en = 0``, and Earth rate and
+gravity are those of the known position; velocity is still integrated (step 3
+with ``2 omega_ie x v``), so its error grows open-loop. With ``fixed_height=True``
+only the height is held (no update of ``h`` in step 5, ``h_m = h``): the
+horizontal channels stay free-inertial (Schuler) while the vertical channel,
+unstable with gravity feedback (time constant ``sqrt(R / 2g)`` ~ 9.5 min), cannot
+diverge.
+"""
+
+import math
+from dataclasses import dataclass, field
+
+import numba
+import numpy as np
+
+from inins.core import earth, rotation
+
+_gravity = numba.njit(cache=True)(earth.gravity)
+_radii = numba.njit(cache=True)(earth.principal_radii)
+_R_EXTRAPOLATE = 6.371e6
+"""Radius (m) used only to extrapolate the mid-interval latitude."""
+_FREE, _FIXED_HEIGHT, _FIXED_POSITION = 0, 1, 2
+
+
+@numba.njit(cache=True)
+def _quat_of_rotvec(x, y, z):
+    """Unit quaternion of the rotation vector ``[x, y, z]`` (rad); series below 0.01 rad."""
+    a2 = x * x + y * y + z * z
+    if a2 < 1e-4:  # truncation < 3e-17
+        c = 1.0 - a2 / 8.0 + a2 * a2 / 384.0
+        k = 0.5 - a2 / 48.0 + a2 * a2 / 3840.0
+    else:
+        a = math.sqrt(a2)
+        c = math.cos(0.5 * a)
+        k = math.sin(0.5 * a) / a
+    return c, k * x, k * y, k * z
+
+
+@numba.njit(cache=True)
+def _quat_mul(a0, a1, a2, a3, b0, b1, b2, b3):
+    """Hamilton product ``a * b``."""
+    return (a0 * b0 - a1 * b1 - a2 * b2 - a3 * b3,
+            a0 * b1 + a1 * b0 + a2 * b3 - a3 * b2,
+            a0 * b2 - a1 * b3 + a2 * b0 + a3 * b1,
+            a0 * b3 + a1 * b2 - a2 * b1 + a3 * b0)
+
+
+@numba.njit(cache=True)
+def _rotate(q0, q1, q2, q3, x, y, z):
+    """``mat_from_quat(q) @ [x, y, z]``: ``v + w t + r x t`` with ``t = 2 r x v``."""
+    tx = 2.0 * (q2 * z - q3 * y)
+    ty = 2.0 * (q3 * x - q1 * z)
+    tz = 2.0 * (q1 * y - q2 * x)
+    return (x + q0 * tx + q2 * tz - q3 * ty,
+            y + q0 * ty + q3 * tx - q1 * tz,
+            z + q0 * tz + q1 * ty - q2 * tx)
+
+
+@numba.njit(cache=True)
+def _cross(ax, ay, az, bx, by, bz):
+    return ay * bz - az * by, az * bx - ax * bz, ax * by - ay * bx
+
+
+@numba.njit(cache=True)
+def _body_terms(th, dv, prev, coning, sculling):
+    """Coning-corrected rotation vector and compensated velocity increment (body)."""
+    px, py, pz = th[0], th[1], th[2]
+    rx, ry, rz = _cross(th[0], th[1], th[2], dv[0], dv[1], dv[2])
+    sx, sy, sz = dv[0] + 0.5 * rx, dv[1] + 0.5 * ry, dv[2] + 0.5 * rz
+    if coning:
+        cx, cy, cz = _cross(prev[0], prev[1], prev[2], th[0], th[1], th[2])
+        px, py, pz = px + cx / 12.0, py + cy / 12.0, pz + cz / 12.0
+    if sculling:
+        ax, ay, az = _cross(prev[0], prev[1], prev[2], dv[0], dv[1], dv[2])
+        bx, by, bz = _cross(prev[3], prev[4], prev[5], th[0], th[1], th[2])
+        sx, sy, sz = sx + (ax + bx) / 12.0, sy + (ay + by) / 12.0, sz + (az + bz) / 12.0
+    return px, py, pz, sx, sy, sz
+
+
+@numba.njit(cache=True)
+def _earth_terms(lla, vel, dt, mode, home):
+    """Mid-interval Earth rate (3), R_N + h, R_E + h, latitude, gravity.
+
+    ``home`` holds ``[omega_ie_n (3), R_N + h, R_E + h, lat, gravity]`` of the
+    initial position, used as they are in fixed-position mode.
+    """
+    if mode == _FIXED_POSITION:
+        return home[0], home[1], home[2], home[3], home[4], home[5], home[7]
+    lat_m = lla[0] + 0.5 * dt * vel[0] / (_R_EXTRAPOLATE + lla[2])
+    h_m = lla[2] if mode == _FIXED_HEIGHT else lla[2] - 0.5 * dt * vel[2]
+    rn, re = _radii(lat_m)
+    w = earth.RATE
+    return (w * math.cos(lat_m), 0.0, -w * math.sin(lat_m), rn + h_m, re + h_m, lat_m,
+            _gravity(lat_m, h_m))
+
+
+@numba.njit(cache=True)
+def _transport(vx, vy, rn_h, re_h, lat, mode):
+    """Transport rate omega_en_n (rad/s); zero in fixed-position mode."""
+    if mode == _FIXED_POSITION:
+        return 0.0, 0.0, 0.0
+    return vy / re_h, -vx / rn_h, -vy * math.tan(lat) / re_h
+
+
+@numba.njit(cache=True)
+def _velocity_step(vel, u, wie, terms, g, dt, mode):
+    """Velocity change (3) and nav-frame rotation vector zeta (3), steps 2-3."""
+    rn_h, re_h, lat = terms
+    ex, ey, ez = _transport(vel[0], vel[1], rn_h, re_h, lat, mode)
+    cx, cy, cz = _cross(2.0 * wie[0] + ex, 2.0 * wie[1] + ey, 2.0 * wie[2] + ez,
+                        vel[0], vel[1], vel[2])
+    mx = vel[0] + 0.5 * (u[0] - cx * dt)
+    my = vel[1] + 0.5 * (u[1] - cy * dt)
+    mz = vel[2] + 0.5 * (u[2] + (g - cz) * dt)
+    ex, ey, ez = _transport(mx, my, rn_h, re_h, lat, mode)
+    zx, zy, zz = (wie[0] + ex) * dt, (wie[1] + ey) * dt, (wie[2] + ez) * dt
+    rx, ry, rz = _cross(zx, zy, zz, u[0], u[1], u[2])
+    cx, cy, cz = _cross(2.0 * wie[0] + ex, 2.0 * wie[1] + ey, 2.0 * wie[2] + ez, mx, my, mz)
+    return ((u[0] - 0.5 * rx - cx * dt, u[1] - 0.5 * ry - cy * dt,
+             u[2] - 0.5 * rz + (g - cz) * dt), (zx, zy, zz))
+
+
+@numba.njit(cache=True)
+def _navigate(quat, vel, lla, prev, count, dtheta, dv, dt, mode, coning, sculling,
+              decimation, home, out_index, out_quat, out_vel, out_lla):
+    """Run the recursion over all samples; state arrays are updated in place."""
+    q0, q1, q2, q3 = quat[0], quat[1], quat[2], quat[3]
+    j = 0
+    for k in range(dtheta.shape[0]):
+        th, dvk = dtheta[k], dv[k]
+        px, py, pz, sx, sy, sz = _body_terms(th, dvk, prev, coning, sculling)
+        u = _rotate(q0, q1, q2, q3, sx, sy, sz)
+        wx, wy, wz, rn_h, re_h, lat_m, g = _earth_terms(lla, vel, dt, mode, home)
+        dvn, zeta = _velocity_step(vel, u, (wx, wy, wz), (rn_h, re_h, lat_m), g, dt, mode)
+        b = _quat_of_rotvec(px, py, pz)
+        q0, q1, q2, q3 = _quat_mul(q0, q1, q2, q3, b[0], b[1], b[2], b[3])
+        n = _quat_of_rotvec(-zeta[0], -zeta[1], -zeta[2])
+        q0, q1, q2, q3 = _quat_mul(n[0], n[1], n[2], n[3], q0, q1, q2, q3)
+        s = 1.5 - 0.5 * (q0 * q0 + q1 * q1 + q2 * q2 + q3 * q3)
+        q0, q1, q2, q3 = q0 * s, q1 * s, q2 * s, q3 * s
+        mean_n, mean_e, mean_d = (vel[0] + 0.5 * dvn[0], vel[1] + 0.5 * dvn[1],
+                                  vel[2] + 0.5 * dvn[2])
+        vel[0], vel[1], vel[2] = vel[0] + dvn[0], vel[1] + dvn[1], vel[2] + dvn[2]
+        if mode != _FIXED_POSITION:
+            lla[0] += mean_n * dt / rn_h
+            lla[1] += mean_e * dt / (re_h * math.cos(lat_m))
+        if mode == _FREE:
+            lla[2] -= mean_d * dt
+        for i in range(3):
+            prev[i], prev[3 + i] = th[i], dvk[i]
+        if (count + k + 1) % decimation == 0:
+            out_index[j] = count + k
+            out_quat[j, 0], out_quat[j, 1], out_quat[j, 2], out_quat[j, 3] = q0, q1, q2, q3
+            out_vel[j, :] = vel
+            out_lla[j, :] = lla
+            j += 1
+    quat[0], quat[1], quat[2], quat[3] = q0, q1, q2, q3
+
+
+def _vector(value, size, name):
+    out = np.array(value, dtype=float).reshape(-1)
+    if out.shape != (size,) or not np.all(np.isfinite(out)):
+        raise ValueError(f"{name} must be {size} finite numbers, got {value!r}")
+    out.setflags(write=False)
+    return out
+
+
+@dataclass(frozen=True, eq=False)
+class NavState:
+    """Navigation state at a sample boundary, carried between :func:`integrate` calls.
+
+    Attributes
+    ----------
+    quat_nb : ndarray, shape (4,)
+        Attitude quaternion, scalar first (normalised on construction if its
+        norm is off by more than 1e-12).
+    vel_n : ndarray, shape (3,)
+        NED velocity relative to the Earth (m/s).
+    lla : ndarray, shape (3,)
+        ``[lat (rad), lon (rad), height (m)]``.
+    dtheta_prev, dv_prev : ndarray, shape (3,)
+        Previous sample's increments (rad, m/s) for coning and sculling; zeros
+        mean "no previous sample".
+    count : int
+        Samples integrated since the initial state (sets the decimation phase).
+    """
+
+    quat_nb: np.ndarray
+    vel_n: np.ndarray
+    lla: np.ndarray
+    dtheta_prev: np.ndarray = field(default_factory=lambda: np.zeros(3))
+    dv_prev: np.ndarray = field(default_factory=lambda: np.zeros(3))
+    count: int = 0
+
+    def __post_init__(self):
+        quat = _vector(self.quat_nb, 4, "quat_nb")
+        norm = np.linalg.norm(quat)
+        if not 0.5 < norm < 2.0:
+            raise ValueError(f"quat_nb must be a unit quaternion, got norm {norm}")
+        if abs(norm - 1.0) > 1e-12:  # leave a propagated state bit-for-bit as it is
+            object.__setattr__(self, "quat_nb", _vector(quat / norm, 4, "quat_nb"))
+        else:
+            object.__setattr__(self, "quat_nb", quat)
+        for name in ("vel_n", "lla", "dtheta_prev", "dv_prev"):
+            object.__setattr__(self, name, _vector(getattr(self, name), 3, name))
+        if int(self.count) != self.count or self.count < 0:
+            raise ValueError(f"count must be a non-negative integer, got {self.count!r}")
+        object.__setattr__(self, "count", int(self.count))
+
+    @classmethod
+    def from_attitude(cls, attitude, vel_n, lla):
+        """Initial state (no previous sample) from an attitude, velocity and position.
+
+        Parameters
+        ----------
+        attitude : array_like, shape (3, 3) or (3,)
+            ``mat_nb``, or ``[roll, pitch, heading]`` (rad).
+        vel_n : array_like, shape (3,)
+            NED velocity (m/s).
+        lla : array_like, shape (3,)
+            ``[lat (rad), lon (rad), height (m)]``.
+        """
+        attitude = np.asarray(attitude, dtype=float)
+        if attitude.shape == (3,):
+            attitude = rotation.mat_from_euler(*attitude)
+        if attitude.shape != (3, 3):
+            raise ValueError(f"attitude must be mat_nb (3, 3) or Euler (3,), got {attitude.shape}")
+        return cls(rotation.quat_from_mat(attitude), vel_n, lla)
+
+    @property
+    def mat_nb(self):
+        """Attitude matrix, shape (3, 3)."""
+        return rotation.mat_from_quat(self.quat_nb)
+
+
+@dataclass(frozen=True, eq=False)
+class NavSeries:
+    """Navigation outputs after samples ``index`` (state at ``t0 + (index + 1) dt``).
+
+    Attributes
+    ----------
+    index : ndarray, shape (m,)
+        Sample index since the initial state (int64).
+    quat_nb : ndarray, shape (m, 4)
+        Attitude quaternions, scalar first.
+    vel_n : ndarray, shape (m, 3)
+        NED velocity (m/s).
+    lla : ndarray, shape (m, 3)
+        ``[lat (rad), lon (rad), height (m)]``.
+    """
+
+    index: np.ndarray
+    quat_nb: np.ndarray
+    vel_n: np.ndarray
+    lla: np.ndarray
+
+    def __len__(self):
+        return self.index.size
+
+    def time(self, dt, t0=0.0):
+        """Time (s) of each output, shape (m,): ``t0 + (index + 1) dt``."""
+        return t0 + (self.index + 1) * dt
+
+    def mat_nb(self):
+        """Attitude matrices, shape (m, 3, 3)."""
+        return rotation.mat_from_quat(self.quat_nb)
+
+    def euler(self):
+        """Roll, pitch, heading (rad), shape (m, 3); heading in [0, 2 pi)."""
+        return rotation.euler_from_mat(self.mat_nb())
+
+    @classmethod
+    def concatenate(cls, parts):
+        """Join the series of consecutive :func:`integrate` calls."""
+        parts = list(parts)
+        return cls(*(np.concatenate([getattr(p, name) for p in parts])
+                     for name in ("index", "quat_nb", "vel_n", "lla")))
+
+
+def _increments(value, name):
+    out = np.ascontiguousarray(value, dtype=float)
+    if out.ndim != 2 or out.shape[1] != 3:
+        raise ValueError(f"{name} must have shape (n, 3), got {out.shape}")
+    return out
+
+
+def _home(lla):
+    """Earth rate (3), R_N + h, R_E + h, lat, (unused), gravity at ``lla``."""
+    rn, re = earth.principal_radii(lla[0])
+    return np.concatenate([earth.rate_ie_n(lla[0]),
+                           [rn + lla[2], re + lla[2], lla[0], 0.0, earth.gravity(lla[0], lla[2])]])
+
+
+def integrate(state, dtheta, dv, dt, *, fixed_position=False, fixed_height=False, coning=True,
+              sculling=True, decimation=1):
+    """Strapdown navigation over a record of increments (module docstring for the equations).
+
+    Chunked use is exact: integrating a record in pieces, each call starting from
+    the state the previous one returned, gives bit-for-bit the result of one call;
+    outputs are taken after every sample ``i`` with ``(i + 1) % decimation == 0``,
+    ``i`` counted from the initial state (``NavState.count``).
+
+    Parameters
+    ----------
+    state : NavState
+        State at the start of sample 0.
+    dtheta : array_like, shape (n, 3)
+        Gyro increments ``int omega_ib_b dt`` (rad).
+    dv : array_like, shape (n, 3)
+        Accelerometer increments ``int f_b dt`` (m/s).
+    dt : float
+        Sample interval (s).
+    fixed_position : bool
+        Rate-table mode: position held, ``omega_en = 0``.
+    fixed_height : bool
+        Hold the height (gravity, radii) at its initial value, for long free-inertial
+        runs without the unstable vertical channel; ``v_D`` is still integrated.
+    coning, sculling : bool
+        Apply the two-sample coning / sculling corrections.
+    decimation : int
+        Keep one output every ``decimation`` samples.
+
+    Returns
+    -------
+    NavState
+        State after the last sample.
+    NavSeries
+        Kept outputs.
+    """
+    dtheta = _increments(dtheta, "dtheta")
+    dv = _increments(dv, "dv")
+    if dv.shape != dtheta.shape:
+        raise ValueError(f"dtheta {dtheta.shape} and dv {dv.shape} must have the same shape")
+    if not (np.isfinite(dt) and dt > 0.0):
+        raise ValueError(f"dt must be a positive number of seconds, got {dt!r}")
+    if int(decimation) != decimation or decimation < 1:
+        raise ValueError(f"decimation must be a positive integer, got {decimation!r}")
+    decimation = int(decimation)
+    first, n = state.count, dtheta.shape[0]
+    m = (first + n) // decimation - first // decimation
+    out = (np.empty(m, np.int64), np.empty((m, 4)), np.empty((m, 3)), np.empty((m, 3)))
+    quat, vel, lla = state.quat_nb.copy(), state.vel_n.copy(), state.lla.copy()
+    prev = np.concatenate([state.dtheta_prev, state.dv_prev])
+    mode = _FIXED_POSITION if fixed_position else _FIXED_HEIGHT if fixed_height else _FREE
+    _navigate(quat, vel, lla, prev, first, dtheta, dv, float(dt), mode,
+              bool(coning), bool(sculling), decimation, _home(lla), *out)
+    end = NavState(quat, vel, lla, prev[:3], prev[3:], first + n)
+    return end, NavSeries(*out)
+
+
+def coning_drift_rate(half_angle, frequency, dt, corrected=True):
+    """Secular attitude drift (rad/s) of the attitude update under classic coning.
+
+    For the coning of :class:`inins.core.trajectory.Coning` (transverse rate
+    amplitude ``a = W sin(theta)``) the exact rotation vector over a sample
+    exceeds ``dtheta`` along the cone axis by the Bortz term
+    ``1/2 int alpha x omega dt = (a / W)^2 (x - sin x) / 2``, ``x = W dt``, while the
+    two-sample correction supplies ``(1/12) a x dtheta = (a / W)^2 (2 sin x - sin 2x) / 12``.
+    The difference per sample, divided by ``dt``, is the drift rate:
+    ``(W sin^2(theta) / 2) (1 - sin x / x)`` ~ ``W^3 sin^2(theta) dt^2 / 12``
+    uncorrected, ``W^5 sin^2(theta) dt^4 / 60`` corrected (leading order in theta).
+    The computed attitude lags the cone: the phi-angle error grows along the
+    +cone axis at this rate.
+
+    Parameters
+    ----------
+    half_angle : float
+        Cone half-angle ``theta`` (rad).
+    frequency : float
+        Coning frequency ``W / 2 pi`` (Hz).
+    dt : float
+        Sample interval (s).
+    corrected : bool
+        With the two-sample coning correction.
+    """
+    x = 2.0 * np.pi * frequency * dt
+    missing = 0.5 * (x - np.sin(x))
+    if corrected:
+        missing -= (2.0 * np.sin(x) - np.sin(2.0 * x)) / 12.0
+    return np.sin(half_angle) ** 2 * missing / dt

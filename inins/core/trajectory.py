@@ -1,0 +1,551 @@
+"""Analytic truth trajectories and exact ("ideal") IMU increments.
+
+A trajectory gives the truth as functions of time: ``state(time)`` returns
+attitude, velocity and position, ``rates(time)`` the angular rate and specific
+force an ideal IMU senses, and ``breakpoints`` lists the times at which rates or
+accelerations may jump. :func:`ideal_increments` integrates the rates over each
+sample interval by Gauss-Legendre quadrature, split at breakpoints, which is
+what an error-free rate-integrating gyro / accelerometer pair delivers.
+Trajectories: :class:`Stationary`, :class:`Analytic` (Euler angles and position
+as analytic functions, derivatives by complex step), :class:`Coning`, and
+:func:`aircraft_trajectory` (10-min flight with turns, speed changes, climbs).
+
+Governing equations (NED, package conventions):
+
+``omega_ib_b = omega_nb_b + mat_bn (omega_ie_n + omega_en_n)``
+
+``f_b = mat_bn (acc_n + (2 omega_ie_n + omega_en_n) x vel_n - g_n)``
+
+with ``acc_n = d vel_n / dt`` and ``g_n`` normal gravity (centrifugal included).
+"""
+
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from functools import partial
+from typing import Protocol
+
+import numpy as np
+
+from inins.core import earth, rotation
+from inins.core.units import DEG
+
+CS_STEP = 1e-20
+"""Complex step (s): ``f'(t) = Im f(t + i CS_STEP) / CS_STEP`` to machine precision."""
+
+
+class Trajectory(Protocol):
+    """Truth trajectory: ``breakpoints`` (k,) s where rates may jump (may be empty),
+    ``rates(time (n,) s) -> (omega_ib_b (n, 3) rad/s, f_b (n, 3) m/s^2)`` and
+    ``state(time) -> (mat_nb (n, 3, 3), vel_n (n, 3) m/s NED, lla (n, 3) [rad, rad, m])``.
+    """
+
+    breakpoints: np.ndarray
+
+    def rates(self, time): ...
+
+    def state(self, time): ...
+
+
+def _to_body(mat_nb, vec_n):
+    return np.einsum("...ji,...j->...i", mat_nb, vec_n)
+
+
+def body_rates(mat_nb, omega_nb_b, vel_n, acc_n, lla):
+    """Angular rate and specific force sensed by an ideal IMU.
+
+    ``omega_ib_b = omega_nb_b + mat_bn (omega_ie_n + omega_en_n)`` and
+    ``f_b = mat_bn (acc_n + (2 omega_ie_n + omega_en_n) x vel_n - g_n)``.
+
+    Parameters
+    ----------
+    mat_nb : array_like, shape (n, 3, 3)
+        Body-to-NED attitude.
+    omega_nb_b : array_like, shape (n, 3)
+        Body rate relative to the nav frame, in body axes (rad/s).
+    vel_n : array_like, shape (n, 3)
+        NED velocity relative to the Earth (m/s).
+    acc_n : array_like, shape (n, 3)
+        ``d vel_n / dt`` (m/s^2).
+    lla : array_like, shape (n, 3)
+        ``[lat (rad), lon (rad), height (m)]``.
+
+    Returns
+    -------
+    omega_ib_b : ndarray, shape (n, 3)
+        Inertial angular rate in body axes (rad/s).
+    f_b : ndarray, shape (n, 3)
+        Specific force in body axes (m/s^2).
+    """
+    lla = np.asarray(lla, dtype=float)
+    vel_n = np.asarray(vel_n, dtype=float)
+    lat, height = lla[..., 0], lla[..., 2]
+    w_ie = earth.rate_ie_n(lat)
+    w_en = earth.rate_en_n(lat, height, vel_n)
+    omega_ib_b = np.asarray(omega_nb_b, dtype=float) + _to_body(mat_nb, w_ie + w_en)
+    f_n = np.asarray(acc_n, dtype=float) + np.cross(2.0 * w_ie + w_en, vel_n)
+    f_b = _to_body(mat_nb, f_n - earth.gravity_n(lat, height))
+    return omega_ib_b, f_b
+
+
+def ideal_increments(trajectory, time_edges, *, nodes=3, chunk=4096):
+    """Exact gyro and accelerometer increments over sample intervals.
+
+    ``dtheta_k = int omega_ib_b dt`` and ``dv_k = int f_b dt`` over
+    ``[t_k, t_{k+1}]``: integrated rate and integrated specific force in the
+    moving body axes (not rotation vectors). Gauss-Legendre quadrature with
+    ``nodes`` points per interval (exact for polynomials of degree
+    ``2 nodes - 1``); the few intervals that contain a breakpoint are integrated
+    piecewise so that a step inside a sample is integrated exactly.
+
+    Parameters
+    ----------
+    trajectory : Trajectory
+        Truth with ``rates(time)`` and ``breakpoints``.
+    time_edges : array_like, shape (n + 1,)
+        Strictly increasing interval edges (s).
+    nodes : int
+        Quadrature points per interval.
+    chunk : int
+        Intervals evaluated at once; bounds memory for long records.
+
+    Returns
+    -------
+    dtheta : ndarray, shape (n, 3)
+        Gyro increments (rad).
+    dv : ndarray, shape (n, 3)
+        Accelerometer increments (m/s).
+    """
+    edges = np.asarray(time_edges, dtype=float)
+    if edges.ndim != 1 or edges.size < 2 or not np.all(np.diff(edges) > 0.0):
+        raise ValueError("time_edges must be a strictly increasing 1-D array of >= 2 times")
+    if nodes < 1 or chunk < 1:
+        raise ValueError("nodes and chunk must be positive")
+    rule = np.polynomial.legendre.leggauss(nodes)
+    dtheta, dv = _quadrature(trajectory, edges[:-1], edges[1:], rule, chunk)
+    _redo_split_intervals(trajectory, edges, rule, chunk, dtheta, dv)
+    return dtheta, dv
+
+
+def _quadrature(trajectory, start, stop, rule, chunk):
+    """Gauss-Legendre integrals of the rates over [start_k, stop_k], in chunks."""
+    x, w = rule
+    n = start.size
+    dtheta = np.empty((n, 3))
+    dv = np.empty((n, 3))
+    for lo in range(0, n, chunk):
+        hi = min(lo + chunk, n)
+        half = 0.5 * (stop[lo:hi] - start[lo:hi])
+        mid = 0.5 * (stop[lo:hi] + start[lo:hi])
+        omega, force = trajectory.rates((mid[:, None] + half[:, None] * x).ravel())
+        shape = (hi - lo, x.size, 3)
+        dtheta[lo:hi] = half[:, None] * np.einsum("j,kjc->kc", w, omega.reshape(shape))
+        dv[lo:hi] = half[:, None] * np.einsum("j,kjc->kc", w, force.reshape(shape))
+    return dtheta, dv
+
+
+def _redo_split_intervals(trajectory, edges, rule, chunk, dtheta, dv):
+    """Re-integrate, piece by piece, the intervals with a breakpoint strictly inside."""
+    n = edges.size - 1
+    marks = np.unique(np.asarray(trajectory.breakpoints, dtype=float))
+    owner = np.searchsorted(edges, marks, side="right") - 1
+    inside = (owner >= 0) & (owner < n)
+    inside[inside] &= marks[inside] > edges[owner[inside]]
+    marks, owner = marks[inside], owner[inside]
+    if marks.size == 0:
+        return
+    split = np.unique(owner)
+    points = np.concatenate([edges[split], edges[split + 1], marks])
+    labels = np.concatenate([split, split, owner])
+    order = np.lexsort((points, labels))
+    points, labels = points[order], labels[order]
+    same = labels[1:] == labels[:-1]
+    piece_theta, piece_v = _quadrature(trajectory, points[:-1][same], points[1:][same], rule, chunk)
+    dtheta[split] = 0.0
+    dv[split] = 0.0
+    np.add.at(dtheta, labels[:-1][same], piece_theta)
+    np.add.at(dv, labels[:-1][same], piece_v)
+
+
+class _Smooth:
+    @property
+    def breakpoints(self):
+        """No discontinuities: empty array (s)."""
+        return np.empty(0)
+
+
+@dataclass(frozen=True)
+class Stationary(_Smooth):
+    """A body at rest on the Earth: ``omega_ib_b = mat_bn omega_ie_n``, ``f_b = -mat_bn g_n``.
+
+    Parameters
+    ----------
+    lat, lon, height : float
+        Geodetic position (rad, rad, m).
+    mat_nb : array_like, shape (3, 3)
+        Body-to-NED attitude (default identity).
+    """
+
+    lat: float
+    lon: float
+    height: float
+    mat_nb: np.ndarray = field(default_factory=lambda: np.eye(3))
+
+    def state(self, time):
+        """Attitude (n, 3, 3), velocity (n, 3) m/s (zero) and lla (n, 3) at ``time`` (n,) s."""
+        n = np.size(time)
+        mat_nb = np.broadcast_to(np.asarray(self.mat_nb, dtype=float), (n, 3, 3)).copy()
+        lla = np.tile([self.lat, self.lon, self.height], (n, 1))
+        return mat_nb, np.zeros((n, 3)), lla
+
+    def rates(self, time):
+        """Constant ``omega_ib_b`` (n, 3) rad/s and ``f_b`` (n, 3) m/s^2 at ``time`` (n,) s."""
+        mat_nb, vel_n, lla = self.state([0.0])
+        omega, force = body_rates(mat_nb, vel_n, vel_n, vel_n, lla)
+        n = np.size(time)
+        return np.repeat(omega, n, axis=0), np.repeat(force, n, axis=0)
+
+
+def complex_step(func, time):
+    """Value and derivative, each (n,), of a complex-safe analytic ``func`` at ``time`` (n,) s.
+
+    ``f(t) = Re f(t + i h)``, ``f'(t) = Im f(t + i h) / h`` with ``h = CS_STEP``:
+    no subtraction, so exact to machine precision.
+    """
+    z = np.broadcast_to(np.asarray(func(time + 1j * CS_STEP), dtype=complex), np.shape(time))
+    return z.real.copy(), z.imag / CS_STEP
+
+
+def second_derivative(func, time, step):
+    """Second derivative (n,) of ``func`` at ``time`` (n,) s, 45-degree complex step ``h = step``.
+
+    ``f''(t) = Im[f(t + h w) + f(t - h w)] / h^2 + O(h^4)``, ``w = exp(i pi/4)``
+    (Lai & Crassidis 2008): the odd terms cancel in the imaginary part only, so
+    round-off is ``eps |f'| / h``, not the ``eps |f| / h^2`` of a real difference.
+    """
+    shift = step * np.exp(0.25j * np.pi)
+    total = np.asarray(func(time + shift), dtype=complex) + func(time - shift)
+    return np.broadcast_to(total.imag / step**2, np.shape(time)).copy()
+
+
+def _vel_n(lla, lla_rate):
+    """``[(rn + h) dlat, (re + h) cos(lat) dlon, -dh]`` (complex-safe), shape (n, 3)."""
+    lat, height = lla[..., 0], lla[..., 2]
+    rn, re = earth.principal_radii(lat)
+    return np.stack([(rn + height) * lla_rate[..., 0],
+                     (re + height) * np.cos(lat) * lla_rate[..., 1], -lla_rate[..., 2]], -1)
+
+
+def euler_rates_to_body(euler, euler_rate):
+    """``omega_nb_b`` (n, 3) rad/s from roll, pitch, heading (n, 3) rad and their rates.
+
+    ``omega_nb_b = [r' - h' sin p, p' cos r + h' sin r cos p, -p' sin r + h' cos r cos p]``.
+    """
+    roll, pitch = euler[..., 0], euler[..., 1]
+    dr, dp, dh = euler_rate[..., 0], euler_rate[..., 1], euler_rate[..., 2]
+    sr, cr, sp, cp = np.sin(roll), np.cos(roll), np.sin(pitch), np.cos(pitch)
+    return np.stack([dr - dh * sp, dp * cr + dh * sr * cp, -dp * sr + dh * cr * cp], axis=-1)
+
+
+@dataclass(frozen=True)
+class Analytic:
+    """Truth from analytic functions of time: Euler angles and geodetic position.
+
+    Derivatives by complex step (:func:`complex_step`), exact to machine
+    precision without ODE integration: ``omega_nb_b`` from the Euler-angle rates
+    (:func:`euler_rates_to_body`); ``vel_n = [(R_N + h) lat', (R_E + h) cos(lat) lon', -h']``;
+    ``acc_n = d vel_n / dt`` by a complex step of ``vel_n`` along the trajectory
+    when ``lat_rate``, ``lon_rate``, ``height_rate`` are given, else with the
+    position's second derivatives from :func:`second_derivative` (relative
+    error ~1e-10 for functions smooth on the scale of ``step2``).
+
+    Parameters
+    ----------
+    roll, pitch, heading : callable
+        Complex-safe numpy functions of time (s) returning rad.
+    lat, lon, height : callable
+        Complex-safe functions of time returning rad, rad, m.
+    lat_rate, lon_rate, height_rate : callable, optional
+        Their exact derivatives (rad/s, rad/s, m/s), all three or none.
+    breakpoints : array_like, shape (k,)
+        Times (s) where the functions are only piecewise analytic. Callables
+        must choose their branch from ``Re(t)``. With breakpoints, give the
+        rate callables (the 45-degree step would straddle a breakpoint).
+    step2 : float
+        Step (s) of :func:`second_derivative`, used without rate callables.
+    """
+
+    roll: Callable
+    pitch: Callable
+    heading: Callable
+    lat: Callable
+    lon: Callable
+    height: Callable
+    lat_rate: Callable | None = None
+    lon_rate: Callable | None = None
+    height_rate: Callable | None = None
+    breakpoints: np.ndarray = field(default_factory=lambda: np.empty(0))
+    step2: float = 0.05
+
+    def __post_init__(self):
+        given = [f is not None for f in (self.lat_rate, self.lon_rate, self.height_rate)]
+        if any(given) and not all(given):
+            raise ValueError("give all of lat_rate, lon_rate, height_rate or none")
+        object.__setattr__(self, "breakpoints", np.sort(np.asarray(self.breakpoints, float)))
+
+    def _euler(self, time):
+        pairs = [complex_step(f, time) for f in (self.roll, self.pitch, self.heading)]
+        return np.stack([p[0] for p in pairs], -1), np.stack([p[1] for p in pairs], -1)
+
+    def _position(self, time, second=True):
+        """lla and its first and second (None unless ``second``) derivatives, each (n, 3)."""
+        if self.lat_rate is None:
+            funcs = (self.lat, self.lon, self.height)
+            pairs = [complex_step(f, time) for f in funcs]
+            acc = [second_derivative(f, time, self.step2) for f in funcs] if second else None
+        else:
+            rates = [complex_step(f, time) for f in (self.lat_rate, self.lon_rate,
+                                                      self.height_rate)]
+            acc = [r[1] for r in rates]
+            pairs = [(np.real(f(time + 0j)), r[0])
+                     for f, r in zip((self.lat, self.lon, self.height), rates, strict=True)]
+        lla = np.stack([np.broadcast_to(p[0], np.shape(time)) for p in pairs], -1)
+        lla_rate = np.stack([p[1] for p in pairs], -1)
+        return lla, lla_rate, None if acc is None else np.stack(acc, -1)
+
+    def state(self, time):
+        """Attitude (n, 3, 3), NED velocity (n, 3) m/s and lla (n, 3) at ``time`` (n,) s."""
+        time = np.atleast_1d(np.asarray(time, dtype=float))
+        euler, _ = self._euler(time)
+        lla, lla_rate, _ = self._position(time, second=False)
+        mat_nb = rotation.mat_from_euler(euler[:, 0], euler[:, 1], euler[:, 2])
+        return mat_nb, _vel_n(lla, lla_rate), lla
+
+    def rates(self, time):
+        """``omega_ib_b`` (n, 3) rad/s and ``f_b`` (n, 3) m/s^2 at ``time`` (n,) s."""
+        time = np.atleast_1d(np.asarray(time, dtype=float))
+        euler, euler_rate = self._euler(time)
+        lla, lla_rate, lla_acc = self._position(time)
+        vel_n = _vel_n(lla, lla_rate)
+        # d/dt vel_n(lla, lla_rate): directional complex step along lla' plus the
+        # part linear in lla_rate
+        acc_n = _vel_n(lla + 1j * CS_STEP * lla_rate, lla_rate).imag / CS_STEP
+        acc_n += _vel_n(lla, lla_acc)
+        mat_nb = rotation.mat_from_euler(euler[:, 0], euler[:, 1], euler[:, 2])
+        omega_nb_b = euler_rates_to_body(euler, euler_rate)
+        return body_rates(mat_nb, omega_nb_b, vel_n, acc_n, lla)
+
+
+@dataclass(frozen=True)
+class Coning(_Smooth):
+    """Classic coning motion at a fixed position (Savage, Strapdown Analytics 7.1.1).
+
+    In a frame r fixed in the nav frame, ``mat_rb(t) = exp([phi(t) x])`` with
+    ``phi = theta [0, cos W t, sin W t]``: body x cones about r's x axis at
+    half-angle ``theta``, with a constant axial and a rotating transverse rate
+    ``omega_rb_b = [-2 W sin^2(theta/2), -W sin(theta) sin W t, W sin(theta) cos W t]``.
+    ``mat_nb = mat_nr mat_rb``; :func:`body_rates` adds Earth rate and gravity.
+
+    Parameters
+    ----------
+    half_angle : float
+        ``theta`` (rad).
+    frequency : float
+        Coning frequency ``W / 2 pi`` (Hz).
+    lat, lon, height : float
+        Position (rad, rad, m).
+    mat_nr : array_like, shape (3, 3)
+        Orientation of the cone frame in NED (default identity: axis north).
+    """
+
+    half_angle: float
+    frequency: float
+    lat: float
+    lon: float
+    height: float
+    mat_nr: np.ndarray = field(default_factory=lambda: np.eye(3))
+
+    def _omega_rb_b(self, time):
+        w = 2.0 * np.pi * self.frequency
+        theta = self.half_angle
+        axial = np.full_like(time, -2.0 * w * np.sin(0.5 * theta) ** 2)
+        return np.stack([axial, -w * np.sin(theta) * np.sin(w * time),
+                         w * np.sin(theta) * np.cos(w * time)], -1)
+
+    def state(self, time):
+        """Attitude (n, 3, 3), velocity (n, 3) m/s (zero) and lla (n, 3) at ``time`` (n,) s."""
+        time = np.atleast_1d(np.asarray(time, dtype=float))
+        w = 2.0 * np.pi * self.frequency
+        phi = self.half_angle * np.stack([0.0 * time, np.cos(w * time), np.sin(w * time)], -1)
+        mat_nb = np.asarray(self.mat_nr, dtype=float) @ rotation.mat_from_rotvec(phi)
+        lla = np.tile([self.lat, self.lon, self.height], (time.size, 1))
+        return mat_nb, np.zeros((time.size, 3)), lla
+
+    def rates(self, time):
+        """``omega_ib_b`` (n, 3) rad/s and ``f_b`` (n, 3) m/s^2 at ``time`` (n,) s."""
+        time = np.atleast_1d(np.asarray(time, dtype=float))
+        mat_nb, vel_n, lla = self.state(time)
+        return body_rates(mat_nb, self._omega_rb_b(time), vel_n, vel_n, lla)
+
+
+_DUAL_LIMIT = 1e-18  # s: below, f(t + iy) = f(t) + i y f'(t) to machine precision
+_SATURATED = 37.0  # |x| > 37: sigma is 0 or 1 to < 1e-16 (1.0 exactly in double)
+
+
+@dataclass(frozen=True)
+class SmoothVelocity:
+    """NED velocity as a sum of logistic steps, with closed-form integral and derivatives.
+
+    ``v(t) = v0 + sum_k dv_k sigma((t - t_k) / tau_k)``, ``sigma(x) = 1 / (1 + e^-x)``;
+    displacement ``p(t) = v0 t + sum_k dv_k tau_k softplus((t - t_k) / tau_k)`` with
+    ``softplus(x) = log(1 + e^x)``. Analytic in the strip ``|Im t| < pi min(tau)``
+    and complex-safe; a complex-step argument (``|Im t| < 1e-18 s``) is evaluated
+    as ``f(t) + i Im(t) f'(t)`` in real arithmetic, which is exact and fast.
+
+    Parameters
+    ----------
+    v0 : ndarray, shape (3,)
+        Velocity before the first step (m/s).
+    times, taus : ndarray, shape (m,)
+        Step centres and time constants (s).
+    steps : ndarray, shape (m, 3)
+        Velocity changes ``dv_k`` (m/s).
+    """
+
+    v0: np.ndarray
+    times: np.ndarray
+    taus: np.ndarray
+    steps: np.ndarray
+
+    def _sum(self, time, orders):
+        """``d^j p / dt^j`` (n, 3) for j in ``orders`` (-1..2: p, v, a, jerk).
+
+        Steps saturated over the whole block (``|x| > 37``, where ``sigma`` is 0 or 1
+        in double precision) are folded into the constant and linear parts.
+        """
+        real = np.real(time)
+        x_lo = (real.min(initial=np.inf) - self.times) / self.taus
+        done = x_lo > _SATURATED
+        live = ~done & ((real.max(initial=-np.inf) - self.times) / self.taus > -_SATURATED)
+        v0 = self.v0 + self.steps[done].sum(axis=0)
+        p0 = -self.times[done] @ self.steps[done]
+        taus, steps = self.taus[live], self.steps[live]
+        x = (time[..., None] - self.times[live]) / taus
+        pos = x.real > 0.0
+        e = np.exp(np.where(pos, -x, x))  # exp(-|x|), no overflow
+        inv = 1.0 / (1.0 + e)
+        sigma = np.where(pos, 1.0, e) * inv
+        dsigma = e * inv * inv / taus
+        out = []
+        for j in orders:
+            if j < 0:
+                terms = (np.where(pos, x, 0.0) + np.log1p(e)) * taus
+                out.append(time[..., None] * v0 + p0 + terms @ steps)
+            else:
+                terms = (sigma, dsigma, dsigma * (1.0 - 2.0 * sigma) / taus)[j]
+                out.append((v0 if j == 0 else 0.0) + terms @ steps)
+        return out
+
+    def __call__(self, time, order):
+        """Displacement (order -1, m), velocity (0), acceleration (1) or jerk (2), (n, 3)."""
+        time = np.asarray(time)
+        if not np.iscomplexobj(time) or np.max(np.abs(time.imag), initial=0.0) > _DUAL_LIMIT:
+            return self._sum(time, [order])[0]
+        value, slope = self._sum(time.real, [order, order + 1])
+        return value + 1j * time.imag[..., None] * slope
+
+
+FLIGHT_PLAN = (
+    (30.0, "speed", 100.0), (40.0, "climb", 5.0), (90.0, "turn", 80.0),
+    (150.0, "speed", 150.0), (170.0, "climb", 0.0), (210.0, "turn", -90.0),
+    (290.0, "climb", -8.0), (330.0, "turn", 70.0), (400.0, "speed", 120.0),
+    (420.0, "climb", 0.0), (450.0, "turn", -100.0), (530.0, "climb", 6.0),
+    (540.0, "turn", 50.0),
+)
+"""Default 10-min plan: (start s, kind, value); speed m/s, climb rate m/s, turn deg (+ right)."""
+
+
+def flight_velocity(plan=FLIGHT_PLAN, speed=50.0, track=np.pi / 6, bank=np.pi / 6):
+    """:class:`SmoothVelocity` of a flight plan: speed/climb steps and banked turns.
+
+    Speed changes use ``tau = 6 s``, climb-rate changes ``tau = 4 s``. A turn of
+    ``A`` at speed ``V`` lasts ``|A| / r`` at the coordinated rate ``r = g tan(bank) / V``,
+    as ``ceil(|A| / 15 deg)`` overlapping track steps (``tau`` a third of their
+    spacing); the speed dips ~2 % in the turns.
+
+    Parameters
+    ----------
+    plan : sequence of (float, str, float)
+        Events in time order (see :data:`FLIGHT_PLAN`).
+    speed, track : float
+        Initial ground speed (m/s) and track (rad, clockwise from north); level.
+    bank : float
+        Nominal bank angle of the turns (rad).
+    """
+    climb = 0.0
+    current = np.array([speed * np.cos(track), speed * np.sin(track), 0.0])
+    v0, rows = current, []
+    for start, kind, value in plan:
+        if kind == "turn":
+            angle = np.radians(value)
+            count = int(np.ceil(abs(value) / 15.0))
+            spacing = abs(angle) / (earth.GAMMA_E * np.tan(bank) / speed) / count
+            centres = [start + (j + 0.5) * spacing for j in range(count)]
+            tracks = track + angle * np.arange(1, count + 1) / count
+            track, tau = tracks[-1], spacing / 3.0
+        else:
+            speed, climb = (value, climb) if kind == "speed" else (speed, value)
+            centres, tracks, tau = [start], [track], 6.0 if kind == "speed" else 4.0
+        for centre, course in zip(centres, tracks, strict=True):
+            new = np.array([speed * np.cos(course), speed * np.sin(course), -climb])
+            rows.append((centre, tau, new - current))
+            current = new
+    return SmoothVelocity(v0, np.array([r[0] for r in rows]), np.array([r[1] for r in rows]),
+                          np.array([r[2] for r in rows]))
+
+
+def _flight_position(velocity, origin, scale, index, order, time):
+    offset = origin[index] if order < 0 else 0.0
+    return offset + scale[index] * velocity(time, order)[..., index]
+
+
+def _flight_attitude(velocity, aoa, index, time):
+    """Roll (coordinated bank), pitch (flight path + aoa) or heading (track)."""
+    vel, acc = velocity(time, 0), velocity(time, 1)
+    ground = np.sqrt(vel[..., 0] ** 2 + vel[..., 1] ** 2)
+    if index == 0:
+        turn = (vel[..., 0] * acc[..., 1] - vel[..., 1] * acc[..., 0]) / ground
+        return np.arctan(turn / earth.GAMMA_E)
+    if index == 1:
+        return np.arctan(-vel[..., 2] / ground) + aoa
+    return 2.0 * np.arctan(vel[..., 1] / (ground + vel[..., 0]))  # track, valid off south
+
+
+def aircraft_trajectory(lat=37.0 * DEG, lon=127.0 * DEG, height=1000.0, velocity=None,
+                        aoa=2.0 * DEG):
+    """Aircraft-like :class:`Analytic` truth with turns, accelerations, climbs and descents.
+
+    Default: 10 min, speed 50 -> 100 -> 150 -> 120 m/s, five coordinated turns
+    at bank +-30 deg, climbs at 5-6 m/s and a descent at 8 m/s, from 37 deg N.
+    The displacement ``p(t)`` of ``velocity`` maps to position by
+    ``lat = lat0 + p_N / (R_N0 + h0)``, ``lon = lon0 + p_E / ((R_E0 + h0) cos lat0)``,
+    ``h = h0 - p_D`` (a definition; the true ``vel_n`` follows from it exactly).
+    Heading is the track of ``velocity``, roll ``atan(V chi' / g)``, pitch the
+    flight-path angle plus ``aoa``.
+
+    Parameters
+    ----------
+    lat, lon, height : float
+        Origin (rad, rad, m).
+    velocity : SmoothVelocity, optional
+        Default ``flight_velocity()``; its track must stay away from due south.
+    aoa : float
+        Constant angle of attack added to pitch (rad).
+    """
+    velocity = flight_velocity() if velocity is None else velocity
+    rn, re = earth.principal_radii(lat)
+    origin = (lat, lon, height)
+    scale = (1.0 / (rn + height), 1.0 / ((re + height) * np.cos(lat)), -1.0)
+    pos = [partial(_flight_position, velocity, origin, scale, i, -1) for i in range(3)]
+    rate = [partial(_flight_position, velocity, origin, scale, i, 0) for i in range(3)]
+    angles = [partial(_flight_attitude, velocity, aoa, i) for i in range(3)]
+    return Analytic(*angles, *pos, *rate)

@@ -1,0 +1,242 @@
+"""Scenario of ``inins simulate-table`` (spec §3): table, mount, IMU, disturbances, motion."""
+
+from typing import Annotated, Literal
+
+import numpy as np
+from pydantic import Field, field_validator, model_validator
+
+from inins.core import rotation
+from inins.core.units import ARCSEC, DEG, UG
+from inins.io.scenario import ScenarioModel
+from inins.io.scenarios.common import (
+    Imu,
+    NonNegFloat,
+    PositiveFloat,
+    Section,
+    Site,
+    Vec3,
+)
+from inins.io.validation import KeyPathError
+from inins.table import kinematics, program, simulate
+
+DIRECTIONS = {
+    "forward": (1.0, 0.0, 0.0), "back": (-1.0, 0.0, 0.0),
+    "right": (0.0, 1.0, 0.0), "left": (0.0, -1.0, 0.0),
+    "down": (0.0, 0.0, 1.0), "up": (0.0, 0.0, -1.0),
+}
+Direction = Literal["forward", "back", "right", "left", "down", "up"]
+GimbalName = Literal["yaw", "pitch", "roll"]
+
+
+class Table(Section):
+    """The rate table. Its platform frame t is forward-right-down at zero gimbal angles."""
+
+    gimbals: list[GimbalName] = Field(
+        ["yaw", "pitch"], min_length=2, max_length=3,
+        description="gimbal axes, outer first: 2 or 3 of yaw (table z), pitch (y), roll (x)")
+    initial_angles_deg: list[float] | None = Field(
+        None, description="gimbal angles at the start (deg), outer first; default all 0")
+    base_azimuth_deg: float = Field(
+        0.0, description="azimuth of the table x axis at zero yaw, clockwise from north (deg)")
+    base_tilt_arcsec: list[float] = Field(
+        [0.0, 0.0], min_length=2, max_length=2,
+        description="roll and pitch of the table base from level (arcsec)")
+    axis_nonorthogonality_arcsec: list[list[float]] | None = Field(
+        None, description="per gimbal, outer first: small tilts of the axis toward the two "
+        "other table axes in cyclic order (arcsec); default none")
+    encoder_noise_arcsec: NonNegFloat = Field(
+        0.0, description="white noise of the encoder readings, 1 sigma (arcsec)")
+    accel_dps2: PositiveFloat = Field(
+        20.0, description="angular acceleration of rotate and spin steps (deg/s^2)")
+
+    @field_validator("gimbals")
+    @classmethod
+    def _distinct(cls, value):
+        if len(set(value)) != len(value):
+            raise ValueError("each gimbal axis may appear once")
+        return value
+
+    @model_validator(mode="after")
+    def _lengths(self):
+        n = len(self.gimbals)
+        if self.initial_angles_deg is not None and len(self.initial_angles_deg) != n:
+            raise ValueError(f"initial_angles_deg needs {n} angles, one per gimbal")
+        nonorth = self.axis_nonorthogonality_arcsec
+        if nonorth is not None and (len(nonorth) != n or any(len(r) != 2 for r in nonorth)):
+            raise ValueError(f"axis_nonorthogonality_arcsec needs {n} pairs, one per gimbal")
+        return self
+
+
+class MountRotation(Section):
+    """A slow rotation of the IMU on its anti-vibration mount (000 §3.2)."""
+
+    axis: Literal["x", "y", "z"] = Field(
+        description="IMU body axis of the rotation (000's roll axis is the forward axis, "
+        "its pitch axis the right axis)")
+    angle_deg: float = Field(description="total rotation (deg), e.g. 0.005")
+    start_s: NonNegFloat = Field(0.0, description="start time (s)")
+    duration_s: PositiveFloat = Field(description="time over which it happens (s), e.g. 2T")
+    shape: Literal["linear", "smooth"] = Field(
+        "linear", description="linear: constant rate; smooth: (1 - cos) ramp")
+
+
+class Mount(Section):
+    """How the IMU sits on the table platform."""
+
+    imu_axes: list[Direction] = Field(
+        ["forward", "right", "down"], min_length=3, max_length=3,
+        description="table directions of the IMU x, y, z axes; 000 uses right, forward, up")
+    misalignment_arcsec: Vec3 = Field(
+        0.0, description="constant small rotation of the IMU about its x, y, z axes (arcsec)")
+    rotations: list[MountRotation] = Field(
+        [], description="time-varying mount rotations (disturbance of 000 §3.2)")
+
+    @field_validator("imu_axes")
+    @classmethod
+    def _right_handed(cls, value):
+        mat = np.array([DIRECTIONS[v] for v in value]).T
+        if not np.allclose(mat.T @ mat, np.eye(3)) or np.linalg.det(mat) < 0:
+            raise ValueError("the three directions must form a right-handed triad")
+        return value
+
+    def mat_tb0(self):
+        """IMU body -> table platform with the mount at rest."""
+        nominal = np.array([DIRECTIONS[v] for v in self.imu_axes]).T
+        return nominal @ rotation.mat_from_rotvec(np.array(self.misalignment_arcsec) * ARCSEC)
+
+
+class AfterRotation(Section):
+    """Accelerometer bias change after every rotation (000 §2, Fig. 2: ~50 ug)."""
+
+    step_ug: Vec3 = Field(description="bias change added by each rotation (ug), x y z")
+    settle_time_s: NonNegFloat = Field(
+        0.0, description="exponential time constant of the change (s); 0 = a step")
+
+
+class ChamberProfile(Section):
+    """Chamber temperature offset from the sensors' reference, piecewise linear."""
+
+    time_s: list[float] = Field(min_length=1, description="times (s), increasing")
+    delta_degc: list[float] = Field(min_length=1, description="temperature offsets (degC)")
+
+    @model_validator(mode="after")
+    def _consistent(self):
+        if len(self.time_s) != len(self.delta_degc):
+            raise ValueError("time_s and delta_degc need the same length")
+        if np.any(np.diff(self.time_s) <= 0):
+            raise ValueError("time_s must increase")
+        return self
+
+
+class Disturbances(Section):
+    """Disturbances of 000 §2 on top of the sensor error model."""
+
+    accel_bias_after_rotation: AfterRotation | None = None
+    chamber: ChamberProfile | None = None
+
+
+class HoldStep(Section):
+    """Stand still."""
+
+    kind: Literal["hold"] = Field(description="step type")
+    duration_s: PositiveFloat = Field(description="hold time (s)")
+    label: str = Field("", description="name of the position, used in reports")
+
+
+class RotateStep(Section):
+    """Turn one gimbal by an angle, rest to rest."""
+
+    kind: Literal["rotate"] = Field(description="step type")
+    axis: GimbalName = Field(description="gimbal to turn")
+    angle_deg: float = Field(description="signed angle (deg); positive is right-handed "
+                             "about the gimbal axis (yaw: clockwise seen from above)")
+    rate_dps: PositiveFloat = Field(10.0, description="cruise rate (deg/s)")
+    label: str = Field("", description="name shown in reports")
+
+
+class SpinStep(Section):
+    """Spin one gimbal at constant rate (rate tests)."""
+
+    kind: Literal["spin"] = Field(description="step type")
+    axis: GimbalName = Field(description="gimbal to spin")
+    rate_dps: float = Field(description="signed spin rate (deg/s)")
+    duration_s: PositiveFloat = Field(description="time at full rate (s)")
+    label: str = Field("", description="name shown in reports")
+
+
+Step = Annotated[HoldStep | RotateStep | SpinStep, Field(discriminator="kind")]
+
+
+class Output(Section):
+    """What is kept besides the IMU increments."""
+
+    truth_rate_hz: PositiveFloat = Field(
+        100.0, description="rate of the truth and encoder series (Hz); must divide "
+        "the IMU rate")
+
+
+class SimulateTableScenario(ScenarioModel):
+    """An IMU on a 2- or 3-axis rate table running a motion program."""
+
+    site: Site = Field(default_factory=Site)
+    table: Table = Field(default_factory=Table)
+    mount: Mount = Field(default_factory=Mount)
+    imu: Imu = Field(default_factory=Imu)
+    disturbances: Disturbances = Field(default_factory=Disturbances)
+    motion: list[Step] = Field(min_length=1, description="motion program, in order")
+    output: Output = Field(default_factory=Output)
+
+    @model_validator(mode="after")
+    def _cross_checks(self):
+        ratio = self.imu.sample_rate_hz / self.output.truth_rate_hz
+        if abs(ratio - round(ratio)) > 1e-9 or round(ratio) < 1:
+            raise KeyPathError(("output", "truth_rate_hz"),
+                               f"must divide imu.sample_rate_hz ({self.imu.sample_rate_hz} Hz)")
+        for i, step in enumerate(self.motion):
+            if getattr(step, "axis", None) is not None and step.axis not in self.table.gimbals:
+                raise KeyPathError(("motion", i, "axis"), f"the table has no {step.axis} gimbal "
+                                   f"(table.gimbals = {self.table.gimbals})")
+        return self
+
+    def to_si(self):
+        """The simulation in SI: :class:`inins.table.simulate.TableSimulation`."""
+        t = self.table
+        names = tuple(t.gimbals)
+        index = {name: g for g, name in enumerate(names)}
+        accel = t.accel_dps2 * DEG
+        steps = []
+        for s in self.motion:
+            if s.kind == "hold":
+                steps.append(program.Hold(s.duration_s, s.label))
+            elif s.kind == "rotate":
+                steps.append(program.Rotate(index[s.axis], s.angle_deg * DEG,
+                                            s.rate_dps * DEG, accel, s.label))
+            else:
+                steps.append(program.Spin(index[s.axis], s.rate_dps * DEG, s.duration_s,
+                                          accel, s.label))
+        initial = np.array(t.initial_angles_deg or [0.0] * len(names)) * DEG
+        nonorth = (None if t.axis_nonorthogonality_arcsec is None
+                   else np.array(t.axis_nonorthogonality_arcsec) * ARCSEC)
+        axes_b = {"x": (1.0, 0, 0), "y": (0, 1.0, 0), "z": (0, 0, 1.0)}
+        mounts = tuple(
+            kinematics.MountRotation(np.array(axes_b[r.axis]), r.angle_deg * DEG, r.start_s,
+                                     r.duration_s, r.shape == "smooth")
+            for r in self.mount.rotations)
+        traj = kinematics.TableTrajectory(
+            program=program.compile_program(steps, initial),
+            axes=kinematics.gimbal_axes(names, nonorth),
+            mat_n_base=kinematics.base_matrix(t.base_azimuth_deg * DEG,
+                                              t.base_tilt_arcsec[0] * ARCSEC,
+                                              t.base_tilt_arcsec[1] * ARCSEC),
+            mat_tb0=self.mount.mat_tb0(), mounts=mounts, lla=self.site.lla())
+        d = self.disturbances
+        after = (None if d.accel_bias_after_rotation is None else simulate.AfterRotationBias(
+            np.array(d.accel_bias_after_rotation.step_ug) * UG,
+            d.accel_bias_after_rotation.settle_time_s))
+        chamber = (None if d.chamber is None else
+                   simulate.Chamber(np.array(d.chamber.time_s), np.array(d.chamber.delta_degc)))
+        return simulate.TableSimulation(
+            trajectory=traj, sensor=self.imu.to_si(), sample_rate=self.imu.sample_rate_hz,
+            gimbal_names=names, encoder_noise=t.encoder_noise_arcsec * ARCSEC,
+            truth_decimation=round(self.imu.sample_rate_hz / self.output.truth_rate_hz),
+            after_rotation=after, chamber=chamber)
