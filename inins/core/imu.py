@@ -263,14 +263,16 @@ class BiasTruth(NamedTuple):
     accel: np.ndarray
 
 
-@numba.njit(cache=True)
-def _kernel(ideal_g, ideal_a, dt, mat_g, mat_a, par, temp, extra_g, extra_a, carry, gen, out):
+@numba.njit(cache=True, nogil=True)
+def _kernel(ideal_g, ideal_a, dt, mat_g, mat_a, par, temp, extra_g, extra_a, carry, gen, out,
+            every):
     """One pass over the samples.
 
     ``par`` (6, 6) rows: bias, white sigma, rho, GM drive, k_T, pulse weight per
     channel (gyro x, y, z, accel x, y, z). ``carry`` (2, 6): GM value and
-    quantization remainder, updated in place. ``out``: four (n, 3) arrays
-    (gyro, accel outputs; gyro, accel truth) filled in place.
+    quantization remainder, updated in place. ``out``: (n, 3) gyro and accel
+    outputs and (n // every, 3) gyro and accel truth (means over ``every``
+    samples), filled in place.
     """
     bias, white, rho, drive, k_temp, pulse = par[0], par[1], par[2], par[3], par[4], par[5]
     gm, resid = carry[0], carry[1]
@@ -282,7 +284,11 @@ def _kernel(ideal_g, ideal_a, dt, mat_g, mat_a, par, temp, extra_g, extra_a, car
     noise = np.zeros(6)
     b = np.empty(6)
     y = np.empty(6)
+    truth_g[:, :] = 0.0
+    truth_a[:, :] = 0.0
+    weight = 1.0 / every
     for k in range(n):
+        row = k // every
         # draw order: white gyro xyz, white accel xyz, GM gyro xyz, GM accel xyz
         for c in range(6):
             if white[c] > 0.0:
@@ -300,8 +306,8 @@ def _kernel(ideal_g, ideal_a, dt, mat_g, mat_a, par, temp, extra_g, extra_a, car
                 b[i] += extra_g[k, i]
             if has_xa:
                 b[3 + i] += extra_a[k, i]
-            truth_g[k, i] = b[i]
-            truth_a[k, i] = b[3 + i]
+            truth_g[row, i] += weight * b[i]
+            truth_a[row, i] += weight * b[3 + i]
             y[i] = b[i] * dt + noise[i]
             y[3 + i] = b[3 + i] * dt + noise[3 + i]
             for j in range(3):
@@ -338,6 +344,7 @@ def apply_errors(
     temperature_delta=None,
     gyro_bias_extra=None,
     accel_bias_extra=None,
+    truth_every=1,
 ):
     """Turn ideal increments into measured ones (model in the module docstring).
 
@@ -362,6 +369,9 @@ def apply_errors(
     accel_bias_extra : array_like, shape (n, 3), optional
         Additional accelerometer bias per sample (m/s^2), e.g. the step after a
         table rotation (000 Fig. 2).
+    truth_every : int
+        Keep the bias truth as means over blocks of this many samples (``n``
+        must be a multiple), to save memory and time on long records.
 
     Returns
     -------
@@ -373,7 +383,8 @@ def apply_errors(
         Pass to the call for the next chunk.
     bias_truth : BiasTruth
         Total bias applied per sample, so that
-        ``dtheta_meas = Q(M_g @ dtheta + bias_truth.gyro * dt + white noise)``.
+        ``dtheta_meas = Q(M_g @ dtheta + bias_truth.gyro * dt + white noise)``;
+        with ``truth_every > 1`` its means over blocks, shape (n // truth_every, 3).
 
     Notes
     -----
@@ -403,6 +414,9 @@ def apply_errors(
     if dtheta.ndim != 2 or dtheta.shape[1] != 3:
         raise ValueError(f"dtheta: expected shape (n, 3), got {dtheta.shape}")
     n = dtheta.shape[0]
+    truth_every = int(truth_every)
+    if truth_every < 1 or n % truth_every:
+        raise ValueError(f"truth_every: must be >= 1 and divide n = {n}, got {truth_every}")
     dv = _series("dv", dv, n, (3,))
     temp = _series("temperature_delta", temperature_delta, n, ())
     extra_g = _series("gyro_bias_extra", gyro_bias_extra, n, (3,))
@@ -432,10 +446,12 @@ def apply_errors(
             np.concatenate([state.gyro_residual, state.accel_residual]),
         ]
     )
-    out = tuple(np.empty((n, 3)) for _ in range(4))
+    m = n // truth_every
+    out = (np.empty((n, 3)), np.empty((n, 3)), np.empty((m, 3)), np.empty((m, 3)))
     if n:
         mats = errors.gyro_matrix(), errors.accel_matrix()
-        _kernel(dtheta, dv, dt, *mats, par, temp, extra_g, extra_a, carry, rng, out)
+        _kernel(dtheta, dv, dt, *mats, par, temp, extra_g, extra_a, carry, rng, out,
+                truth_every)
     gm, resid = carry
     new_state = ImuState(gm[:3], gm[3:], resid[:3], resid[3:])
     return out[0], out[1], new_state, BiasTruth(out[2], out[3])
@@ -464,15 +480,31 @@ def counts_from_increments(values, pulse_weight):
         ``values / pulse_weight``. ValueError if a value is more than 1e-6 pulse
         from an integer count or a count does not fit in int32.
     """
-    weight = _pulse_weight(pulse_weight)
-    ratio = np.asarray(values, dtype=float) / weight
-    counts = np.rint(ratio)
-    if not np.all(np.abs(ratio - counts) <= 1e-6):
+    weight = np.broadcast_to(_pulse_weight(pulse_weight), (3,)).astype(float)
+    values = np.ascontiguousarray(values, dtype=np.float64)
+    counts = np.empty(values.shape, dtype=np.int32)
+    problem = _counts_kernel(values.reshape(-1, 3), 1.0 / weight, counts.reshape(-1, 3))
+    if problem == 1:
         raise ValueError("values: not integer multiples of pulse_weight (within 1e-6 pulse)")
-    info = np.iinfo(np.int32)
-    if counts.size and (counts.min() < info.min or counts.max() > info.max):
+    if problem == 2:
         raise ValueError("values: pulse counts overflow int32")
-    return counts.astype(np.int32)
+    return counts
+
+
+@numba.njit(cache=True, nogil=True)
+def _counts_kernel(values, inv_weight, counts):
+    """counts = rint(values / weight) in one pass; 1 if not integral, 2 if out of int32."""
+    limit = 2147483647.0
+    for k in range(values.shape[0]):
+        for i in range(3):
+            ratio = values[k, i] * inv_weight[i]
+            count = np.rint(ratio)
+            if abs(ratio - count) > 1e-6:
+                return 1
+            if count > limit or count < -limit - 1.0:
+                return 2
+            counts[k, i] = np.int32(count)
+    return 0
 
 
 def increments_from_counts(counts, pulse_weight):

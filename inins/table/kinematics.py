@@ -91,47 +91,43 @@ def _rodrigues(axis, angle, out):
 
 
 @_jit
-def _mount_terms(m, mdot, exp_m, jr_mdot):
-    """exp([m x]) and J_r(m) @ mdot for a small or large rotation vector m."""
-    angle = np.sqrt(m[0] * m[0] + m[1] * m[1] + m[2] * m[2])
-    if angle < 1e-5:
-        a = 1.0 - angle * angle / 6.0
-        b = 0.5 - angle * angle / 24.0
-        cb = 1.0 / 6.0 - angle * angle / 120.0
+def _series(angle2):
+    """sin(x)/x, (1 - cos x)/x^2 and (x - sin x)/x^3 of x^2, exact in double for x < 1e-3."""
+    if angle2 < 1e-6:
+        a = 1.0 - angle2 / 6.0 * (1.0 - angle2 / 20.0)
+        b = 0.5 - angle2 / 24.0 * (1.0 - angle2 / 30.0)
+        c = 1.0 / 6.0 - angle2 / 120.0 * (1.0 - angle2 / 42.0)
     else:
-        a = np.sin(angle) / angle
-        b = (1.0 - np.cos(angle)) / angle**2
-        cb = (angle - np.sin(angle)) / angle**3
-    # exp([m x]) = I + a [m x] + b [m x]^2
-    for i in range(3):
-        for j in range(3):
-            exp_m[i, j] = b * m[i] * m[j] - (b * angle * angle if i == j else 0.0) + (
-                1.0 if i == j else 0.0
-            )
-    exp_m[0, 1] -= a * m[2]
-    exp_m[0, 2] += a * m[1]
-    exp_m[1, 0] += a * m[2]
-    exp_m[1, 2] -= a * m[0]
-    exp_m[2, 0] -= a * m[1]
-    exp_m[2, 1] += a * m[0]
-    # J_r(m) v = v - b (m x v) + cb (m x (m x v))
-    c0 = m[1] * mdot[2] - m[2] * mdot[1]
-    c1 = m[2] * mdot[0] - m[0] * mdot[2]
-    c2 = m[0] * mdot[1] - m[1] * mdot[0]
-    jr_mdot[0] = mdot[0] - b * c0 + cb * (m[1] * c2 - m[2] * c1)
-    jr_mdot[1] = mdot[1] - b * c1 + cb * (m[2] * c0 - m[0] * c2)
-    jr_mdot[2] = mdot[2] - b * c2 + cb * (m[0] * c1 - m[1] * c0)
+        x = np.sqrt(angle2)
+        a = np.sin(x) / x
+        b = (1.0 - np.cos(x)) / angle2
+        c = (x - np.sin(x)) / (angle2 * x)
+    return a, b, c
+
+
+@_jit
+def _rotate_back(m, a, b, u, out):
+    """out = exp(-[m x]) @ u = u - a (m x u) + b m x (m x u)."""
+    c0 = m[1] * u[2] - m[2] * u[1]
+    c1 = m[2] * u[0] - m[0] * u[2]
+    c2 = m[0] * u[1] - m[1] * u[0]
+    out[0] = u[0] - a * c0 + b * (m[1] * c2 - m[2] * c1)
+    out[1] = u[1] - a * c1 + b * (m[2] * c0 - m[0] * c2)
+    out[2] = u[2] - a * c2 + b * (m[0] * c1 - m[1] * c0)
 
 
 @_jit
 def _mount_state(t, m_axis, m_angle, m_start, m_duration, m_smooth, m, mdot):
-    """Mount rotation vector m (rad) and its rate (rad/s) at time t."""
-    m[:] = 0.0
-    mdot[:] = 0.0
+    """Mount rotation vector m (rad) and its rate (rad/s) at time t; False if m = 0."""
+    moved = False
+    for i in range(3):
+        m[i] = 0.0
+        mdot[i] = 0.0
     for j in range(m_angle.size):
         s = (t - m_start[j]) / m_duration[j]
         if s <= 0.0:
             continue
+        moved = True
         if s >= 1.0:
             theta, rate = m_angle[j], 0.0
         elif m_smooth[j]:
@@ -142,60 +138,110 @@ def _mount_state(t, m_axis, m_angle, m_start, m_duration, m_smooth, m, mdot):
         for i in range(3):
             m[i] += m_axis[j, i] * theta
             mdot[i] += m_axis[j, i] * rate
+    return moved
+
+
+@_jit
+def _platform(k, s, tau, seg_theta0, seg_rate0, seg_accel, axes, mat_n_base, mat_tb0,
+              omega_ie_n, f_n, angles_out, mat_nt, u_omega, u_force):
+    """Gimbal chain at one time: mat_nt, and the platform terms seen by a mount at rest,
+    u_omega = mat_tb0^T (mat_nt^T omega_ie_n + omega_nt_t), u_force = mat_tb0^T mat_nt^T f_n.
+    Returns True if a gimbal moves."""
+    rot = np.empty((3, 3))
+    tmp = np.empty((3, 3))
+    w = np.zeros(3)
+    w2 = np.empty(3)
+    v = np.empty(3)
+    moving = False
+    mat_nt[:, :] = mat_n_base
+    for g in range(axes.shape[0]):
+        theta = seg_theta0[s, g] + tau * (seg_rate0[s, g] + 0.5 * tau * seg_accel[s, g])
+        rate = seg_rate0[s, g] + seg_accel[s, g] * tau
+        moving = moving or seg_rate0[s, g] != 0.0 or seg_accel[s, g] != 0.0
+        angles_out[k, g] = theta
+        _rodrigues(axes[g], theta, rot)
+        _mm(mat_nt, rot, tmp)
+        mat_nt[:, :] = tmp
+        _mtv(rot, w, w2)
+        for i in range(3):
+            w[i] = w2[i] + axes[g, i] * rate
+    _mtv(mat_nt, omega_ie_n, v)
+    for i in range(3):
+        v[i] += w[i]
+    _mtv(mat_tb0, v, u_omega)
+    _mtv(mat_nt, f_n, v)
+    _mtv(mat_tb0, v, u_force)
+    return moving
 
 
 @_jit
 def _kinematics_kernel(time, seg_t0, seg_theta0, seg_rate0, seg_accel, axes, mat_n_base,
                        mat_tb0, m_axis, m_angle, m_start, m_duration, m_smooth,
                        omega_ie_n, f_n, want_mat, omega_ib_b, f_b, mat_nb, angles_out):
-    n, n_gimbals = time.size, axes.shape[0]
-    rot = np.empty((3, 3))
+    n, n_gimbals, n_seg = time.size, axes.shape[0], seg_t0.size
     mat_nt = np.empty((3, 3))
-    tmp = np.empty((3, 3))
-    exp_m = np.empty((3, 3))
     mat_tb = np.empty((3, 3))
-    c_nb = np.empty((3, 3))
-    w = np.zeros(3)
-    w2 = np.empty(3)
+    exp_m = np.empty((3, 3))
+    u_omega = np.empty(3)
+    u_force = np.empty(3)
     m = np.empty(3)
     mdot = np.empty(3)
-    jr = np.empty(3)
-    v1 = np.empty(3)
-    v2 = np.empty(3)
-    seg = np.searchsorted(seg_t0, time, side="right") - 1
-    last_seg = -1
+    v = np.empty(3)
+    s, cached, moving = 0, -1, True
     for k in range(n):
-        s = max(seg[k], 0)
-        tau = time[k] - seg_t0[s]
-        moving = False
-        for g in range(n_gimbals):
-            angles_out[k, g] = seg_theta0[s, g] + tau * (
-                seg_rate0[s, g] + 0.5 * tau * seg_accel[s, g])
-            moving = moving or seg_rate0[s, g] != 0.0 or seg_accel[s, g] != 0.0
-        if moving or s != last_seg:  # a hold reuses mat_nt and w of its segment
-            mat_nt[:, :] = mat_n_base
-            w[:] = 0.0
+        t = time[k]
+        # segments are walked forward; a time earlier than the current segment searches
+        if t < seg_t0[s]:
+            s = max(np.searchsorted(seg_t0, t, side="right") - 1, 0)
+        while s + 1 < n_seg and t >= seg_t0[s + 1]:
+            s += 1
+        tau = t - seg_t0[s]
+        if moving or s != cached:  # a hold reuses the platform terms of its segment
+            moving = _platform(k, s, tau, seg_theta0, seg_rate0, seg_accel, axes, mat_n_base,
+                               mat_tb0, omega_ie_n, f_n, angles_out, mat_nt, u_omega, u_force)
+            cached = s
+        else:
             for g in range(n_gimbals):
-                _rodrigues(axes[g], angles_out[k, g], rot)
-                _mm(mat_nt, rot, tmp)
-                mat_nt[:, :] = tmp
-                _mtv(rot, w, w2)
-                rate = seg_rate0[s, g] + seg_accel[s, g] * tau
-                for i in range(3):
-                    w[i] = w2[i] + axes[g, i] * rate
-            last_seg = s
-        _mount_state(time[k], m_axis, m_angle, m_start, m_duration, m_smooth, m, mdot)
-        _mount_terms(m, mdot, exp_m, jr)
-        _mm(mat_tb0, exp_m, mat_tb)
-        _mm(mat_nt, mat_tb, c_nb)
-        _mtv(c_nb, omega_ie_n, v1)
-        _mtv(mat_tb, w, v2)
-        for i in range(3):
-            omega_ib_b[k, i] = v1[i] + v2[i] + jr[i]
-        _mtv(c_nb, f_n, v1)
-        f_b[k, :] = v1
-        if want_mat:
-            mat_nb[k] = c_nb
+                angles_out[k, g] = seg_theta0[s, g]
+        if _mount_state(t, m_axis, m_angle, m_start, m_duration, m_smooth, m, mdot):
+            a, b, c = _series(m[0] * m[0] + m[1] * m[1] + m[2] * m[2])
+            _rotate_back(m, a, b, u_omega, v)
+            # omega_tb_b = J_r(m) mdot = mdot - b (m x mdot) + c m x (m x mdot)
+            c0 = m[1] * mdot[2] - m[2] * mdot[1]
+            c1 = m[2] * mdot[0] - m[0] * mdot[2]
+            c2 = m[0] * mdot[1] - m[1] * mdot[0]
+            omega_ib_b[k, 0] = v[0] + mdot[0] - b * c0 + c * (m[1] * c2 - m[2] * c1)
+            omega_ib_b[k, 1] = v[1] + mdot[1] - b * c1 + c * (m[2] * c0 - m[0] * c2)
+            omega_ib_b[k, 2] = v[2] + mdot[2] - b * c2 + c * (m[0] * c1 - m[1] * c0)
+            _rotate_back(m, a, b, u_force, v)
+            for i in range(3):
+                f_b[k, i] = v[i]
+        else:
+            a, b = 1.0, 0.5
+            for i in range(3):
+                omega_ib_b[k, i] = u_omega[i]
+                f_b[k, i] = u_force[i]
+        if want_mat:  # mat_nb = mat_nt mat_tb0 exp([m x])
+            _rodrigues_vec(m, a, b, exp_m)
+            _mm(mat_tb0, exp_m, mat_tb)
+            _mm(mat_nt, mat_tb, exp_m)
+            mat_nb[k] = exp_m
+
+
+@_jit
+def _rodrigues_vec(m, a, b, out):
+    """out = exp([m x]) = I + a [m x] + b [m x]^2 for a rotation vector m."""
+    m2 = m[0] * m[0] + m[1] * m[1] + m[2] * m[2]
+    for i in range(3):
+        for j in range(3):
+            out[i, j] = b * m[i] * m[j]
+        out[i, i] += 1.0 - b * m2
+    out[0, 1] -= a * m[2]
+    out[0, 2] += a * m[1]
+    out[1, 0] += a * m[2]
+    out[1, 2] -= a * m[0]
+    out[2, 0] -= a * m[1]
+    out[2, 1] += a * m[0]
 
 
 @dataclass(frozen=True)

@@ -148,7 +148,7 @@ def _chunk(sim, k0, k1, rng, encoder_rng, err_state):
              if sim.after_rotation is not None else None)
     dtheta, dv, err_state, bias = imu.apply_errors(
         ideal[0], ideal[1], dt, sim.sensor, rng, err_state,
-        temperature_delta=temp, accel_bias_extra=extra)
+        temperature_delta=temp, accel_bias_extra=extra, truth_every=d)
     t_truth = edges[d::d]
     mat_nb, _, _ = sim.trajectory.state(t_truth)
     angles = sim.trajectory.table_angles(t_truth)
@@ -157,8 +157,8 @@ def _chunk(sim, k0, k1, rng, encoder_rng, err_state):
         "truth/quat_nb": rotation.quat_from_mat(mat_nb),
         "truth/table_angles": angles,
         "truth/mount_rotvec": sim.trajectory.mount_rotvec(t_truth),
-        "truth/gyro_bias": bias[0].reshape(-1, d, 3).mean(axis=1),
-        "truth/accel_bias": bias[1].reshape(-1, d, 3).mean(axis=1),
+        "truth/gyro_bias": bias.gyro,
+        "truth/accel_bias": bias.accel,
         "table/time": t_truth,
         "table/encoder": angles + sim.encoder_noise * encoder_rng.standard_normal(angles.shape),
     }

@@ -5,7 +5,7 @@ import pytest
 from scipy.linalg import expm
 from scipy.optimize import curve_fit
 
-from inins.core import earth, errors, rotation
+from inins.core import earth, errors, flight, rotation
 from inins.core import strapdown as sd
 from inins.core import trajectory as tr
 from inins.core.units import ARCMIN, ARCSEC, DEG, DPH, MINUTE
@@ -63,7 +63,7 @@ def test_stationary_hour_free_navigation_is_exact():
 
 
 def test_moving_trajectory_with_turns():
-    truth = tr.aircraft_trajectory()  # 10 min, 50-150 m/s, bank +-30 deg, climbs
+    truth = flight.aircraft_trajectory()  # 10 min, 50-150 m/s, bank +-30 deg, climbs
     increments = tr.ideal_increments(truth, np.arange(120_001) * DT)
     series, phi, dvel, dpos = _navigate(truth, 0, increments=increments, decimation=200)
     assert len(series) == 600
@@ -167,7 +167,7 @@ def test_fixed_position_gyro_bias_follows_phi_equation():
 
 
 def test_chunked_integration_is_bit_identical():
-    truth = tr.aircraft_trajectory()
+    truth = flight.aircraft_trajectory()
     dtheta, dv = tr.ideal_increments(truth, np.arange(3001) * DT)
     start = _start(truth)
     whole_end, whole = sd.integrate(start, dtheta, dv, DT, decimation=7)

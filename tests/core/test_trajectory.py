@@ -5,7 +5,7 @@ import itertools
 import numpy as np
 import pytest
 
-from inins.core import earth, rotation
+from inins.core import earth, flight, rotation
 from inins.core import trajectory as tr
 from inins.core.units import DEG
 
@@ -46,7 +46,7 @@ def test_complex_step_and_45_degree_second_derivative():
 def test_smooth_velocity_derivatives_by_full_complex_step():
     # a finite imaginary part (1e-10 s) takes the general complex path, so this
     # checks the closed-form derivatives of the logistic steps independently
-    vel = tr.flight_velocity()
+    vel = flight.flight_velocity()
     t = np.linspace(0.0, 600.0, 601)
     for order in (-1, 0, 1):
         slope = vel(t + 1e-10j, order).imag / 1e-10
@@ -61,7 +61,7 @@ def _central(func, t, h):
 
 
 def test_aircraft_rates_match_derivatives_of_its_state():
-    truth = tr.aircraft_trajectory()
+    truth = flight.aircraft_trajectory()
     t = np.array([5.0, 95.0, 101.0, 215.0, 333.0, 455.0, 545.0])
     mat_nb, vel_n, lla = truth.state(t)
     mat_dot = _central(lambda x: truth.state(x)[0], t, 1e-3)
@@ -79,7 +79,7 @@ def test_aircraft_rates_match_derivatives_of_its_state():
 
 
 def test_aircraft_profile_and_second_derivative_fallback():
-    truth = tr.aircraft_trajectory()
+    truth = flight.aircraft_trajectory()
     t = np.linspace(0.0, 600.0, 6001)
     mat_nb, vel_n, _ = truth.state(t)
     euler = rotation.euler_from_mat(mat_nb)

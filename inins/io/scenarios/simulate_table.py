@@ -171,7 +171,7 @@ class Output(Section):
     """What is kept besides the IMU increments."""
 
     truth_rate_hz: PositiveFloat = Field(
-        100.0, description="rate of the truth and encoder series (Hz); must divide "
+        10.0, description="rate of the truth and encoder series (Hz); must divide "
         "the IMU rate")
 
 

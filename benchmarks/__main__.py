@@ -1,0 +1,86 @@
+"""``make bench``: throughput, wall time and peak memory of the hot paths and commands.
+
+Each benchmark runs in its own child process so that its peak RSS is its own.
+Figures are printed as one table; ``--json FILE`` also writes them. ``--quick``
+skips the 24 h runs (about a minute on a slow machine).
+"""
+
+import argparse
+import json
+import statistics
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+HERE = Path(__file__).parent
+MODULES = ("bench_strapdown", "bench_imu", "bench_table")
+
+
+def _module(name):
+    code = f"import json, benchmarks.{name} as m; print(json.dumps(m.run()))"
+    out = subprocess.run([sys.executable, "-c", code], check=True, capture_output=True,
+                         text=True, cwd=HERE.parent)
+    return json.loads(out.stdout.strip().splitlines()[-1])
+
+
+def _command(*args):
+    """Run ``inins ARGS`` in a child; its wall time, peak RSS and exit code."""
+    out = subprocess.run([sys.executable, "-m", "benchmarks._measure", *args],
+                         capture_output=True, text=True, cwd=HERE.parent)
+    figures = json.loads(out.stderr.strip().splitlines()[-1])
+    if figures["exit"] != 0:
+        raise RuntimeError(f"inins {' '.join(args)} failed:\n{out.stderr}")
+    return figures
+
+
+def _help_startup():
+    times = []
+    for _ in range(7):
+        start = time.perf_counter()
+        subprocess.run([sys.executable, "-m", "inins", "--help"], check=True,
+                       capture_output=True)
+        times.append(time.perf_counter() - start)
+    return {"median_s": statistics.median(times), "max_s": max(times)}
+
+
+def _simulate_table(outdir, long):
+    scenario = str(HERE / "scenarios" / "table1-2h-1khz.yaml")
+    _command("simulate-table", scenario, "-o", outdir)  # JIT cache warm-up
+    figures = {"2h_1khz": _command("simulate-table", scenario, "-o", outdir)}
+    if long:  # the same sequence stretched to 24 h: 86.4 M samples
+        figures["24h_1khz"] = _command(
+            "simulate-table", scenario, "-o", outdir,
+            "--set", "motion.0.duration_s=43181.5", "--set", "motion.2.duration_s=43181.5",
+            "--set", "mount.rotations.0.duration_s=86400")
+    return figures
+
+
+def main():
+    parser = argparse.ArgumentParser(prog="python -m benchmarks")
+    parser.add_argument("--quick", action="store_true", help="skip the 24 h runs")
+    parser.add_argument("--json", type=Path, help="also write the figures here")
+    args = parser.parse_args()
+    figures = {name: _module(name) for name in MODULES}
+    figures["inins_help"] = _help_startup()
+    with tempfile.TemporaryDirectory() as outdir:
+        figures["simulate_table_cli"] = _simulate_table(outdir, not args.quick)
+    for group, values in figures.items():
+        print(group)
+        for key, value in _flat(values):
+            print(f"  {key:32s} {value:12.6g}")
+    if args.json:
+        args.json.write_text(json.dumps(figures, indent=2))
+
+
+def _flat(values, prefix=""):
+    for key, value in values.items():
+        if isinstance(value, dict):
+            yield from _flat(value, f"{prefix}{key}.")
+        else:
+            yield f"{prefix}{key}", value
+
+
+if __name__ == "__main__":
+    main()
