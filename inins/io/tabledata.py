@@ -18,7 +18,9 @@ Layout (every dataset carries ``units``, ``frame`` and ``description`` attribute
     /steps/start_index, stop_index (s,) IMU samples [start_index, stop_index)
                                         lie wholly inside the step
     /steps/angles_start, angles_end (s, g)  gimbal angles (rad), outer first
-    /table                attrs: gimbals (names, outer first)
+    /table                attrs: gimbals (names, outer first), axes (g, 3) unit
+                          gimbal axes each in its parent frame, mat_n_base (3, 3)
+                          table base to NED (base azimuth and tilt)
     /table/time  (m,)     s, encoder reading times
     /table/encoder (m, g) rad, encoder readings
     /truth/...            simulation only: time (m,), quat_nb (m, 4),
@@ -34,41 +36,17 @@ import h5py
 import numpy as np
 
 from inins.errors import InputError
+from inins.table.record import Step, Truth
 
 CHUNK_SAMPLES = 1 << 18
 
 
 @dataclass(frozen=True)
-class Step:
-    """One step of the schedule."""
-
-    kind: str
-    label: str
-    axis: int
-    start_time: float
-    end_time: float
-    start_index: int
-    stop_index: int
-    angles_start: np.ndarray
-    angles_end: np.ndarray
-
-
-@dataclass(frozen=True)
-class Truth:
-    """Simulated truth, at the truth rate."""
-
-    time: np.ndarray
-    quat_nb: np.ndarray
-    table_angles: np.ndarray
-    mount_rotvec: np.ndarray
-    gyro_bias: np.ndarray
-    accel_bias: np.ndarray
-    attrs: dict
-
-
-@dataclass(frozen=True)
 class TableData:
-    """A table-data file: metadata in memory, IMU increments read in chunks."""
+    """A table-data file: metadata in memory, IMU increments read in chunks.
+
+    Implements :class:`inins.table.record.TableRecord`.
+    """
 
     path: Path
     t0: float
@@ -76,10 +54,17 @@ class TableData:
     n_samples: int
     lla: np.ndarray
     gimbals: tuple
+    axes: np.ndarray
+    mat_n_base: np.ndarray
     steps: tuple
     encoder_time: np.ndarray
     encoder: np.ndarray
     truth: Truth | None
+
+    @property
+    def source(self):
+        """File name, for messages."""
+        return str(self.path)
 
     def imu(self, start=0, stop=None):
         """Increments of samples [start, stop) in SI: dtheta (rad), dv (m/s), each (k, 3)."""
@@ -165,5 +150,8 @@ def read_table_data(path):
             path=path, t0=float(imu.attrs["t0_s"]), dt=float(imu.attrs["dt_s"]),
             n_samples=n,
             lla=np.array([site["lat_rad"], site["lon_rad"], site["height_m"]], dtype=float),
-            gimbals=_text(table.attrs["gimbals"]), steps=_steps(f),
+            gimbals=_text(table.attrs["gimbals"]),
+            axes=np.asarray(table.attrs["axes"], dtype=float).reshape(-1, 3),
+            mat_n_base=np.asarray(table.attrs["mat_n_base"], dtype=float).reshape(3, 3),
+            steps=_steps(f),
             encoder_time=table["time"][()], encoder=table["encoder"][()], truth=_truth(f))

@@ -326,6 +326,25 @@ class TableTrajectory:
         return m
 
 
+def platform_matrix(axes, mat_n_base, angles):
+    """``mat_nt`` of the table platform from gimbal angles, shape (..., 3, 3).
+
+    Parameters
+    ----------
+    axes : ndarray, shape (g, 3)
+        Unit gimbal axes, outer first, each in its parent frame.
+    mat_n_base : ndarray, shape (3, 3)
+        Table base to NED.
+    angles : array_like, shape (..., g)
+        Gimbal angles (rad), e.g. encoder readings.
+    """
+    angles = np.asarray(angles, dtype=float)
+    mat = np.broadcast_to(mat_n_base, (*angles.shape[:-1], 3, 3))
+    for g in range(axes.shape[0]):
+        mat = mat @ rotation.mat_from_rotvec(angles[..., g, None] * axes[g])
+    return mat
+
+
 def gimbal_axes(names, nonorthogonality=None):
     """Unit gimbal axes from names (outer first), optionally tilted by small angles.
 
