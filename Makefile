@@ -16,8 +16,8 @@ $(STAMP): pyproject.toml
 venv: $(STAMP)
 
 demo: $(STAMP)
-	$(BIN)/inins simulate-table -o $(OUT)/demo
-	@echo; cat $(OUT)/demo/simulate-table.txt
+	$(BIN)/inins calibrate-bias -o $(OUT)/demo
+	@echo; cat $(OUT)/demo/calibrate-bias.txt
 
 lint: $(STAMP)
 	$(BIN)/ruff check inins tests benchmarks

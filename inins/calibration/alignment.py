@@ -117,7 +117,12 @@ def align_stationary(dtheta, dv, dt, lat, heading=None, arw=np.nan, vrw=np.nan):
     Alignment
     """
     omega_b, f_b = mean_rates(dtheta, dv, dt)
-    duration = dtheta.shape[0] * dt
+    return align_from_means(omega_b, f_b, dtheta.shape[0] * dt, lat, heading, arw, vrw)
+
+
+def align_from_means(omega_b, f_b, duration, lat, heading=None, arw=np.nan, vrw=np.nan):
+    """:func:`align_stationary` from the mean rate (rad/s) and specific force (m/s^2)
+    over a window of ``duration`` (s)."""
     method = "known heading" if heading is not None else "gyrocompass"
     if heading is None:
         heading = gyrocompass_heading(omega_b, f_b)

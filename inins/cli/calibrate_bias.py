@@ -1,10 +1,29 @@
-"""``inins calibrate-bias``: placeholder until the method lands (see :mod:`inins.cli`).
+"""``inins calibrate-bias``: gyro-bias calibration on a rate table (spec §4, paper 000).
 
-A command module provides ``SCENARIO_MODEL`` (a
-:class:`inins.io.scenario.ScenarioModel` subclass) and
-``run(model, seed) -> CommandResult``. While ``SCENARIO_MODEL`` is None the
-command prints "inins calibrate-bias: not implemented yet in this version" and exits 2.
+See :mod:`inins.calibration.calibrate`.
 """
 
-SCENARIO_MODEL = None
-run = None
+from inins.calibration import calibrate, ett, report
+from inins.io.ettresult import read_ett_result
+from inins.io.records import load_record
+from inins.io.scenarios.calibrate_bias import CalibrateBiasScenario
+
+SCENARIO_MODEL = CalibrateBiasScenario
+
+
+def _ett(model, record):
+    """The ETT mounting for alignment method ett: from a file, or from this record."""
+    if model.alignment.method != "ett":
+        return None
+    if model.alignment.ett_file is not None:
+        return read_ett_result(model.alignment.ett_file)
+    nominal = None if model.simulate is None else model.simulate.mount.nominal()
+    return ett.align_ett(record, ett.EttOptions(mat_tb0=nominal)).result
+
+
+def run(model, seed, progress=None):
+    """Calibrate from the scenario's data file or its in-memory simulation."""
+    record, sensor = load_record(model.data, model.simulate, seed)
+    settings = model.settings(sensor, _ett(model, record))
+    outcome = calibrate.calibrate(record, settings, progress)
+    return report.build(outcome, record, settings, model.paper000_case)

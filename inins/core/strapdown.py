@@ -36,7 +36,11 @@ scheme is second order).
 With ``fixed_position=True`` (rate-table "stationary navigation", 000 eqs. 9-10)
 the position stays at its initial value, ``omega_en = 0``, and Earth rate and
 gravity are those of the known position; velocity is still integrated (step 3
-with ``2 omega_ie x v``), so its error grows open-loop. With ``fixed_height=True``
+with ``2 omega_ie x v``), so its error grows open-loop as the 002 in-flight model
+describes it. Adding ``zero_velocity=True`` also uses the known zero velocity in
+the Coriolis term, so that the computed velocity is the plain integral of the
+specific-force error, ``d dv/dt = f_n x phi + mat_nb df`` (000 eq. 10), which is
+what the velocity-error calibration fits. With ``fixed_height=True``
 only the height is held (no update of ``h`` in step 5, ``h_m = h``): the
 horizontal channels stay free-inertial (Schuler) while the vertical channel,
 unstable with gravity feedback (time constant ``sqrt(R / 2g)`` ~ 9.5 min), cannot
@@ -55,7 +59,7 @@ _gravity = numba.njit(cache=True)(earth.gravity)
 _radii = numba.njit(cache=True)(earth.principal_radii)
 _R_EXTRAPOLATE = 6.371e6
 """Radius (m) used only to extrapolate the mid-interval latitude."""
-_FREE, _FIXED_HEIGHT, _FIXED_POSITION = 0, 1, 2
+_FREE, _FIXED_HEIGHT, _FIXED_POSITION, _ZERO_VELOCITY = 0, 1, 2, 3
 
 
 @numba.njit(cache=True)
@@ -120,7 +124,7 @@ def _earth_terms(lla, vel, dt, mode, home):
     ``home`` holds ``[omega_ie_n (3), R_N + h, R_E + h, lat, gravity]`` of the
     initial position, used as they are in fixed-position mode.
     """
-    if mode == _FIXED_POSITION:
+    if mode >= _FIXED_POSITION:
         return home[0], home[1], home[2], home[3], home[4], home[5], home[7]
     lat_m = lla[0] + 0.5 * dt * vel[0] / (_R_EXTRAPOLATE + lla[2])
     h_m = lla[2] if mode == _FIXED_HEIGHT else lla[2] - 0.5 * dt * vel[2]
@@ -133,7 +137,7 @@ def _earth_terms(lla, vel, dt, mode, home):
 @numba.njit(cache=True)
 def _transport(vx, vy, rn_h, re_h, lat, mode):
     """Transport rate omega_en_n (rad/s); zero in fixed-position mode."""
-    if mode == _FIXED_POSITION:
+    if mode >= _FIXED_POSITION:
         return 0.0, 0.0, 0.0
     return vy / re_h, -vx / rn_h, -vy * math.tan(lat) / re_h
 
@@ -142,16 +146,20 @@ def _transport(vx, vy, rn_h, re_h, lat, mode):
 def _velocity_step(vel, u, wie, terms, g, dt, mode):
     """Velocity change (3) and nav-frame rotation vector zeta (3), steps 2-3."""
     rn_h, re_h, lat = terms
+    # zero velocity: the velocity is known to be zero, so no Coriolis acts and the
+    # computed velocity is the open-loop velocity error (000 eq. 10)
+    known = 0.0 if mode == _ZERO_VELOCITY else 1.0
     ex, ey, ez = _transport(vel[0], vel[1], rn_h, re_h, lat, mode)
     cx, cy, cz = _cross(2.0 * wie[0] + ex, 2.0 * wie[1] + ey, 2.0 * wie[2] + ez,
-                        vel[0], vel[1], vel[2])
+                        known * vel[0], known * vel[1], known * vel[2])
     mx = vel[0] + 0.5 * (u[0] - cx * dt)
     my = vel[1] + 0.5 * (u[1] - cy * dt)
     mz = vel[2] + 0.5 * (u[2] + (g - cz) * dt)
     ex, ey, ez = _transport(mx, my, rn_h, re_h, lat, mode)
     zx, zy, zz = (wie[0] + ex) * dt, (wie[1] + ey) * dt, (wie[2] + ez) * dt
     rx, ry, rz = _cross(zx, zy, zz, u[0], u[1], u[2])
-    cx, cy, cz = _cross(2.0 * wie[0] + ex, 2.0 * wie[1] + ey, 2.0 * wie[2] + ez, mx, my, mz)
+    cx, cy, cz = _cross(2.0 * wie[0] + ex, 2.0 * wie[1] + ey, 2.0 * wie[2] + ez,
+                        known * mx, known * my, known * mz)
     return ((u[0] - 0.5 * rx - cx * dt, u[1] - 0.5 * ry - cy * dt,
              u[2] - 0.5 * rz + (g - cz) * dt), (zx, zy, zz))
 
@@ -177,7 +185,7 @@ def _navigate(quat, vel, lla, prev, count, dtheta, dv, dt, mode, coning, scullin
         mean_n, mean_e, mean_d = (vel[0] + 0.5 * dvn[0], vel[1] + 0.5 * dvn[1],
                                   vel[2] + 0.5 * dvn[2])
         vel[0], vel[1], vel[2] = vel[0] + dvn[0], vel[1] + dvn[1], vel[2] + dvn[2]
-        if mode != _FIXED_POSITION:
+        if mode < _FIXED_POSITION:
             lla[0] += mean_n * dt / rn_h
             lla[1] += mean_e * dt / (re_h * math.cos(lat_m))
         if mode == _FREE:
@@ -328,7 +336,7 @@ def _home(lla):
 
 
 def integrate(state, dtheta, dv, dt, *, fixed_position=False, fixed_height=False, coning=True,
-              sculling=True, decimation=1):
+              sculling=True, decimation=1, zero_velocity=False):
     """Strapdown navigation over a record of increments (module docstring for the equations).
 
     Chunked use is exact: integrating a record in pieces, each call starting from
@@ -348,6 +356,9 @@ def integrate(state, dtheta, dv, dt, *, fixed_position=False, fixed_height=False
         Sample interval (s).
     fixed_position : bool
         Rate-table mode: position held, ``omega_en = 0``.
+    zero_velocity : bool
+        With ``fixed_position``: no Coriolis term either, the velocity being known
+        to be zero (000 eq. 10).
     fixed_height : bool
         Hold the height (gravity, radii) at its initial value, for long free-inertial
         runs without the unstable vertical channel; ``v_D`` is still integrated.
@@ -377,7 +388,10 @@ def integrate(state, dtheta, dv, dt, *, fixed_position=False, fixed_height=False
     out = (np.empty(m, np.int64), np.empty((m, 4)), np.empty((m, 3)), np.empty((m, 3)))
     quat, vel, lla = state.quat_nb.copy(), state.vel_n.copy(), state.lla.copy()
     prev = np.concatenate([state.dtheta_prev, state.dv_prev])
-    mode = _FIXED_POSITION if fixed_position else _FIXED_HEIGHT if fixed_height else _FREE
+    if zero_velocity and not fixed_position:
+        raise ValueError("zero_velocity needs fixed_position")
+    mode = (_ZERO_VELOCITY if zero_velocity else _FIXED_POSITION if fixed_position
+            else _FIXED_HEIGHT if fixed_height else _FREE)
     _navigate(quat, vel, lla, prev, first, dtheta, dv, float(dt), mode,
               bool(coning), bool(sculling), decimation, _home(lla), *out)
     end = NavState(quat, vel, lla, prev[:3], prev[3:], first + n)

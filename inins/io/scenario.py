@@ -28,6 +28,7 @@ Types: ``Positive`` (> 0: durations, rates, sample rates), ``NonNegative``
 given for numbers (``true``) are errors.
 """
 
+from pathlib import Path
 from typing import Annotated
 
 from pydantic import AfterValidator, BaseModel, ConfigDict, Field, model_validator
@@ -123,6 +124,16 @@ CheckExpr = Annotated[str, AfterValidator(_check_syntax)]
 """A pass/fail expression (see :mod:`inins.io.checks`), syntax-checked on load."""
 
 
+def _relative_to_scenario(value, info):
+    base = (info.context or {}).get("base_dir")
+    value = Path(value).expanduser()
+    return value if base is None or value.is_absolute() else Path(base) / value
+
+
+ScenarioPath = Annotated[Path, AfterValidator(_relative_to_scenario)]
+"""A file path; a relative path is relative to the scenario file's directory."""
+
+
 class ScenarioModel(ScenarioSection):
     """Top level of a command's scenario: adds ``seed`` and ``checks``."""
 
@@ -197,7 +208,8 @@ def load_scenario(model_cls, path, overrides, default_path):
         header = "".join(f"#   --set {item}\n" for item in overrides)
         text = f"# {source} with overrides:\n{header}" + yaml_source.dump_yaml(data)
     try:
-        model = model_cls.model_validate(data)
+        scenario_dir = Path(default_path if path is None else path).resolve().parent
+        model = model_cls.model_validate(data, context={"base_dir": scenario_dir})
     except ValidationError as exc:
         raise to_input_error(
             exc, data=data, lines=lines, source=source, model_cls=model_cls, overrides=set_by

@@ -13,7 +13,7 @@ from inins.cli import app as real_app
 from inins.cli._registry import COMMANDS, CommandUnavailable, load_command
 from inins.io.scenario import field_doc_problems
 
-PLACEHOLDERS = ("calibrate-bias", "align-ett", "run-ekf", "observability")
+PLACEHOLDERS = ("run-ekf", "observability")
 HEAVY = ("numpy", "scipy", "numba", "h5py", "pydantic", "yaml")
 
 

@@ -209,3 +209,25 @@ def test_bad_inputs_raise(kwargs, match):
         sd.integrate(state, args.pop("dtheta"), args.pop("dv"), args.pop("dt"), **args)
     with pytest.raises(ValueError, match="quat_nb"):
         sd.NavState([0, 0, 0, 0], [0, 0, 0], [0, 0, 0])
+
+
+def test_zero_velocity_mode_integrates_the_plain_velocity_error():
+    # 000 eqs. 9-10: phi' = -omega_ie x phi - mat_nb b, dv' = f_n x phi (no Coriolis: the
+    # table's velocity is known to be zero)
+    mat_nb = rotation.mat_from_euler(0.1, -0.05, 1.2)
+    truth = tr.Stationary(LAT, LON, HEIGHT, mat_nb)
+    bias = np.array([0.01, -0.02, 0.015]) * DPH
+    dtheta, dv = tr.ideal_increments(truth, np.arange(120_001) * DT)
+    start = sd.NavState.from_attitude(mat_nb, np.zeros(3), [LAT, LON, HEIGHT])
+    _, series = sd.integrate(start, dtheta + bias * DT, dv, DT, fixed_position=True,
+                             zero_velocity=True, decimation=2000)
+    aug = np.zeros((7, 7))
+    aug[:6, :6] = _phi_model(LAT, HEIGHT, 6)
+    aug[3:6, 3:6] = 0.0
+    aug[:3, 6] = -mat_nb @ bias
+    closed = np.array([expm(aug * s)[:6, 6] for s in series.time(DT)])
+    phi = errors.attitude_error(series.mat_nb(), mat_nb)
+    assert np.abs(phi - closed[:, :3]).max() < 1e-4 * np.abs(closed[:, :3]).max()
+    assert np.abs(series.vel_n - closed[:, 3:]).max() < 1e-4 * np.abs(closed[:, 3:]).max()
+    with pytest.raises(ValueError, match="zero_velocity"):
+        sd.integrate(start, dtheta[:5], dv[:5], DT, zero_velocity=True)

@@ -4,6 +4,7 @@ import json
 import math
 import os
 import signal
+import time
 
 import numpy as np
 import pytest
@@ -51,8 +52,12 @@ def test_deferred_interrupts_deliver_after_block():
     seen = []
     with pytest.raises(KeyboardInterrupt):
         with deferred_interrupts():
-            signal.raise_signal(signal.SIGINT)  # synchronous: os.kill may go to another thread
+            signal.raise_signal(signal.SIGINT)
             seen.append("block finished")
+        # CPython may run a Python-level signal handler late when another thread holds
+        # the GIL; the interrupt then arrives just after the block, through the
+        # restored handler, which is still the promised behaviour.
+        time.sleep(0.5)
     assert seen == ["block finished"]
 
 

@@ -99,10 +99,14 @@ class Mount(Section):
             raise ValueError("the three directions must form a right-handed triad")
         return value
 
+    def nominal(self):
+        """IMU body -> table platform as the IMU axes are named (no misalignment)."""
+        return np.array([DIRECTIONS[v] for v in self.imu_axes]).T
+
     def mat_tb0(self):
         """IMU body -> table platform with the mount at rest."""
-        nominal = np.array([DIRECTIONS[v] for v in self.imu_axes]).T
-        return nominal @ rotation.mat_from_rotvec(np.array(self.misalignment_arcsec) * ARCSEC)
+        return self.nominal() @ rotation.mat_from_rotvec(
+            np.array(self.misalignment_arcsec) * ARCSEC)
 
 
 class AfterRotation(Section):
@@ -175,8 +179,9 @@ class Output(Section):
         "the IMU rate")
 
 
-class SimulateTableScenario(ScenarioModel):
-    """An IMU on a 2- or 3-axis rate table running a motion program."""
+class TableSetup(Section):
+    """An IMU on a 2- or 3-axis rate table running a motion program (the simulate-table
+    scenario without seed and checks, for use as a ``simulate:`` section)."""
 
     site: Site = Field(default_factory=Site)
     table: Table = Field(default_factory=Table)
@@ -240,3 +245,7 @@ class SimulateTableScenario(ScenarioModel):
             gimbal_names=names, encoder_noise=t.encoder_noise_arcsec * ARCSEC,
             truth_decimation=round(self.imu.sample_rate_hz / self.output.truth_rate_hz),
             after_rotation=after, chamber=chamber)
+
+
+class SimulateTableScenario(TableSetup, ScenarioModel):
+    """An IMU on a 2- or 3-axis rate table running a motion program."""

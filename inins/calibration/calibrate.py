@@ -1,0 +1,207 @@
+"""calibrate-bias: horizontal gyro biases from a rate-table return sequence (000 §2-3).
+
+Align at the first position, navigate (stationary: known position, 000 eqs. 9-10)
+through the 000 Table 1 sequence, then evaluate the methods side by side
+(:mod:`inins.calibration.methods`, :mod:`inins.calibration.velocity`) and choose
+the valid return-sequence formula automatically.
+"""
+
+from dataclasses import dataclass, field, replace
+
+import numpy as np
+
+from inins.calibration import methods, navigate, sequence
+from inins.core import errors, rotation
+from inins.errors import InputError
+
+
+@dataclass(frozen=True)
+class Settings:
+    """calibrate-bias settings in SI.
+
+    Attributes
+    ----------
+    align_duration : float
+        Alignment time at the start of position A (s).
+    heading : float or None
+        Known heading (rad) at A (``known`` or ETT alignment), None to gyrocompass.
+    heading_method : str
+        ``"gyrocompass"``, ``"known"`` or ``"ett"``.
+    heading_sigma : float
+        1-sigma of a given heading (rad).
+    epoch_window, settle : float
+        Epoch window and settling time after a rotation (s).
+    labels : tuple of str or None
+        Labels of holds at A, B, A'.
+    output_rate : float
+        Navigation output rate (Hz).
+    free : bool
+        Free-inertial instead of stationary navigation.
+    arw, vrw, accel_quantum : float or ndarray
+        Noise figures for the 1-sigma (rad/sqrt(s), m/s/sqrt(s), m/s).
+    bias_z : float
+        Vertical gyro bias taken as known (rad/s).
+    k_sigma, floor : float
+        Mount-rotation detection: residual above max(k_sigma * sigma, floor) (rad).
+    ett : inins.calibration.ett.EttResult or None
+        ETT mounting (000 §3.1): the heading at the alignment window follows from the
+        table's encoder angles there (``heading_method`` "ett").
+    """
+
+    align_duration: float = 300.0
+    heading: float | None = None
+    heading_method: str = "gyrocompass"
+    heading_sigma: float = 0.0
+    epoch_window: float = 5.0
+    settle: float = 2.0
+    labels: tuple | None = None
+    output_rate: float = 10.0
+    free: bool = False
+    arw: object = 0.0
+    vrw: float = 0.0
+    accel_quantum: float = 0.0
+    bias_z: float = 0.0
+    k_sigma: float = 4.0
+    floor: float = 0.5 * np.pi / 180 / 3600
+    ett: object = None
+
+
+@dataclass(frozen=True)
+class Outcome:
+    """Everything calibrate-bias found (SI; biases in rad/s on the body axes x, y, z)."""
+
+    seq: sequence.Sequence
+    geometry: methods.Geometry
+    align: object
+    track: object
+    eps: np.ndarray
+    epoch_tilts: np.ndarray
+    estimates: dict
+    check: methods.MountCheck
+    threshold: np.ndarray
+    choice: methods.Choice
+    chosen: dict
+    truth: dict = field(default_factory=dict)
+
+
+def _hold_windows(seq):
+    e = seq.epochs
+    return (e[0, 0], e[1, 1]), (e[2, 0], e[3, 1])
+
+
+def calibrate(record, settings, progress=None):
+    """Run calibrate-bias on a table record.
+
+    Parameters
+    ----------
+    record : inins.table.record.TableRecord
+    settings : Settings
+    progress : callable, optional
+
+    Returns
+    -------
+    Outcome
+    """
+    seq = sequence.build_sequence(record, settings.align_duration, settings.epoch_window,
+                                  settings.settle, settings.labels)
+    lat = float(record.lla[0])
+    if settings.ett is not None:
+        settings = replace(settings, heading=_ett_heading(record, settings.ett, seq.align),
+                           heading_sigma=settings.ett.heading_sigma)
+    align = navigate.align(record, seq.align, lat, settings.heading,
+                           np.mean(settings.arw), settings.vrw)
+    track = navigate.navigate(record, align.mat_nb, seq.nav_start, seq.nav_end,
+                              settings.output_rate, settings.free, progress)
+    gyrocompass = settings.heading_method == "gyrocompass"
+    ctx = methods.Context.build(track, seq.epochs, seq.hold_times, settings.arw,
+                                settings.bias_z, gyrocompass)
+    geometry = methods.Geometry.at_start(track)
+    e, n = geometry.east, geometry.north
+    est = {
+        "attitude": methods.solve(ctx, dict.fromkeys(track.horizontal, "attitude")),
+        "velocity": methods.solve_velocity(ctx, _hold_windows(seq), settings.vrw,
+                                           settings.accel_quantum),
+        "eq44": methods.solve(ctx, {e: "attitude", n: "return"}),
+        "eq45": methods.solve(ctx, {e: "return", n: "return"}, heading_known=True),
+    }
+    heading_sigma = align.heading_sigma if gyrocompass else settings.heading_sigma
+    est = {k: _with_alignment_noise(v, align.tilt_sigma, heading_sigma) for k, v in est.items()}
+    reference = est["eq44"] if gyrocompass else est["eq45"]
+    check = methods.mount_check(ctx, reference, heading_sigma)
+    threshold = np.maximum(settings.k_sigma * check.sigma, settings.floor)
+    choice = methods.choose(geometry, check, not gyrocompass, threshold)
+    chosen = _chosen(est, geometry, choice)
+    outcome = Outcome(seq, geometry, align, track, ctx.eps, _epoch_tilts(ctx), est, check,
+                      threshold, choice, chosen)
+    if record.truth is not None:
+        outcome = _with_truth(outcome, record, ctx)
+    return outcome
+
+
+def _ett_heading(record, ett, window):
+    """IMU heading (rad) at the alignment window from the ETT mounting and the encoders."""
+    inside = (record.encoder_time >= window[0]) & (record.encoder_time <= window[1])
+    if not np.any(inside):
+        raise InputError("alignment method ett needs encoder readings in the alignment "
+                         f"window {window[0]:g}-{window[1]:g} s", source=record.source,
+                         key="table/encoder")
+    return float(ett.heading_at(record.encoder[inside].mean(axis=0)))
+
+
+def _with_alignment_noise(est, tilt_sigma, heading_sigma):
+    """Add the alignment's own noise (levelling, heading) through the estimate's
+    sensitivity to the initial attitude error; independent of the noise after it."""
+    sigma_phi0 = np.nan_to_num(np.array([tilt_sigma, tilt_sigma, heading_sigma]))
+    extra = np.sqrt((est.phi_gain**2) @ sigma_phi0**2)
+    return replace(est, sigma=np.hypot(est.sigma, extra))
+
+
+def _epoch_tilts(ctx):
+    """Mean tilt of each epoch window (rad), shape (5, 3)."""
+    return np.array([ctx.eps[(ctx.track.time >= a - 1e-9) & (ctx.track.time <= b + 1e-9)]
+                     .mean(axis=0) for a, b in ctx.windows])
+
+
+def _chosen(est, geometry, choice):
+    """Automatic choice per body axis: (value, sigma, formula name) or None."""
+    h = geometry.horizontal
+    pair = est[choice.east_formula or "eq44"]
+    north = h.index(geometry.north)
+    east = h.index(geometry.east)
+    out = {geometry.north: (pair.value[north], pair.sigma[north], "eq38")}
+    if choice.east_formula is None:
+        out[geometry.east] = None
+    else:
+        out[geometry.east] = (pair.value[east], pair.sigma[east], choice.east_formula)
+    return out
+
+
+def _with_truth(outcome, record, ctx):
+    """True mean biases over the navigation, true initial attitude error, and the
+    biases each formula should carry by eqs. (1)-(2) of :mod:`.model` (000 eqs. 26-45)."""
+    truth = record.truth
+    track = ctx.track
+    t0, t1 = outcome.seq.nav_start, outcome.seq.nav_end
+    inside = (truth.time > t0) & (truth.time <= t1)
+    bias = truth.gyro_bias[inside].mean(axis=0)
+    quat0 = _interp_quat(truth.time, truth.quat_nb, t0)
+    phi0 = errors.attitude_error(outcome.align.mat_nb, rotation.mat_from_quat(quat0))
+    mount = np.stack([np.interp(track.time, truth.time, truth.mount_rotvec[:, i])
+                      for i in range(3)], axis=1)
+    predicted = {}
+    for name, est in outcome.estimates.items():
+        mount_term = 0.0 if est.weights is None else np.einsum("ami,mi->a", est.weights, mount)
+        predicted[name] = est.error_from(bias, phi0, mount_term)
+    return _replace(outcome, truth={"bias": bias, "phi0": phi0, "predicted": predicted,
+                                    "mount": mount})
+
+
+def _interp_quat(time, quat, t):
+    k = int(np.clip(np.searchsorted(time, t), 1, len(time) - 1))
+    w = (t - time[k - 1]) / (time[k] - time[k - 1])
+    q = (1 - w) * quat[k - 1] + w * quat[k]
+    return q / np.linalg.norm(q)
+
+
+def _replace(outcome, **changes):
+    return replace(outcome, **changes)

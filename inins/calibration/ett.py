@@ -1,0 +1,516 @@
+"""Azimuth of an IMU on a rate table from its accelerometers only: the equivalent linear
+transformation (ETT) of 000 §3.1, eqs. 46-48, and the gyrocompass it replaces.
+
+000's recipe
+------------
+At table pitch 90 deg the horizontal accelerometers give the misalignment of the INS
+relative to the table, ``A = C_RT^IN`` (000 eq. 46; alpha, beta measured, gamma ~ 0,
+written in axes whose z is vertical at that position). The table's 90 deg pitch maps
+those axes onto the level ones, ``U = W = [[1, 0, 0], [0, 0, 1], [0, -1, 0]]``
+(000 eq. 47), so the level-position misalignment is (000 eq. 48)::
+
+    B = W A U^-1 = W A W^T = [[1, alpha, gamma], [-alpha, 1, -beta], [-gamma, beta, 1]]
+
+(the U^-1 printed in 000 eq. 48 has a typo: it is W^T). ``alpha`` is the azimuth of the
+IMU relative to the table at the level position; with the table's known azimuth it is
+the INS heading, from accelerometers only.
+
+General form used here
+----------------------
+For any table geometry and IMU mounting, write the IMU body -> platform rotation as the
+nominal mounting times a small rotation mu (rad, b frame)::
+
+    mat_tb = mat_tb0 @ exp([mu x])
+
+At rest at table position k the accelerometers see ``f_b,k = |g| mat_tb^T u_t,k`` with
+``u_t,k = mat_nt,k^T [0, 0, -1]`` the up direction in platform axes (``mat_nt,k`` from
+the encoder readings, :func:`inins.table.kinematics.platform_matrix`). To first order
+``f_b,k / |g| = u_b0,k + u_b0,k x mu``: each position gives the two components of mu
+about its horizontal axes. Two positions with different up directions (vertical and
+level) give all three; the least-squares solution is Wahba's problem, solved exactly by
+the SVD of ``sum_k w_k u_t,k f_b,k^T / |f_b,k|`` (weights ``w_k`` = window lengths).
+
+Mapping to 000 eq. 48: let p be 000's level axes (x table right = pitch axis, y table
+forward, z up; 000's IMU is mounted along them) and ``mu_p = mat_pt mat_tb0 mu``.
+``B = C_RT^IN = exp(-[mu_p x])``, so::
+
+    alpha = mu_p,z,   beta = -mu_p,x,   gamma = -mu_p,y
+
+and the vertical-position accelerometers give ``alpha = f_x / g`` and ``beta = f_z / g``
+(000 eq. 46) -- the same numbers (tests/calibration/test_ett.py proves it). The IMU
+heading at the level position is the heading of ``mat_nt,level @ mat_tb``; on a level
+platform it is the nominal heading minus alpha.
+
+Error budget (first order)
+--------------------------
+An accelerometer bias ``nabla`` (b frame) turns the azimuth by ``nabla . (u_v x u_l) / g``
+(``u_v``, ``u_l``: body up directions at the vertical and level positions; for 000's
+IMU pitched nose up, ``-nabla_x / g`` in heading). White noise of the window means,
+encoder noise and the base azimuth (1:1 in heading) are propagated through numerical
+Jacobians of the exact solution. The gyrocompass at the level position
+(:func:`inins.calibration.alignment.align_stationary`) errs by ``-eps_E / (W cos lat)``.
+
+The results file layout (group ``ett``) is in :mod:`inins.io.ettresult`.
+"""
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from inins.calibration import alignment
+from inins.core import earth, rotation
+from inins.core.units import DEG, UG
+from inins.errors import InputError
+from inins.table.kinematics import platform_matrix
+
+W_PITCH90 = np.array([[1.0, 0.0, 0.0], [0.0, 0.0, 1.0], [0.0, -1.0, 0.0]])
+"""000 eq. 47: U = W, the 90 deg pitch of the table in 000's axes."""
+MAT_TP = np.array([[0.0, 1.0, 0.0], [1.0, 0.0, 0.0], [0.0, 0.0, -1.0]])
+"""000's level axes p (right, forward, up) -> table platform t (forward, right, down)."""
+UP_N = np.array([0.0, 0.0, -1.0])
+LEVEL_COS = np.cos(10.0 * DEG)
+"""A hold is level when the platform normal is within 10 deg of the vertical ..."""
+VERTICAL_SIN = np.sin(10.0 * DEG)
+"""... and vertical (table pitched 90 deg) when it is within 10 deg of the horizontal."""
+BLOCKS = 50
+"""Blocks per window for the data-driven noise of a window mean."""
+METHOD = "align-ett (ETT azimuth alignment, 000 §3.1)"
+
+
+@dataclass(frozen=True)
+class EttOptions:
+    """Settings of :func:`align_ett`, SI.
+
+    ``vertical_label``, ``level_label``: step labels of the positions (None: found from
+    the schedule); ``settle`` (s) skipped at the start of each hold; ``window`` (s)
+    averaged after it (None: the rest of the hold); ``mat_tb0`` nominal mounting (None:
+    the nearest axis permutation of the estimate); ``table_azimuth`` (rad) replacing the
+    record's base azimuth (None: keep) and its 1 sigma ``table_azimuth_sigma`` (rad);
+    ``accel_bias_sigma`` (m/s^2, each axis); ``accel_vrw`` (m/s/sqrt(s)) and
+    ``gyro_arw`` (rad/sqrt(s)), None: from the scatter of the data.
+    """
+
+    vertical_label: str | None = None
+    level_label: str | None = None
+    settle: float = 5.0
+    window: float | None = None
+    mat_tb0: np.ndarray | None = None
+    table_azimuth: float | None = None
+    table_azimuth_sigma: float = 0.0
+    accel_bias_sigma: float = 10.0 * UG
+    accel_vrw: float | None = None
+    gyro_arw: float | None = None
+
+
+@dataclass(frozen=True)
+class Position:
+    """One table position: the hold (``step`` index, ``label``), the averaged window
+    ``[time_start, time_end]`` (s), the mean specific force ``f_b`` (m/s^2, (3,)) and
+    encoder angles ``angles`` (rad, (g,)) with the 1 sigma of each mean."""
+
+    label: str
+    step: int
+    time_start: float
+    time_end: float
+    f_b: np.ndarray
+    f_sigma: np.ndarray
+    angles: np.ndarray
+    angles_sigma: np.ndarray
+
+
+@dataclass(frozen=True)
+class EttResult:
+    """What align-ett hands on (to calibrate-bias, through the ``ett`` group of its file).
+
+    Attributes
+    ----------
+    mat_tb : ndarray, shape (3, 3)
+        Estimated IMU body -> table platform.
+    mat_tb0 : ndarray, shape (3, 3)
+        Nominal mounting; ``mat_tb = mat_tb0 @ exp([mu x])``.
+    mu : ndarray, shape (3,)
+        Mounting misalignment (rad, b frame).
+    heading, heading_sigma : float
+        IMU heading (rad) at the level position and its 1 sigma (rad).
+    level_angles : ndarray, shape (g,)
+        Table angles (rad) of the level position, outer gimbal first.
+    mat_n_base : ndarray, shape (3, 3)
+        Table base -> NED used.
+    axes : ndarray, shape (g, 3)
+        Gimbal axes used.
+    """
+
+    mat_tb: np.ndarray
+    mat_tb0: np.ndarray
+    mu: np.ndarray
+    heading: float
+    heading_sigma: float
+    level_angles: np.ndarray
+    mat_n_base: np.ndarray
+    axes: np.ndarray
+
+    def mat_nb(self, angles):
+        """IMU attitude ``mat_nt(angles) @ mat_tb`` at table ``angles`` (rad, (..., g))."""
+        return platform_matrix(self.axes, self.mat_n_base, angles) @ self.mat_tb
+
+    def heading_at(self, angles):
+        """IMU heading (rad, [0, 2 pi)) at table ``angles`` (rad): calibrate-bias's start."""
+        return rotation.euler_from_mat(self.mat_nb(angles))[..., 2]
+
+
+@dataclass(frozen=True)
+class EttTruth:
+    """Simulation truth at the level position (rad): heading, mounting misalignment, the
+    gyrocompass heading truth and the first-order predicted errors."""
+
+    heading: float
+    mu: np.ndarray
+    gyrocompass_heading: float
+    gyrocompass_err_pred: float
+    heading_err_pred: float
+
+
+@dataclass(frozen=True)
+class EttEstimate:
+    """Everything :func:`align_ett` found: the :class:`EttResult`, both positions, the
+    000 eq. 48 angles ``alpha`` (azimuth offset), ``beta``, ``gamma`` (tilts about 000's
+    x and y) in rad, the heading 1-sigma contributions ``sigma`` (rad: ``noise``,
+    ``bias``, ``encoder``, ``azimuth``), ``time_used`` (s: settle + window at both
+    positions + the steps between), the gyrocompass over the level hold and its time (s),
+    where the noise figures came from (``"stated"`` or ``"data"``), truth and warnings."""
+
+    result: EttResult
+    vertical: Position
+    level: Position
+    alpha: float
+    beta: float
+    gamma: float
+    sigma: dict
+    time_used: float
+    gyrocompass: alignment.Alignment
+    gyrocompass_time: float
+    noise_source: str
+    truth: EttTruth | None
+    warnings: tuple
+
+
+def solve_mounting(f_b, mat_nt, weights):
+    """``mat_tb`` from mean specific forces at table positions (Wahba's problem).
+
+    Minimises ``sum_k w_k |u_t,k - mat_tb f_b,k / |f_b,k||^2`` with
+    ``u_t,k = mat_nt,k^T [0, 0, -1]``: the least-squares form of 000 eqs. 46-48.
+
+    Parameters
+    ----------
+    f_b : ndarray, shape (k, 3)
+        Mean specific force (m/s^2) per position.
+    mat_nt : ndarray, shape (k, 3, 3)
+        Platform attitude per position.
+    weights : ndarray, shape (k,)
+
+    Returns
+    -------
+    ndarray, shape (3, 3)
+    """
+    u_t = np.einsum("kji,j->ki", mat_nt, UP_N)
+    u_b = f_b / np.linalg.norm(f_b, axis=1, keepdims=True)
+    u, _, vt = np.linalg.svd(np.einsum("k,ki,kj->ij", weights, u_t, u_b))
+    return u @ np.diag([1.0, 1.0, np.linalg.det(u) * np.linalg.det(vt)]) @ vt
+
+
+def nearest_axes(mat):
+    """The signed axis permutation (a right-handed nominal mounting) nearest ``mat``."""
+    out = np.zeros((3, 3))
+    for j in range(3):
+        i = int(np.argmax(np.abs(mat[:, j])))
+        out[i, j] = np.sign(mat[i, j])
+    if not np.allclose(out.T @ out, np.eye(3)) or np.linalg.det(out) < 0:
+        raise InputError(f"{METHOD}: the IMU axes are not near table axes; give imu_axes")
+    return out
+
+
+def paper_angles(mu, mat_tb0):
+    """000 eq. 48 angles (alpha, beta, gamma) (rad) of the misalignment mu (rad, b)."""
+    mu_p = MAT_TP.T @ mat_tb0 @ mu
+    return float(mu_p[2]), float(-mu_p[0]), float(-mu_p[1])
+
+
+def misalignment_matrix(alpha, beta, gamma):
+    """000 eq. 46: ``[[1, -gamma, alpha], [gamma, 1, -beta], [-alpha, beta, 1]]``."""
+    return np.array([[1.0, -gamma, alpha], [gamma, 1.0, -beta], [-alpha, beta, 1.0]])
+
+
+def base_with_azimuth(mat_n_base, azimuth):
+    """``mat_n_base`` with its azimuth (rad) replaced, tilts kept."""
+    roll, pitch, _ = rotation.euler_from_mat(mat_n_base)
+    return rotation.mat_from_euler(roll, pitch, azimuth)
+
+
+def _holds(record):
+    return [(i, s) for i, s in enumerate(record.steps) if s.kind == "hold"]
+
+
+def _up_t(record, step):
+    """Up direction in platform axes at a hold (nominal angles)."""
+    return platform_matrix(record.axes, record.mat_n_base, step.angles_end).T @ UP_N
+
+
+def _named(record, label, key):
+    for i, s in _holds(record):
+        if s.label == label:
+            return i
+    known = ", ".join(repr(s.label) for _, s in _holds(record)) or "none"
+    raise InputError(f"{METHOD}: no hold labelled {label!r} in the step schedule "
+                     f"(hold labels: {known})", source=record.source, key=key)
+
+
+def _no_vertical(record, holds, up):
+    listed = ", ".join(f"{s.label or '#' + str(i)} (normal "
+                       f"{np.degrees(np.arccos(min(abs(up[i][2]), 1.0))):.0f} deg from "
+                       "vertical)" for i, s in holds) or "none"
+    return InputError(
+        f"{METHOD}: the record has no vertical position (a hold with the table pitched "
+        f"90 deg, platform normal horizontal); holds: {listed}. Add one to the motion "
+        "program or name it with positions.vertical_label", source=record.source,
+        key="positions.vertical_label")
+
+
+def select_positions(record, options):
+    """Step indices (vertical, level) of the ETT positions.
+
+    Named by label, or found: the vertical position is the first hold whose platform
+    normal (along which the IMU's nominally vertical axis lies) is within 10 deg of the
+    horizontal; the level position the first hold after it with the normal within 10 deg
+    of the vertical, else the last such hold before it.
+
+    Raises
+    ------
+    InputError
+        No such hold, an unknown label, or two positions whose up directions in the
+        table frame are within 45 deg of (anti)parallel: they do not fix the azimuth.
+    """
+    holds = _holds(record)
+    up = {i: _up_t(record, s) for i, s in holds}
+    if options.vertical_label is not None:
+        vertical = _named(record, options.vertical_label, "positions.vertical_label")
+    else:
+        found = [i for i, _ in holds if abs(up[i][2]) < VERTICAL_SIN]
+        if not found:
+            raise _no_vertical(record, holds, up)
+        vertical = found[0]
+    if options.level_label is not None:
+        level = _named(record, options.level_label, "positions.level_label")
+        if abs(up[level][2]) < LEVEL_COS:
+            raise InputError(f"{METHOD}: the hold {options.level_label!r} is not level "
+                             "(platform normal more than 10 deg from the vertical)",
+                             source=record.source, key="positions.level_label")
+    else:
+        found = [i for i, _ in holds if abs(up[i][2]) > LEVEL_COS]
+        if not found:
+            raise InputError(f"{METHOD}: the record has no level hold (platform normal "
+                             "vertical); add one or name it with positions.level_label",
+                             source=record.source, key="positions.level_label")
+        after = [i for i in found if i > vertical]
+        level = after[0] if after else found[-1]
+    if abs(up[vertical] @ up[level]) > np.cos(45.0 * DEG):
+        names = (record.steps[vertical].label, record.steps[level].label)
+        raise InputError(
+            f"{METHOD}: the holds {names[0]!r} and {names[1]!r} see gravity within 45 deg "
+            "of the same table axis, so they do not fix the azimuth; use one vertical "
+            "(table pitch 90 deg) and one level hold", source=record.source, key="positions")
+    return vertical, level
+
+
+def _window(record, index, settle, window, name):
+    step = record.steps[index]
+    first = step.start_index + int(np.ceil(settle / record.dt - 1e-9))
+    stop = step.stop_index
+    if window is not None:
+        stop = min(stop, first + round(window / record.dt))
+    if stop - first < 2:
+        raise InputError(f"{METHOD}: the {name} hold {step.label!r} is "
+                         f"{step.end_time - step.start_time:g} s long, too short for a "
+                         f"settle time of {settle:g} s", source=record.source,
+                         key="positions.settle_s")
+    return first, stop
+
+
+def window_mean(increments, dt, random_walk=None):
+    """Mean rate of increments and the 1 sigma of that mean per axis.
+
+    ``sigma = N / sqrt(T)`` for a stated random walk ``N``; otherwise the scatter of
+    :data:`BLOCKS` block means, ``std(block means) / sqrt(blocks)`` (block sums carry
+    the quantization remainder, so quantized data are not penalised per sample).
+
+    Parameters
+    ----------
+    increments : ndarray, shape (n, 3)
+    dt : float
+        Sample interval (s).
+    random_walk : float, optional
+        Random walk (unit/sqrt(s)).
+    """
+    n = increments.shape[0]
+    mean = increments.sum(axis=0) / (n * dt)
+    if random_walk is not None:
+        return mean, np.full(3, random_walk / np.sqrt(n * dt))
+    size = max(1, n // BLOCKS)
+    blocks = n // size
+    means = increments[:blocks * size].reshape(blocks, size, 3).sum(axis=1) / (size * dt)
+    return mean, means.std(axis=0, ddof=1) / np.sqrt(blocks)
+
+
+def _encoder(record, step, t_a, t_b):
+    sel = (record.encoder_time >= t_a) & (record.encoder_time <= t_b)
+    ref = np.asarray(step.angles_end, dtype=float)
+    if np.count_nonzero(sel) < 2:
+        return ref, np.zeros_like(ref)
+    diff = rotation.wrap_angle(record.encoder[sel] - ref)
+    return ref + diff.mean(axis=0), diff.std(axis=0, ddof=1) / np.sqrt(diff.shape[0])
+
+
+def measure(record, index, options, name):
+    """The :class:`Position` of hold ``index``: accelerometer and encoder means."""
+    first, stop = _window(record, index, options.settle, options.window, name)
+    _, dv = record.imu(first, stop)
+    f_b, f_sigma = window_mean(dv, record.dt, options.accel_vrw)
+    t_a, t_b = record.t0 + first * record.dt, record.t0 + stop * record.dt
+    step = record.steps[index]
+    angles, angles_sigma = _encoder(record, step, t_a, t_b)
+    return Position(step.label, index, t_a, t_b, f_b, f_sigma, angles, angles_sigma)
+
+
+class _Solver:
+    """Heading as a function of every measured input, for the exact solution and its
+    numerical Jacobians."""
+
+    def __init__(self, record, mat_n_base, vertical, level):
+        self.axes, self.base = record.axes, mat_n_base
+        self.weights = np.array([vertical.time_end - vertical.time_start,
+                                 level.time_end - level.time_start])
+        self.x0 = np.concatenate([vertical.f_b, level.f_b, vertical.angles, level.angles,
+                                  [0.0]])
+        self.g = vertical.angles.size
+
+    def mat_tb(self, x):
+        g = self.g
+        base = rotation.axis_rotation(2, x[-1]) @ self.base
+        mat_nt = platform_matrix(self.axes, base, np.stack([x[6:6 + g], x[6 + g:6 + 2 * g]]))
+        return solve_mounting(np.stack([x[:3], x[3:6]]), mat_nt, self.weights), mat_nt[1]
+
+    def heading(self, x):
+        mat_tb, mat_nt_level = self.mat_tb(x)
+        return rotation.euler_from_mat(mat_nt_level @ mat_tb)[2]
+
+    def jacobian(self):
+        """d heading / d x by central differences (1e-6 m/s^2, 1e-8 rad steps)."""
+        steps = np.concatenate([np.full(6, 1e-6), np.full(2 * self.g + 1, 1e-8)])
+        jac = np.empty(self.x0.size)
+        for i, h in enumerate(steps):
+            dx = np.zeros_like(self.x0)
+            dx[i] = h
+            diff = self.heading(self.x0 + dx) - self.heading(self.x0 - dx)
+            jac[i] = rotation.wrap_angle(diff) / (2.0 * h)
+        return jac
+
+
+def _sigma(jac, vertical, level, options):
+    """Heading 1 sigma contributions (rad)."""
+    g = vertical.angles.size
+    noise = np.hypot(jac[:3] * vertical.f_sigma, jac[3:6] * level.f_sigma)
+    encoder = np.hypot(jac[6:6 + g] * vertical.angles_sigma,
+                       jac[6 + g:6 + 2 * g] * level.angles_sigma)
+    return {"noise": float(np.linalg.norm(noise)),
+            "bias": float(np.linalg.norm(jac[:3] + jac[3:6]) * options.accel_bias_sigma),
+            "encoder": float(np.linalg.norm(encoder)),
+            "azimuth": float(abs(jac[-1]) * options.table_azimuth_sigma)}
+
+
+def _gyrocompass(record, level_index, options):
+    first, stop = _window(record, level_index, options.settle, None, "level")
+    dtheta, dv = record.imu(first, stop)
+    _, w_sigma = window_mean(dtheta, record.dt, options.gyro_arw)
+    arw = float(np.sqrt(np.mean(w_sigma**2)) * np.sqrt((stop - first) * record.dt))
+    vrw = options.accel_vrw if options.accel_vrw is not None else np.nan
+    found = alignment.align_stationary(dtheta, dv, record.dt, record.lla[0], arw=arw, vrw=vrw)
+    return found, (first, stop)
+
+
+def _rows(truth, t_a, t_b):
+    """Truth rows in [t_a, t_b] (the nearest one if none falls inside)."""
+    idx = np.flatnonzero((truth.time >= t_a) & (truth.time <= t_b))
+    return idx if idx.size else np.array([np.argmin(np.abs(truth.time - 0.5 * (t_a + t_b)))])
+
+
+def _truth(record, vertical, level, gc_window, mat_tb0, jac):
+    """Truth at the level position and the first-order predicted errors."""
+    truth = record.truth
+    k = _rows(truth, level.time_start, level.time_end)
+    k = k[k.size // 2]
+    mat_nb = rotation.mat_from_quat(truth.quat_nb[k])
+    mat_nt = platform_matrix(record.axes, record.mat_n_base, truth.table_angles[k])
+    mu = rotation.rotvec_from_mat(mat_tb0.T @ mat_nt.T @ mat_nb)
+    gc = _rows(truth, *(record.t0 + i * record.dt for i in gc_window))
+    mat_nb_gc = rotation.mat_from_quat(truth.quat_nb[gc[gc.size // 2]])
+    eps_e = (mat_nb_gc @ truth.gyro_bias[gc].mean(axis=0))[1]
+    ett_pred = sum(jac[3 * i:3 * i + 3] @ truth.accel_bias[_rows(truth, p.time_start,
+                                                                 p.time_end)].mean(axis=0)
+                   for i, p in enumerate((vertical, level)))
+    return EttTruth(float(rotation.euler_from_mat(mat_nb)[2]), mu,
+                    float(rotation.euler_from_mat(mat_nb_gc)[2]),
+                    float(-eps_e / (earth.RATE * np.cos(record.lla[0]))), float(ett_pred))
+
+
+def align_ett(record, options=None):
+    """ETT azimuth alignment (000 §3.1, eqs. 46-48) and the gyrocompass comparison.
+
+    Parameters
+    ----------
+    record : inins.table.record.TableRecord
+    options : EttOptions, optional
+
+    Returns
+    -------
+    EttEstimate
+
+    Raises
+    ------
+    InputError
+        No vertical or level hold, an unknown label, a hold too short.
+    """
+    options = options or EttOptions()
+    warnings = []
+    mat_n_base = record.mat_n_base
+    if options.table_azimuth is not None:
+        mat_n_base = base_with_azimuth(mat_n_base, options.table_azimuth)
+    i_vertical, i_level = select_positions(record, options)
+    vertical = measure(record, i_vertical, options, "vertical")
+    level = measure(record, i_level, options, "level")
+    for p in (vertical, level):
+        if options.window is not None and p.time_end - p.time_start < options.window - record.dt:
+            warnings.append(f"hold {p.label!r} is shorter than settle_s + window_s: averaged "
+                            f"{p.time_end - p.time_start:g} s")
+    solver = _Solver(record, mat_n_base, vertical, level)
+    mat_tb, mat_nt_level = solver.mat_tb(solver.x0)
+    mat_tb0 = options.mat_tb0 if options.mat_tb0 is not None else nearest_axes(mat_tb)
+    mu = rotation.rotvec_from_mat(mat_tb0.T @ mat_tb)
+    if np.linalg.norm(mu) > 1.0 * DEG:
+        warnings.append(f"the IMU is {np.degrees(np.linalg.norm(mu)):.2f} deg off its "
+                        "nominal mounting: check imu_axes")
+    heading = float(rotation.euler_from_mat(mat_nt_level @ mat_tb)[2])
+    jac = solver.jacobian()
+    sigma = _sigma(jac, vertical, level, options)
+    between = sum(s.end_time - s.start_time
+                  for s in record.steps[min(i_vertical, i_level) + 1:max(i_vertical, i_level)])
+    used = sum(p.time_end - record.steps[p.step].start_time for p in (vertical, level))
+    gyrocompass, gc_window = _gyrocompass(record, i_level, options)
+    result = EttResult(mat_tb, mat_tb0, mu, heading,
+                       float(np.sqrt(sum(v * v for v in sigma.values()))), level.angles,
+                       mat_n_base, np.asarray(record.axes, dtype=float))
+    truth = None
+    if record.truth is not None:
+        truth = _truth(record, vertical, level, gc_window, mat_tb0, jac)
+    return EttEstimate(
+        result, vertical, level, *paper_angles(mu, mat_tb0), sigma, float(used + between),
+        gyrocompass, float((gc_window[1] - record.steps[i_level].start_index) * record.dt),
+        "stated" if options.accel_vrw is not None else "data", truth, tuple(warnings))

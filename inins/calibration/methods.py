@@ -1,0 +1,240 @@
+"""Gyro-bias estimators of 000 on a navigated return sequence, and the automatic choice.
+
+Epoch tilts eps(0..4) (:mod:`inins.calibration.sequence`, :mod:`.model`) per
+horizontal body axis; T_A, T_B the navigation times between epochs at A and B:
+
+- attitude-error two-position method (000 eqs. 28-29; eq. 44 is the same
+  combination written with pitch):
+  ``[(eps1 - eps0) / T_A + (eps3 - eps2) / T_B] / 2``
+- return sequence (000 eqs. 38, 45): ``(eps1 + eps3 - eps2 - eps4) / (T_A + T_B)``
+- return to start (000 eqs. 35, 43): ``eps4 - eps0``, the mount rotation over the
+  sequence plus, about the axis that points east at A, twice the heading-error
+  drift (000 eq. 26).
+
+The heading error phi_D drives only the tilt about the axis pointing east at A
+(000 eq. 14). About the north axis eq. 38 is therefore always valid; about the
+east axis eq. 44 (attitude) is valid when the mount does not turn about that
+axis (M3 + M4 = 0) and eq. 45 when the initial heading error is ~0 (ETT or a
+known heading). Each estimate solves a pair of formulas (east axis, north axis)
+with their exact gains (:func:`inins.calibration.model.formula_gain`), so the
+rotation time and Earth-rate coupling that the paper's first-order formulas
+neglect do not bias it.
+"""
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from inins.calibration import model, velocity
+
+COEFFICIENTS = {
+    "attitude": lambda ta, tb: [-0.5 / ta, 0.5 / ta, -0.5 / tb, 0.5 / tb, 0.0],
+    "return": lambda ta, tb: [0.0, 1 / (ta + tb), -1 / (ta + tb), 1 / (ta + tb), -1 / (ta + tb)],
+    "return_to_start": lambda ta, tb: [-1.0, 0.0, 0.0, 0.0, 1.0],
+}
+
+
+@dataclass(frozen=True)
+class Geometry:
+    """Which horizontal body axis points east (and which north) at position A.
+
+    ``aligned`` is False when neither horizontal axis is within 10 deg of east
+    or west; the return-sequence formulas are then not applicable by axis.
+    """
+
+    horizontal: list
+    east: int
+    north: int
+    aligned: bool
+
+    @classmethod
+    def at_start(cls, track):
+        east_b = track.mat_nb[0].T @ [0.0, 1.0, 0.0]
+        h = track.horizontal
+        east = h[int(np.argmax(np.abs(east_b[h])))]
+        north = h[0] if east == h[1] else h[1]
+        return cls(h, east, north, bool(abs(east_b[east]) > np.cos(np.radians(10.0))))
+
+
+@dataclass(frozen=True)
+class Estimate:
+    """A bias estimate for both horizontal axes (rad/s) from a pair of formulas.
+
+    ``phi_gain`` (2, 3): sensitivity of the estimate to the initial attitude error
+    phi0 (NED) beyond the heading error it assumes, ``heading_per_bias`` (3,): that
+    assumption, ``phi_D0 = heading_per_bias . b`` (zero: a heading error of 0);
+    ``weights`` (2, m, 3): its weights on the tilt samples (None if not a tilt formula).
+    """
+
+    value: np.ndarray
+    sigma: np.ndarray
+    phi_gain: np.ndarray
+    heading_per_bias: np.ndarray
+    weights: np.ndarray = field(repr=False)
+
+    def error_from(self, bias, phi0, mount_weights_dot=0.0):
+        """Error this estimate carries by the linear model (000 eqs. 26-45): from the
+        initial attitude error beyond its assumption, and the mount term given."""
+        assumed = np.array([0.0, 0.0, self.heading_per_bias @ bias])
+        return self.phi_gain @ (phi0 - assumed) + mount_weights_dot
+
+
+@dataclass(frozen=True)
+class Context:
+    """What every estimator needs, computed once."""
+
+    track: model.Track
+    windows: np.ndarray
+    t_hold: tuple
+    eps: np.ndarray
+    g_resp: np.ndarray
+    phi_t: np.ndarray
+    arw: np.ndarray
+    bias_z: float
+    heading_per_bias: np.ndarray
+
+    @classmethod
+    def build(cls, track, windows, t_hold, arw, bias_z=0.0, gyrocompass=False):
+        """``gyrocompass``: the initial heading error follows the biases through the
+        gyrocompass equilibrium ``phi_D = (mat_nb b)_E / (W cos lat)`` (000 §3.2:
+        "heading error = beta_x / (Omega cos lambda)"); otherwise it is ~0."""
+        w_h = np.linalg.norm(model.earth.rate_ie_n(track.lat)[:2])
+        heading = track.mat_nb[0][1] / w_h if gyrocompass else np.zeros(3)
+        return cls(track, np.asarray(windows), t_hold, model.tilts(track),
+                   model.bias_response(track), model.earth_transition(track),
+                   np.broadcast_to(np.asarray(arw, float), (3,)), bias_z, heading)
+
+    def weights(self, kinds):
+        """Weights (2, m, 3) of one formula per horizontal axis: ``kinds[axis] -> name``."""
+        out = []
+        for axis in self.track.horizontal:
+            coef = np.zeros((5, 3))
+            coef[:, axis] = COEFFICIENTS[kinds[axis]](*self.t_hold)
+            out.append(model.window_weights(self.track, self.windows, coef))
+        return np.array(out)
+
+    def evaluate(self, weights):
+        """Formula values (k,) from the tilt samples."""
+        return np.einsum("kmi,mi->k", weights, self.eps)
+
+    def gain(self, weights):
+        return model.formula_gain(self.track, weights, self.g_resp, self.phi_t)
+
+
+def _with_heading(ctx, gain):
+    """Gains with the heading error the biases imply folded in (zero unless gyrocompass)."""
+    return gain.s_bias + np.outer(gain.s_phi[:, 2], ctx.heading_per_bias)
+
+
+def _estimate(ctx, values, s_bias, s_phi, weights, heading):
+    """Solve ``values = s_bias b`` for the horizontal biases, b_z taken as known."""
+    h, v = ctx.track.horizontal, ctx.track.down_axis
+    inv = np.linalg.inv(s_bias[:, h])
+    rhs = values - s_bias[:, v] * ctx.bias_z
+    combined = None if weights is None else np.einsum("ak,kmi->ami", inv, weights)
+    sigma = None if weights is None else model.arw_sigma(ctx.track, combined, ctx.arw)
+    return Estimate(inv @ rhs, sigma, inv @ s_phi, heading, combined)
+
+
+def solve(ctx, kinds, heading_known=False):
+    """Bias estimate from one formula per horizontal axis, with exact gains.
+
+    ``heading_known``: take the initial heading error as zero (eq. 45's assumption)
+    instead of the one the gyrocompass equilibrium implies.
+    """
+    weights = ctx.weights(kinds)
+    gain = ctx.gain(weights)
+    heading = np.zeros(3) if heading_known else ctx.heading_per_bias
+    s_bias = gain.s_bias + np.outer(gain.s_phi[:, 2], heading)
+    return _estimate(ctx, ctx.evaluate(weights), s_bias, gain.s_phi, weights, heading)
+
+
+def solve_velocity(ctx, windows, vrw=0.0, quantum=0.0):
+    """Velocity-error method (000 eq. 12): mean of the two holds' tilt rates from the
+    velocity curvature, with exact gains (:func:`inins.calibration.velocity.fit_gain`)."""
+    track, h = ctx.track, ctx.track.horizontal
+    fits = [velocity.fit_hold(track, w, float(np.mean(ctx.arw)), vrw, quantum)
+            for w in windows]
+    values = 0.5 * sum(velocity.tilt_rate(f, h) for f in fits)
+    response = np.concatenate([-ctx.g_resp, ctx.phi_t], axis=2)  # unknowns: b, phi0
+    gain = 0.5 * sum(velocity.fit_gain(track, f, h, response) for f in fits)
+    gain = model.Gain(gain[:, :3], gain[:, 3:])
+    s_bias = _with_heading(ctx, gain)
+    est = _estimate(ctx, values, s_bias, gain.s_phi, None, ctx.heading_per_bias)
+    inv = np.linalg.inv(s_bias[:, h])
+    sigma = 0.5 * np.hypot(fits[0].sigma, fits[1].sigma) * np.sqrt(np.sum(inv**2, axis=1))
+    return Estimate(est.value, sigma, est.phi_gain, est.heading_per_bias, None)
+
+
+@dataclass(frozen=True)
+class MountCheck:
+    """Return-to-start residual (000 eqs. 35, 43) per horizontal axis (rad).
+
+    ``residual = eps4 - eps0 - predicted``, where ``predicted`` is what the
+    biases (and, for a gyrocompass alignment, the heading error they imply)
+    produce: the mount rotation over the sequence, if the prediction holds.
+    """
+
+    residual: np.ndarray
+    sigma: np.ndarray
+
+
+def mount_check(ctx, reference, heading_sigma=0.0):
+    """Mount rotation over the sequence from the return to the start attitude.
+
+    Parameters
+    ----------
+    ctx : Context
+        Its heading model (gyrocompass or not) gives the heading error predicted
+        from the biases.
+    reference : Estimate
+        Biases used for the prediction; the caller picks one that does not rely
+        on the mount staying still about the east axis (eq. 44 after a
+        gyrocompass alignment, eq. 45 with a known heading).
+    heading_sigma : float
+        1-sigma noise of the alignment heading (rad).
+    """
+    track = ctx.track
+    h, v = track.horizontal, track.down_axis
+    weights = ctx.weights(dict.fromkeys(h, "return_to_start"))
+    gain = ctx.gain(weights)
+    k = _with_heading(ctx, gain)
+    residual = ctx.evaluate(weights) - k[:, h] @ reference.value - k[:, v] * ctx.bias_z
+    resid_weights = weights - np.einsum("ak,kmi->ami", k[:, h], reference.weights)
+    sigma = np.hypot(model.arw_sigma(track, resid_weights, ctx.arw),
+                     gain.s_phi[:, 2] * heading_sigma)
+    return MountCheck(residual, sigma)
+
+
+@dataclass(frozen=True)
+class Choice:
+    """The automatic choice for the east axis and why (000 §3.2)."""
+
+    east_formula: str | None
+    reason: str
+
+
+def choose(geometry, check, heading_trusted, threshold):
+    """Pick the valid formula for the axis that points east at A.
+
+    ``threshold`` (2,) rad: a residual above it means the mount turned.
+    """
+    h = geometry.horizontal
+    east = h.index(geometry.east)
+    moved = abs(check.residual[east]) > threshold[east]
+    if heading_trusted:
+        if moved:
+            return Choice("eq45", "mount rotation about the east axis detected from the return "
+                          "to the start attitude (000 eq. 43) and the initial heading is known "
+                          "(ETT or given): eq. 45 is valid, eq. 44 is not")
+        return Choice("eq44", "no mount rotation about the east axis (000 eq. 43): eq. 44 "
+                      "(the attitude-error combination, lower noise than eq. 45) is valid")
+    if moved:
+        return Choice(None, "the return to the start attitude (000 eq. 43) disagrees with the "
+                      "heading error of the gyrocompass alignment: the mount turned about the "
+                      "east axis, and with an initial heading error this cannot be separated "
+                      "from the bias (000 §3.2). No valid formula for this axis: align with "
+                      "ETT (inins align-ett) or give a known heading, and repeat")
+    return Choice("eq44", "no mount rotation about the east axis detected (the return to the "
+                  "start attitude matches the gyrocompass heading error, 000 eqs. 26, 43): "
+                  "eq. 44 is valid; eq. 45 carries the heading error")

@@ -1,0 +1,74 @@
+"""Navigation through a table record: alignment window, then stationary strapdown in chunks.
+
+Memory grows with the output grid, not with the record: increments are read
+chunk by chunk from the record (a 24 h log streams from disk).
+"""
+
+import numpy as np
+
+from inins.calibration import alignment
+from inins.calibration.model import Track, vertical_axis
+from inins.core import strapdown
+from inins.errors import InputError
+
+
+def sample_index(record, t):
+    """Index of the sample interval that starts at time t (s), rounded."""
+    return round((t - record.t0) / record.dt)
+
+
+def align(record, window, lat, heading=None, arw=np.nan, vrw=np.nan):
+    """Stationary alignment over ``window`` (s, s) of the record (000 §2: before Table 1)."""
+    k0, k1 = sample_index(record, window[0]), sample_index(record, window[1])
+    if k1 - k0 < 2:
+        raise InputError(f"the alignment window {window[0]:g}-{window[1]:g} s holds no "
+                         "samples", source=record.source, key="alignment")
+    omega_sum, force_sum = np.zeros(3), np.zeros(3)
+    for _, dtheta, dv in record.imu_chunks(k0, k1):
+        omega_sum += dtheta.sum(axis=0)
+        force_sum += dv.sum(axis=0)
+    duration = (k1 - k0) * record.dt
+    return alignment.align_from_means(omega_sum / duration, force_sum / duration, duration,
+                                      lat, heading, arw, vrw)
+
+
+def navigate(record, mat_nb0, t_start, t_end, output_rate, free=False, progress=None):
+    """Strapdown from ``t_start`` to ``t_end`` (s), outputs at ``output_rate`` (Hz).
+
+    Parameters
+    ----------
+    record : inins.table.record.TableRecord
+    mat_nb0 : ndarray, shape (3, 3)
+        Attitude at ``t_start`` (from the alignment).
+    output_rate : float
+        Output rate (Hz); rounded to a whole number of samples.
+    free : bool
+        False: stationary navigation (known position and zero velocity: no
+        transport rate, no Coriolis, the velocity error does not feed back: 000
+        eqs. 9-10). True: free-inertial
+        navigation (Schuler loop closed), to show the size of the difference.
+    progress : callable, optional
+        ``progress(done, total)`` in samples.
+
+    Returns
+    -------
+    Track
+    """
+    k0, k1 = sample_index(record, t_start), sample_index(record, t_end)
+    decimation = max(1, round(1.0 / (output_rate * record.dt)))
+    state = strapdown.NavState.from_attitude(mat_nb0, np.zeros(3), record.lla)
+    parts = []
+    for k, dtheta, dv in record.imu_chunks(k0, k1):
+        state, series = strapdown.integrate(state, dtheta, dv, record.dt,
+                                            fixed_position=not free, zero_velocity=not free,
+                                            fixed_height=free, decimation=decimation)
+        parts.append(series)
+        if progress is not None:
+            progress(k + dtheta.shape[0] - k0, k1 - k0)
+    series = strapdown.NavSeries.concatenate(parts)
+    time = np.concatenate([[record.t0 + k0 * record.dt],
+                           series.time(record.dt, record.t0 + k0 * record.dt)])
+    mat_nb = np.concatenate([mat_nb0[None], series.mat_nb()])
+    vel = np.concatenate([np.zeros((1, 3)), series.vel_n])
+    axis, sign = vertical_axis(mat_nb0)
+    return Track(time, mat_nb, vel, float(record.lla[0]), axis, sign)
