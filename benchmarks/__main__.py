@@ -52,7 +52,7 @@ def _simulate_table(outdir, long):
     if long:  # the same sequence stretched to 24 h: 86.4 M samples
         figures["24h_1khz"] = _command(
             "simulate-table", scenario, "-o", outdir,
-            "--set", "motion.0.duration_s=43181.5", "--set", "motion.2.duration_s=43181.5",
+            "--set", "motion.0.duration_s=43170", "--set", "motion.2.duration_s=43170",
             "--set", "mount.rotations.0.duration_s=86400")
     return figures
 

@@ -132,3 +132,28 @@ def align_from_means(omega_b, f_b, duration, lat, heading=None, arw=np.nan, vrw=
     tilt_sigma = vrw / (np.linalg.norm(f_b) * np.sqrt(duration))
     return Alignment(mat_nb, omega_b, f_b, duration, float(heading_sigma), float(tilt_sigma),
                      method)
+
+
+BLOCKS = 50
+"""Blocks the noise density is estimated from (:func:`noise_density`)."""
+
+
+def noise_density(increments, dt, blocks=BLOCKS):
+    """White-noise density (unit/sqrt(s)) per axis from the scatter of block means.
+
+    Over a window at rest, the mean rate of a block of length tau has the standard
+    deviation ``N / sqrt(tau)`` for white noise of density N (angle or velocity random
+    walk), so ``N = std(block means) sqrt(tau)``. Block sums carry the quantization
+    remainder, so pulse quantization adds only ``~q / tau`` per block.
+
+    Parameters
+    ----------
+    increments : ndarray, shape (n, 3)
+        Increments (rad or m/s) of a window at rest.
+    dt : float
+        Sample interval (s).
+    """
+    size = max(1, increments.shape[0] // blocks)
+    count = increments.shape[0] // size
+    means = increments[:count * size].reshape(count, size, 3).sum(axis=1) / (size * dt)
+    return means.std(axis=0, ddof=1) * np.sqrt(size * dt)

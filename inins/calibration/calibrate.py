@@ -37,8 +37,11 @@ class Settings:
         Navigation output rate (Hz).
     free : bool
         Free-inertial instead of stationary navigation.
-    arw, vrw, accel_quantum : float or ndarray
-        Noise figures for the 1-sigma (rad/sqrt(s), m/s/sqrt(s), m/s).
+    arw, vrw : ndarray or None
+        Angle and velocity random walk for the 1-sigma (rad/sqrt(s), m/s/sqrt(s)) per
+        axis; None: estimated from the alignment window.
+    accel_quantum : float
+        Accelerometer pulse weight (m/s), for the quantization noise of the velocity.
     bias_z : float
         Vertical gyro bias taken as known (rad/s).
     k_sigma, floor : float
@@ -57,8 +60,8 @@ class Settings:
     labels: tuple | None = None
     output_rate: float = 10.0
     free: bool = False
-    arw: object = 0.0
-    vrw: float = 0.0
+    arw: object = None
+    vrw: object = None
     accel_quantum: float = 0.0
     bias_z: float = 0.0
     k_sigma: float = 4.0
@@ -81,6 +84,7 @@ class Outcome:
     threshold: np.ndarray
     choice: methods.Choice
     chosen: dict
+    noise: tuple = ()
     truth: dict = field(default_factory=dict)
 
 
@@ -108,8 +112,10 @@ def calibrate(record, settings, progress=None):
     if settings.ett is not None:
         settings = replace(settings, heading=_ett_heading(record, settings.ett, seq.align),
                            heading_sigma=settings.ett.heading_sigma)
-    align = navigate.align(record, seq.align, lat, settings.heading,
-                           np.mean(settings.arw), settings.vrw)
+    align, arw, vrw = navigate.align(record, seq.align, lat, settings.heading,
+                                     settings.arw, settings.vrw)
+    estimated = settings.arw is None, settings.vrw is None
+    settings = replace(settings, arw=arw, vrw=vrw)
     track = navigate.navigate(record, align.mat_nb, seq.nav_start, seq.nav_end,
                               settings.output_rate, settings.free, progress)
     gyrocompass = settings.heading_method == "gyrocompass"
@@ -119,7 +125,7 @@ def calibrate(record, settings, progress=None):
     e, n = geometry.east, geometry.north
     est = {
         "attitude": methods.solve(ctx, dict.fromkeys(track.horizontal, "attitude")),
-        "velocity": methods.solve_velocity(ctx, _hold_windows(seq), settings.vrw,
+        "velocity": methods.solve_velocity(ctx, _hold_windows(seq), float(np.mean(vrw)),
                                            settings.accel_quantum),
         "eq44": methods.solve(ctx, {e: "attitude", n: "return"}),
         "eq45": methods.solve(ctx, {e: "return", n: "return"}, heading_known=True),
@@ -132,7 +138,7 @@ def calibrate(record, settings, progress=None):
     choice = methods.choose(geometry, check, not gyrocompass, threshold)
     chosen = _chosen(est, geometry, choice)
     outcome = Outcome(seq, geometry, align, track, ctx.eps, _epoch_tilts(ctx), est, check,
-                      threshold, choice, chosen)
+                      threshold, choice, chosen, noise=(arw, vrw, estimated))
     if record.truth is not None:
         outcome = _with_truth(outcome, record, ctx)
     return outcome

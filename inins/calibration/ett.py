@@ -352,12 +352,9 @@ def window_mean(increments, dt, random_walk=None):
     """
     n = increments.shape[0]
     mean = increments.sum(axis=0) / (n * dt)
-    if random_walk is not None:
-        return mean, np.full(3, random_walk / np.sqrt(n * dt))
-    size = max(1, n // BLOCKS)
-    blocks = n // size
-    means = increments[:blocks * size].reshape(blocks, size, 3).sum(axis=1) / (size * dt)
-    return mean, means.std(axis=0, ddof=1) / np.sqrt(blocks)
+    if random_walk is None:
+        random_walk = alignment.noise_density(increments, dt, BLOCKS)
+    return mean, np.broadcast_to(random_walk, (3,)) / np.sqrt(n * dt)
 
 
 def _encoder(record, step, t_a, t_b):

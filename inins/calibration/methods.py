@@ -87,8 +87,8 @@ class Context:
     windows: np.ndarray
     t_hold: tuple
     eps: np.ndarray
-    g_resp: np.ndarray
-    phi_t: np.ndarray
+    response: model.Response
+    phi_response: np.ndarray
     arw: np.ndarray
     bias_z: float
     heading_per_bias: np.ndarray
@@ -100,8 +100,10 @@ class Context:
         "heading error = beta_x / (Omega cos lambda)"); otherwise it is ~0."""
         w_h = np.linalg.norm(model.earth.rate_ie_n(track.lat)[:2])
         heading = track.mat_nb[0][1] / w_h if gyrocompass else np.zeros(3)
+        phi_response = np.concatenate([-model.bias_response(track),
+                                       model.earth_transition(track)], axis=2)
         return cls(track, np.asarray(windows), t_hold, model.tilts(track),
-                   model.bias_response(track), model.earth_transition(track),
+                   model.Response.of(track), phi_response,
                    np.broadcast_to(np.asarray(arw, float), (3,)), bias_z, heading)
 
     def weights(self, kinds):
@@ -118,7 +120,10 @@ class Context:
         return np.einsum("kmi,mi->k", weights, self.eps)
 
     def gain(self, weights):
-        return model.formula_gain(self.track, weights, self.g_resp, self.phi_t)
+        return model.formula_gain(weights, self.response)
+
+    def sigma(self, weights):
+        return model.arw_sigma(self.track, weights, self.arw, self.response)
 
 
 def _with_heading(ctx, gain):
@@ -132,7 +137,7 @@ def _estimate(ctx, values, s_bias, s_phi, weights, heading):
     inv = np.linalg.inv(s_bias[:, h])
     rhs = values - s_bias[:, v] * ctx.bias_z
     combined = None if weights is None else np.einsum("ak,kmi->ami", inv, weights)
-    sigma = None if weights is None else model.arw_sigma(ctx.track, combined, ctx.arw)
+    sigma = None if weights is None else ctx.sigma(combined)
     return Estimate(inv @ rhs, sigma, inv @ s_phi, heading, combined)
 
 
@@ -156,8 +161,7 @@ def solve_velocity(ctx, windows, vrw=0.0, quantum=0.0):
     fits = [velocity.fit_hold(track, w, float(np.mean(ctx.arw)), vrw, quantum)
             for w in windows]
     values = 0.5 * sum(velocity.tilt_rate(f, h) for f in fits)
-    response = np.concatenate([-ctx.g_resp, ctx.phi_t], axis=2)  # unknowns: b, phi0
-    gain = 0.5 * sum(velocity.fit_gain(track, f, h, response) for f in fits)
+    gain = 0.5 * sum(velocity.fit_gain(track, f, h, ctx.phi_response) for f in fits)
     gain = model.Gain(gain[:, :3], gain[:, 3:])
     s_bias = _with_heading(ctx, gain)
     est = _estimate(ctx, values, s_bias, gain.s_phi, None, ctx.heading_per_bias)
@@ -201,8 +205,7 @@ def mount_check(ctx, reference, heading_sigma=0.0):
     k = _with_heading(ctx, gain)
     residual = ctx.evaluate(weights) - k[:, h] @ reference.value - k[:, v] * ctx.bias_z
     resid_weights = weights - np.einsum("ak,kmi->ami", k[:, h], reference.weights)
-    sigma = np.hypot(model.arw_sigma(track, resid_weights, ctx.arw),
-                     gain.s_phi[:, 2] * heading_sigma)
+    sigma = np.hypot(ctx.sigma(resid_weights), gain.s_phi[:, 2] * heading_sigma)
     return MountCheck(residual, sigma)
 
 

@@ -125,31 +125,48 @@ class Gain:
     s_phi: np.ndarray
 
 
-def formula_gain(track, weights, g_resp=None, phi_t=None):
+@dataclass(frozen=True)
+class Response:
+    """Products along the track that the gains and the noise need, formed once.
+
+    ``bn_g = mat_bn G``, ``bn_phi = mat_bn Phi``, ``phit_nb = Phi^T mat_nb``, each (m, 3, 3).
+    """
+
+    bn_g: np.ndarray
+    bn_phi: np.ndarray
+    phit_nb: np.ndarray
+
+    @classmethod
+    def of(cls, track):
+        phi_t = earth_transition(track)
+        mat_bn = np.swapaxes(track.mat_nb, 1, 2)
+        return cls(mat_bn @ bias_response(track), mat_bn @ phi_t,
+                   np.swapaxes(phi_t, 1, 2) @ track.mat_nb)
+
+
+def formula_gain(weights, response):
     """Exact gains of formulas ``F_i = sum_j weights[i, j] . eps_j`` by eqs. (1)-(2).
+
+    ``eps_j = -P_h mat_bn_j phi_j`` with ``phi_j = Phi_j phi0 - G_j b`` (the weights are
+    zero on the vertical), so ``S_b = sum_j w_j mat_bn_j G_j`` and
+    ``S_phi = -sum_j w_j mat_bn_j Phi_j``.
 
     Parameters
     ----------
-    track : Track
     weights : ndarray, shape (k, m, 3)
         Weight of each tilt sample in each formula (b frame components).
-    g_resp, phi_t : ndarray, optional
-        Precomputed :func:`bias_response` and :func:`earth_transition`.
+    response : Response
 
     Returns
     -------
     Gain
     """
-    g_resp = bias_response(track) if g_resp is None else g_resp
-    phi_t = earth_transition(track) if phi_t is None else phi_t
-    # eps_j = -P_h mat_bn_j phi_j; phi_j = Phi_j phi0 - G_j b; weights are zero on the vertical
-    mat_bn = np.swapaxes(track.mat_nb, 1, 2)
-    s_bias = np.einsum("kmi,mij,mjl->kl", weights, mat_bn, g_resp)
-    s_phi = -np.einsum("kmi,mij,mjl->kl", weights, mat_bn, phi_t)
-    return Gain(s_bias, s_phi)
+    axes = ([1, 2], [0, 1])
+    return Gain(np.tensordot(weights, response.bn_g, axes),
+                -np.tensordot(weights, response.bn_phi, axes))
 
 
-def arw_sigma(track, weights, arw):
+def arw_sigma(track, weights, arw, response=None):
     """1-sigma of formulas from angle random walk, along the attitude history.
 
     ``F = sum_j w_j . eps_j`` with ``eps_j = -P_h mat_bn_j phi_j`` and the noise part
@@ -164,19 +181,19 @@ def arw_sigma(track, weights, arw):
     weights : ndarray, shape (k, m, 3)
     arw : array_like, shape (3,) or scalar
         Angle random walk per gyro (rad/sqrt(s)).
+    response : Response, optional
 
     Returns
     -------
     ndarray, shape (k,)
     """
-    phi_t = earth_transition(track)
-    r = np.einsum("mji,mjl,kml->kmi", phi_t, track.mat_nb, weights)
+    response = Response.of(track) if response is None else response
+    r = (response.phit_nb @ weights[..., None])[..., 0]
     # R on interval (t_{j-1}, t_j]: sum of r over samples j, j+1, ...
     tail = np.cumsum(r[:, ::-1], axis=1)[:, ::-1][:, 1:]
-    w_body = np.einsum("mji,mjl,kml->kmi", track.mat_nb[1:], phi_t[1:], tail)
-    dt = np.diff(track.time)
+    w_body = (np.swapaxes(response.phit_nb[1:], 1, 2) @ tail[..., None])[..., 0]
     arw2 = np.broadcast_to(np.asarray(arw, float) ** 2, (3,))
-    return np.sqrt(np.einsum("kmi,i,m->k", w_body**2, arw2, dt))
+    return np.sqrt(np.einsum("kmi,i,m->k", w_body**2, arw2, np.diff(track.time)))
 
 
 def window_weights(track, windows, coefficients):

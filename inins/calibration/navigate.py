@@ -17,19 +17,30 @@ def sample_index(record, t):
     return round((t - record.t0) / record.dt)
 
 
-def align(record, window, lat, heading=None, arw=np.nan, vrw=np.nan):
-    """Stationary alignment over ``window`` (s, s) of the record (000 §2: before Table 1)."""
+def align(record, window, lat, heading=None, arw=None, vrw=None):
+    """Stationary alignment over ``window`` (s, s) of the record (000 §2: before Table 1).
+
+    Noise densities not given (None) are estimated from the window
+    (:func:`inins.calibration.alignment.noise_density`).
+
+    Returns
+    -------
+    alignment : inins.calibration.alignment.Alignment
+    arw, vrw : ndarray, shape (3,)
+        Angle (rad/sqrt(s)) and velocity (m/s/sqrt(s)) random walk used.
+    """
     k0, k1 = sample_index(record, window[0]), sample_index(record, window[1])
-    if k1 - k0 < 2:
-        raise InputError(f"the alignment window {window[0]:g}-{window[1]:g} s holds no "
+    if k1 - k0 < 2 * alignment.BLOCKS:
+        raise InputError(f"the alignment window {window[0]:g}-{window[1]:g} s holds too few "
                          "samples", source=record.source, key="alignment")
-    omega_sum, force_sum = np.zeros(3), np.zeros(3)
-    for _, dtheta, dv in record.imu_chunks(k0, k1):
-        omega_sum += dtheta.sum(axis=0)
-        force_sum += dv.sum(axis=0)
-    duration = (k1 - k0) * record.dt
-    return alignment.align_from_means(omega_sum / duration, force_sum / duration, duration,
-                                      lat, heading, arw, vrw)
+    dtheta, dv = record.imu(k0, k1)
+    arw = alignment.noise_density(dtheta, record.dt) if arw is None else arw
+    vrw = alignment.noise_density(dv, record.dt) if vrw is None else vrw
+    arw = np.broadcast_to(np.asarray(arw, float), (3,))
+    vrw = np.broadcast_to(np.asarray(vrw, float), (3,))
+    result = alignment.align_stationary(dtheta, dv, record.dt, lat, heading, arw.mean(),
+                                        vrw.mean())
+    return result, arw, vrw
 
 
 def navigate(record, mat_nb0, t_start, t_end, output_rate, free=False, progress=None):

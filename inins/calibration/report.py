@@ -3,7 +3,7 @@
 import numpy as np
 
 from inins.core import rotation
-from inins.core.units import ARCSEC, DEG, DPH, HOUR
+from inins.core.units import ARCSEC, DEG, DEG_RTH, DPH, HOUR, UG_RTHZ
 from inins.io.report import format_table
 from inins.results import CommandResult, Series
 
@@ -157,6 +157,7 @@ def _report(outcome, record, settings, names, paper_case):
         f"heading {heading:.5f} deg" + (f" (1-sigma {al.heading_sigma / DEG:.2g} deg)"
                                         if al.heading_sigma > 0 else ""),
         f"axes at A: body {AXES[g.east]} points east, {AXES[g.north]} north",
+        _noise_line(outcome),
         "", "estimates (deg/h)", _estimate_table(outcome, names),
         "", "mount rotation from the return to the start attitude (000 eqs. 35, 43)",
         _mount_table(outcome),
@@ -168,6 +169,15 @@ def _report(outcome, record, settings, names, paper_case):
     if paper_case is not None:
         lines += ["", _paper_table(outcome, names, paper_case)]
     return "\n".join(lines)
+
+
+def _noise_line(outcome):
+    arw, vrw, estimated = outcome.noise
+    source = ("estimated from the alignment window", "stated")
+    return (f"noise for the 1-sigma: ARW {np.array2string(arw / DEG_RTH, precision=5)} "
+            f"deg/sqrt(h) ({source[not estimated[0]]}), VRW "
+            f"{np.array2string(vrw / UG_RTHZ, precision=3)} ug/sqrt(Hz) "
+            f"({source[not estimated[1]]})")
 
 
 def _estimate_table(outcome, names):

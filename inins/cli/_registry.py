@@ -51,6 +51,12 @@ COMMANDS = (
         "errors and disturbances; writes truth and IMU increments.",
     ),
     CommandSpec(
+        "import-log", "inins.cli.import_log",
+        "Import a lab IMU log (CSV, HDF5 or PSINS text) into the table-data layout that "
+        "calibrate-bias and align-ett read; reports a stationary check of every hold: "
+        "attitude, Earth rate, implied latitude, gravity.",
+    ),
+    CommandSpec(
         "calibrate-bias", "inins.cli.calibrate_bias",
         "Gyro-bias calibration from table data (simulated or a real log): "
         "attitude-error, velocity-error (quadratic fit) and the disturbance-robust "
@@ -73,7 +79,7 @@ COMMANDS = (
         "ranks, unobservable combinations, degree of observability.",
     ),
 )
-"""The five commands of spec §1, in the order ``inins --help`` lists them."""
+"""The five commands of spec §1 and import-log, in the order ``inins --help`` lists them."""
 
 
 class CommandUnavailable(Exception):

@@ -61,7 +61,6 @@ Inertial Navigation Technology*, 2nd ed., ch. 12.
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.linalg import expm
 
 from inins.core import earth, rotation
 
@@ -458,6 +457,8 @@ def propagate(layout, x0, dt, lat, height, vel_n, f_n, mat_nb, omega_ib_b=None, 
     ndarray, shape (m + 1, n)
         Error state at the step boundaries, ``x0`` first.
     """
+    from scipy.linalg import expm  # scipy is slow to import; only this needs it
+
     F = system_matrix(layout, lat, height, vel_n, f_n, mat_nb, omega_ib_b,
                       transport_from_estimate=transport_from_estimate)  # fmt: skip
     dt = np.asarray(dt, dtype=float)

@@ -164,7 +164,7 @@ def _velocity_step(vel, u, wie, terms, g, dt, mode):
              u[2] - 0.5 * rz + (g - cz) * dt), (zx, zy, zz))
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, nogil=True)
 def _navigate(quat, vel, lla, prev, count, dtheta, dv, dt, mode, coning, sculling,
               decimation, home, out_index, out_quat, out_vel, out_lla):
     """Run the recursion over all samples; state arrays are updated in place."""

@@ -23,12 +23,15 @@ Layout (every dataset carries ``units``, ``frame`` and ``description`` attribute
                           table base to NED (base azimuth and tilt)
     /table/time  (m,)     s, encoder reading times
     /table/encoder (m, g) rad, encoder readings
+    /import, /check       import-log only: import settings (attrs) and the stationary
+                          check of each hold (inins.io.logcheck)
     /truth/...            simulation only: time (m,), quat_nb (m, 4),
                           table_angles (m, g), mount_rotvec (m, 3),
                           gyro_bias (m, 3), accel_bias (m, 3); attrs: sensor
                           error parameters in SI and mat_tb0
 """
 
+from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -73,12 +76,25 @@ class TableData:
             return _read_si(f["imu/dtheta"], start, stop), _read_si(f["imu/dv"], start, stop)
 
     def imu_chunks(self, start=0, stop=None, chunk=CHUNK_SAMPLES):
-        """Yield ``(k0, dtheta, dv)`` over samples [start, stop) in chunks, SI units."""
+        """Yield ``(k0, dtheta, dv)`` over samples [start, stop) in chunks, SI units.
+
+        The next chunk is read and decompressed on a second thread while the caller
+        works on the current one (the numba kernels release the GIL).
+        """
         stop = self.n_samples if stop is None else stop
-        with h5py.File(self.path, "r") as f:
-            for k0 in range(start, stop, chunk):
+        starts = range(start, stop, chunk)
+        with h5py.File(self.path, "r") as f, ThreadPoolExecutor(1) as pool:
+
+            def read(k0):
                 k1 = min(stop, k0 + chunk)
-                yield k0, _read_si(f["imu/dtheta"], k0, k1), _read_si(f["imu/dv"], k0, k1)
+                return k0, _read_si(f["imu/dtheta"], k0, k1), _read_si(f["imu/dv"], k0, k1)
+
+            pending = pool.submit(read, starts[0]) if starts else None
+            for k0 in starts[1:]:
+                current, pending = pending.result(), pool.submit(read, k0)
+                yield current
+            if pending is not None:
+                yield pending.result()
 
     def sample_time(self, index):
         """End time (s) of sample ``index``."""

@@ -60,8 +60,8 @@ class Navigation(ScenarioSection):
 
 
 class Noise(ScenarioSection):
-    """Sensor noise for the 1-sigma of each estimate (the simulation's own figures are
-    used when there is a ``simulate:`` section and these are not given)."""
+    """Sensor noise for the 1-sigma of each estimate. Not given: the simulation's own
+    figures with a ``simulate:`` section, else estimated from the alignment window."""
 
     arw_deg_rth: NonNegVec3 | None = Field(None, description="gyro angle random walk "
                                            "(deg/sqrt(h))")
@@ -112,10 +112,10 @@ class CalibrateBiasScenario(ScenarioModel):
 
         n = self.noise
         arw = (n.arw_deg_rth and [a * DEG_RTH for a in n.arw_deg_rth])
-        if arw is None:
-            arw = sensor.gyro_arw if sensor is not None else 0.0
+        if arw is None and sensor is not None:
+            arw = sensor.gyro_arw
         vrw = (n.vrw_ug_rthz * UG_RTHZ if n.vrw_ug_rthz is not None
-               else float(sensor.accel_vrw.mean()) if sensor is not None else 0.0)
+               else sensor.accel_vrw if sensor is not None else None)
         quantum = (n.accel_pulse_weight_ug_s * UG_S if n.accel_pulse_weight_ug_s is not None
                    else float(sensor.accel_pulse_weight.mean()) if sensor is not None else 0.0)
         a = self.alignment
