@@ -43,6 +43,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from inins.core import earth, rotation
+from inins.errors import InputError
 
 
 @dataclass(frozen=True)
@@ -211,6 +212,8 @@ def window_weights(track, windows, coefficients):
         inside = (track.time >= start - 1e-9) & (track.time <= end + 1e-9)
         count = np.count_nonzero(inside)
         if count == 0:
-            raise ValueError(f"no navigation output in the window {start:g}-{end:g} s")
+            raise InputError(f"no navigation output in the epoch window {start:g}-{end:g} s: "
+                             "lengthen sequence.epoch_window_s or raise "
+                             "navigation.output_rate_hz", key="sequence.epoch_window_s")
         weights[inside] += coef / count
     return weights

@@ -11,6 +11,9 @@ from inins.calibration.model import Track, vertical_axis
 from inins.core import strapdown
 from inins.errors import InputError
 
+MAX_TRACK_POINTS = 200_000
+"""The output grid is thinned to at most this many points (memory of the model arrays)."""
+
 
 def sample_index(record, t):
     """Index of the sample interval that starts at time t (s), rounded."""
@@ -52,7 +55,8 @@ def navigate(record, mat_nb0, t_start, t_end, output_rate, free=False, progress=
     mat_nb0 : ndarray, shape (3, 3)
         Attitude at ``t_start`` (from the alignment).
     output_rate : float
-        Output rate (Hz); rounded to a whole number of samples.
+        Output rate (Hz); rounded to a whole number of samples, and lowered for long
+        records so that the grid has at most :data:`MAX_TRACK_POINTS` points.
     free : bool
         False: stationary navigation (known position and zero velocity: no
         transport rate, no Coriolis, the velocity error does not feed back: 000
@@ -66,7 +70,8 @@ def navigate(record, mat_nb0, t_start, t_end, output_rate, free=False, progress=
     Track
     """
     k0, k1 = sample_index(record, t_start), sample_index(record, t_end)
-    decimation = max(1, round(1.0 / (output_rate * record.dt)))
+    decimation = max(1, round(1.0 / (output_rate * record.dt)),
+                     int(np.ceil((k1 - k0) / MAX_TRACK_POINTS)))
     state = strapdown.NavState.from_attitude(mat_nb0, np.zeros(3), record.lla)
     parts = []
     for k, dtheta, dv in record.imu_chunks(k0, k1):

@@ -137,7 +137,9 @@ def _attrs(outcome, record):
                           "duration_s": outcome.align.duration,
                           "heading_sigma_rad": outcome.align.heading_sigma},
             "choice": {"east_formula": outcome.choice.east_formula or "none",
-                       "reason": outcome.choice.reason}}
+                       "reason": outcome.choice.reason},
+            "geometry": {"east_axis": AXES[outcome.geometry.east],
+                         "north_axis": AXES[outcome.geometry.north]}}
 
 
 def _report(outcome, record, settings, names, paper_case):
@@ -152,7 +154,7 @@ def _report(outcome, record, settings, names, paper_case):
             for k, p in zip(("A", "B", "A'"), seq.positions, strict=True)),
         f"navigation time at A {t_a:.1f} s, at B {t_b:.1f} s; "
         f"{'free-inertial' if settings.free else 'stationary (known position, zero velocity)'}"
-        " navigation",
+        f" navigation, output every {np.median(np.diff(outcome.track.time)):g} s",
         f"alignment: {al.method} over {al.duration:g} s: roll {roll:.5f}, pitch {pitch:.5f}, "
         f"heading {heading:.5f} deg" + (f" (1-sigma {al.heading_sigma / DEG:.2g} deg)"
                                         if al.heading_sigma > 0 else ""),

@@ -54,18 +54,22 @@ def make_command(spec):
             help="Random seed; wins over the scenario's seed (default 0).")] = None,
         debug: Annotated[bool, typer.Option(
             "--debug", help="Show the traceback of an error.")] = False,
+        plot: Annotated[bool, typer.Option(
+            "--plot", help="Also write PNG figures (needs the plot extra: matplotlib).")
+        ] = False,
     ) -> None:
-        raise typer.Exit(run_command(spec, scenario, outdir, overrides or [], seed, debug))
+        raise typer.Exit(run_command(spec, scenario, outdir, overrides or [], seed, debug,
+                                     plot))
 
     command.__doc__ = spec.full_help()
     command.__name__ = spec.name.replace("-", "_")
     return command
 
 
-def run_command(spec, scenario, outdir, overrides, seed, debug=False) -> int:
+def run_command(spec, scenario, outdir, overrides, seed, debug=False, plot=False) -> int:
     """Run one command end to end; return the exit code (never raises)."""
     return guarded(f"inins {spec.name}", debug,
-                   lambda: _run(spec, scenario, Path(outdir), list(overrides), seed))
+                   lambda: _run(spec, scenario, Path(outdir), list(overrides), seed, plot))
 
 
 def guarded(label: str, debug: bool, body) -> int:
@@ -112,19 +116,20 @@ def echo_err(message: str) -> None:
     typer.echo(message, err=True)
 
 
-def _run(spec, scenario, outdir, overrides, seed) -> int:
+def _run(spec, scenario, outdir, overrides, seed, plot=False) -> int:
     from inins.cli._display import print_outcome
     from inins.io.resources import config_path
     from inins.io.scenario import load_scenario, resolve_seed
 
     module = load_command(spec)
+    plots = _plot_makers(spec, module) if plot else {}
     default = config_path(spec.name, spec.default) if scenario is None else None
     model, text, source = load_scenario(module.SCENARIO_MODEL, scenario, overrides, default)
     seed_used = resolve_seed(seed, getattr(model, "seed", None))
     outdir = _prepare_outdir(outdir)
     start = time.perf_counter()
     summary, paths = write_outputs(
-        spec.name, module.run, model, seed_used, outdir, text, source, overrides
+        spec.name, module.run, model, seed_used, outdir, text, source, overrides, plots
     )
     print_outcome(summary, paths, time.perf_counter() - start)
     return EXIT_OK if summary["passed"] else EXIT_CHECK_FAILED
@@ -139,8 +144,21 @@ def _prepare_outdir(outdir: Path) -> Path:
     return outdir
 
 
-def write_outputs(command, run, model, seed, outdir, text, source, overrides):
-    """Call ``run`` and write the three outputs atomically.
+def _plot_makers(spec, module):
+    """``{png name: function(result, path)}`` of a command; bad input if impossible."""
+    makers = getattr(module, "PLOTS", None)
+    if not makers:
+        raise InputError(f"inins {spec.name} has no figures to plot", key="--plot")
+    try:
+        import matplotlib  # noqa: F401
+    except ImportError:
+        raise InputError("--plot needs matplotlib, which is not installed: "
+                         "pip install 'inins[plot]'", key="--plot") from None
+    return makers
+
+
+def write_outputs(command, run, model, seed, outdir, text, source, overrides, plots=None):
+    """Call ``run`` and write the three outputs (and any plots) atomically.
 
     Returns
     -------
@@ -156,9 +174,10 @@ def write_outputs(command, run, model, seed, outdir, text, source, overrides):
     from inins.io.summary import build_summary, summary_text
 
     prov = make_provenance(command, text, source, seed, overrides)
-    names = (f"{command}.h5", f"{command}.txt", "summary.json")
+    plots = plots or {}
+    names = (*plots, f"{command}.h5", f"{command}.txt", "summary.json")
     with AtomicGroup(outdir, names) as group:
-        with ResultsWriter(group[names[0]]) as h5:
+        with ResultsWriter(group[f"{command}.h5"]) as h5:
             h5.set_attrs("", prov)
             result = _call(run, model, seed, h5)
             h5.write_result(result)
@@ -166,9 +185,11 @@ def write_outputs(command, run, model, seed, outdir, text, source, overrides):
             summary = build_summary(command, inins.__version__, source, seed,
                                     result.results, result.truth, checks)
             h5.set_attrs("", {"summary_json": summary_text(summary)})
+        for name, make in plots.items():
+            make(result, group[name].tmp)
         report = build_report(prov, result.report, result.warnings, checks)
-        group[names[1]].tmp.write_text(report, encoding="utf-8")
-        group[names[2]].tmp.write_text(summary_text(summary), encoding="utf-8")
+        group[f"{command}.txt"].tmp.write_text(report, encoding="utf-8")
+        group["summary.json"].tmp.write_text(summary_text(summary), encoding="utf-8")
     return summary, [outdir / n for n in names]
 
 

@@ -4,11 +4,14 @@ See :mod:`inins.calibration.calibrate`.
 """
 
 from inins.calibration import calibrate, ett, report
+from inins.io import plots
 from inins.io.ettresult import read_ett_result
 from inins.io.records import load_record
 from inins.io.scenarios.calibrate_bias import CalibrateBiasScenario
 
 SCENARIO_MODEL = CalibrateBiasScenario
+PLOTS = {"calibrate-bias-roll.png": plots.calibrate_bias_roll,
+         "calibrate-bias-pitch.png": plots.calibrate_bias_pitch}
 
 
 def _ett(model, record):

@@ -88,3 +88,25 @@ def test_scenario_errors_name_the_key(tmp_path, key, value):
     result = run("-o", tmp_path, "--set", f"{key}={value}")
     assert result.exit_code == 2
     assert key.split(".")[-1] in result.output
+
+
+def test_plot_writes_pngs(tmp_path):
+    result = run(CONFIGS / "paper000" / "case1-no-disturbance.yaml", "-o", tmp_path, "--plot")
+    assert result.exit_code == 0, result.output
+    for name in ("calibrate-bias-roll.png", "calibrate-bias-pitch.png"):
+        assert (tmp_path / name).read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+
+
+def test_plot_without_matplotlib_is_a_clear_message(tmp_path, monkeypatch):
+    import sys
+
+    monkeypatch.setitem(sys.modules, "matplotlib", None)  # import fails as if not installed
+    result = run("-o", tmp_path, "--plot")
+    assert result.exit_code == 2
+    assert "matplotlib" in result.output and "inins[plot]" in result.output
+    assert not (tmp_path / "summary.json").exists()
+
+
+def test_plot_on_a_command_without_figures(tmp_path):
+    result = CliRunner().invoke(app, ["simulate-table", "-o", str(tmp_path), "--plot"])
+    assert result.exit_code == 2 and "no figures" in result.output
