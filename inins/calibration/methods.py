@@ -126,9 +126,9 @@ class Context:
         return model.arw_sigma(self.track, weights, self.arw, self.response)
 
 
-def _with_heading(ctx, gain):
-    """Gains with the heading error the biases imply folded in (zero unless gyrocompass)."""
-    return gain.s_bias + np.outer(gain.s_phi[:, 2], ctx.heading_per_bias)
+def _with_heading(gain, heading_per_bias):
+    """Bias gains with the assumed heading error ``phi_D0 = heading_per_bias . b`` folded in."""
+    return gain.s_bias + np.outer(gain.s_phi[:, 2], heading_per_bias)
 
 
 def _estimate(ctx, values, s_bias, s_phi, weights, heading):
@@ -150,8 +150,8 @@ def solve(ctx, kinds, heading_known=False):
     weights = ctx.weights(kinds)
     gain = ctx.gain(weights)
     heading = np.zeros(3) if heading_known else ctx.heading_per_bias
-    s_bias = gain.s_bias + np.outer(gain.s_phi[:, 2], heading)
-    return _estimate(ctx, ctx.evaluate(weights), s_bias, gain.s_phi, weights, heading)
+    return _estimate(ctx, ctx.evaluate(weights), _with_heading(gain, heading), gain.s_phi,
+                     weights, heading)
 
 
 def solve_velocity(ctx, windows, vrw=0.0, quantum=0.0):
@@ -163,7 +163,7 @@ def solve_velocity(ctx, windows, vrw=0.0, quantum=0.0):
     values = 0.5 * sum(velocity.tilt_rate(f, h) for f in fits)
     gain = 0.5 * sum(velocity.fit_gain(track, f, h, ctx.phi_response) for f in fits)
     gain = model.Gain(gain[:, :3], gain[:, 3:])
-    s_bias = _with_heading(ctx, gain)
+    s_bias = _with_heading(gain, ctx.heading_per_bias)
     est = _estimate(ctx, values, s_bias, gain.s_phi, None, ctx.heading_per_bias)
     inv = np.linalg.inv(s_bias[:, h])
     sigma = 0.5 * np.hypot(fits[0].sigma, fits[1].sigma) * np.sqrt(np.sum(inv**2, axis=1))
@@ -202,7 +202,7 @@ def mount_check(ctx, reference, heading_sigma=0.0):
     h, v = track.horizontal, track.down_axis
     weights = ctx.weights(dict.fromkeys(h, "return_to_start"))
     gain = ctx.gain(weights)
-    k = _with_heading(ctx, gain)
+    k = _with_heading(gain, ctx.heading_per_bias)
     residual = ctx.evaluate(weights) - k[:, h] @ reference.value - k[:, v] * ctx.bias_z
     resid_weights = weights - np.einsum("ak,kmi->ami", k[:, h], reference.weights)
     sigma = np.hypot(ctx.sigma(resid_weights), gain.s_phi[:, 2] * heading_sigma)

@@ -41,26 +41,12 @@ from inins.core import earth
 from inins.core.units import ARCSEC, DEG, DEG_RTH, DPH, UG, UG_RTHZ
 from inins.io.report import format_table
 from inins.results import Series
+from inins.table.record import Step
 
 MAD_SIGMA = 1.4826
 """Robust sigma per median absolute deviation (normal distribution)."""
 FLOOR = 1e-3 * earth.RATE
 """Smallest rate threshold of the screening (rad/s)."""
-
-
-@dataclass(frozen=True)
-class StepRange:
-    """A step and its samples ``[start_index, stop_index)`` (times s, angles rad)."""
-
-    kind: str
-    label: str
-    axis: int
-    start_time: float
-    end_time: float
-    start_index: int
-    stop_index: int
-    angles_start: np.ndarray
-    angles_end: np.ndarray
 
 
 class BlockStats:
@@ -134,9 +120,9 @@ def encoder_steps(stats, t0, dt, n, tolerance, margin):
         if steps:
             prev = steps[-1]
             axis = int(np.argmax(np.abs(_wrap(angles - prev.angles_end))))
-            steps.append(StepRange("rotate", f"M{len(steps) // 2 + 1}", axis, prev.end_time,
+            steps.append(Step("rotate", f"M{len(steps) // 2 + 1}", axis, prev.end_time,
                                    t0 + k0 * dt, prev.stop_index, k0, prev.angles_end, angles))
-        steps.append(StepRange("hold", f"H{len(steps) // 2 + 1}", -1, t0 + k0 * dt,
+        steps.append(Step("hold", f"H{len(steps) // 2 + 1}", -1, t0 + k0 * dt,
                                t0 + k1 * dt, k0, k1, angles, angles))
     return steps
 

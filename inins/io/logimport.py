@@ -31,6 +31,7 @@ from inins.io import logcheck
 from inins.io.logformats import Hdf5Log, TextLog, open_psins
 from inins.results import CommandResult, Series
 from inins.table import kinematics
+from inins.table.record import Step
 
 GAP_FACTOR = 1.5
 """A time step longer than this many sample intervals is a gap."""
@@ -327,7 +328,7 @@ def scenario_steps(cfg, t0, dt, n):
         if s.end > t0 + n * dt + 1e-9:
             warnings.append(f"step {i} ({s.label or s.kind}) ends after the log; cut at "
                             f"{t0 + n * dt:.6g} s")
-        steps.append(logcheck.StepRange(s.kind, s.label, s.axis, s.start, s.end, first, stop,
+        steps.append(Step(s.kind, s.label, s.axis, s.start, s.end, first, stop,
                                         s.angles_start, s.angles_end))
     return steps, warnings
 
@@ -355,7 +356,7 @@ def import_log(cfg, sink, progress=None):
     elif cfg.angle_cols is not None:
         steps = logcheck.encoder_steps(stats, t0, dt, n, cfg.hold_tolerance, cfg.hold_margin)
     else:
-        steps = [logcheck.StepRange("hold", "log", -1, t0, t0 + n * dt, 0, n, np.zeros(g),
+        steps = [Step("hold", "log", -1, t0, t0 + n * dt, 0, n, np.zeros(g),
                                     np.zeros(g))]
     checks = logcheck.check_holds(stats, steps, run["lla"], cfg.check)
     datasets = {**logcheck.step_datasets(steps, g), **logcheck.block_datasets(stats, t0, dt)}

@@ -11,7 +11,7 @@ from typing import Protocol
 
 import numpy as np
 
-from inins.core import imu
+from inins.core import pulses
 
 
 @dataclass(frozen=True)
@@ -113,7 +113,7 @@ def memory_record(sim, sink, schedule):
 
     def increments(name, weight):
         rows = sink[f"imu/{name}"]
-        return imu.increments_from_counts(rows, weight) if rows.dtype.kind == "i" else rows
+        return pulses.increments_from_counts(rows, weight) if rows.dtype.kind == "i" else rows
 
     col = {k.split("/")[1]: v.data for k, v in schedule.items()}
     steps = tuple(

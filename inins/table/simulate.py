@@ -15,7 +15,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from inins.core import imu, rotation, trajectory
+from inins.core import imu, pulses, rotation, trajectory
 from inins.core.units import DEG_RTH, DPH, PPM, UG, UG_RTHZ
 from inins.io.report import format_table
 from inins.results import CommandResult, Series
@@ -194,9 +194,9 @@ def simulate_table(sim, rng, sink, progress=None):
     quantized = _declare(sink, sim)
     s = sim.sensor
     for k0, dtheta, dv, truth in simulation_chunks(sim, rng):
-        sink.append("imu/dtheta", imu.counts_from_increments(dtheta, s.gyro_pulse_weight)
+        sink.append("imu/dtheta", pulses.counts_from_increments(dtheta, s.gyro_pulse_weight)
                     if quantized[0] else dtheta)
-        sink.append("imu/dv", imu.counts_from_increments(dv, s.accel_pulse_weight)
+        sink.append("imu/dv", pulses.counts_from_increments(dv, s.accel_pulse_weight)
                     if quantized[1] else dv)
         for path, rows in truth.items():
             sink.append(path, rows)

@@ -14,7 +14,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from scipy.signal import lfilter
 
-from inins.core import imu
+from inins.core import imu, pulses
 from inins.core.units import DEG_RTH, DPH, UG, UG_RTHZ
 
 DT = 1e-3
@@ -292,20 +292,20 @@ def test_counts_round_trip_is_exact():
     pulse = np.array([1e-6, 1.5e-6, 2e-6])
     e = imu.SensorErrors(gyro_arw=1e-4, gyro_pulse_weight=pulse)
     g, _, _, _ = imu.apply_errors(*_motion(5000), DT, e, np.random.default_rng(1))
-    counts = imu.counts_from_increments(g, pulse)
+    counts = pulses.counts_from_increments(g, pulse)
     assert counts.dtype == np.int32
-    np.testing.assert_array_equal(imu.increments_from_counts(counts, pulse), g)
+    np.testing.assert_array_equal(pulses.increments_from_counts(counts, pulse), g)
 
 
 def test_counts_validation():
     with pytest.raises(ValueError, match="integer multiples"):
-        imu.counts_from_increments([0.5e-6, 1e-6, 0.0], 1e-6)
+        pulses.counts_from_increments([0.5e-6, 1e-6, 0.0], 1e-6)
     with pytest.raises(ValueError, match="overflow"):
-        imu.counts_from_increments([1.0, 0.0, 0.0], 1e-10)
+        pulses.counts_from_increments([1.0, 0.0, 0.0], 1e-10)
     with pytest.raises(ValueError, match="pulse_weight"):
-        imu.counts_from_increments([0.0, 0.0, 0.0], 0.0)
+        pulses.counts_from_increments([0.0, 0.0, 0.0], 0.0)
     with pytest.raises(ValueError, match="integer array"):
-        imu.increments_from_counts(np.array([1.0, 2.0, 3.0]), 1e-6)
+        pulses.increments_from_counts(np.array([1.0, 2.0, 3.0]), 1e-6)
 
 
 # --- reproducibility and chunking --------------------------------------------------------
