@@ -127,15 +127,20 @@ def calibrate(record, settings, progress=None):
         "attitude": methods.solve(ctx, dict.fromkeys(track.horizontal, "attitude")),
         "velocity": methods.solve_velocity(ctx, _hold_windows(seq), float(np.mean(vrw)),
                                            settings.accel_quantum),
-        "eq44": methods.solve(ctx, {e: "attitude", n: "return"}),
-        "eq45": methods.solve(ctx, {e: "return", n: "return"}, heading_known=True),
     }
+    if seq.has_return:
+        est["eq44"] = methods.solve(ctx, {e: "attitude", n: "return"})
+        est["eq45"] = methods.solve(ctx, {e: "return", n: "return"}, heading_known=True)
     heading_sigma = align.heading_sigma if gyrocompass else settings.heading_sigma
     est = {k: _with_alignment_noise(v, align.tilt_sigma, heading_sigma) for k, v in est.items()}
-    reference = est["eq44"] if gyrocompass else est["eq45"]
-    check = methods.mount_check(ctx, reference, heading_sigma)
-    threshold = np.maximum(settings.k_sigma * check.sigma, settings.floor)
-    choice = methods.choose(geometry, check, not gyrocompass, threshold)
+    if seq.has_return:
+        reference = est["eq44"] if gyrocompass else est["eq45"]
+        check = methods.mount_check(ctx, reference, heading_sigma)
+        threshold = np.maximum(settings.k_sigma * check.sigma, settings.floor)
+        choice = methods.choose(geometry, check, not gyrocompass, threshold)
+    else:
+        check = methods.MountCheck(np.full(2, np.nan), np.full(2, np.nan))
+        threshold, choice = np.full(2, np.nan), methods.NO_RETURN
     chosen = _chosen(est, geometry, choice)
     outcome = Outcome(seq, geometry, align, track, ctx.eps, _epoch_tilts(ctx), est, check,
                       threshold, choice, chosen, noise=(arw, vrw, estimated))
@@ -170,6 +175,8 @@ def _epoch_tilts(ctx):
 
 def _chosen(est, geometry, choice):
     """Automatic choice per body axis: (value, sigma, formula name) or None."""
+    if "eq44" not in est:
+        return dict.fromkeys(geometry.horizontal)
     h = geometry.horizontal
     pair = est[choice.east_formula or "eq44"]
     north = h.index(geometry.north)

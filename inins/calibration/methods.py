@@ -110,8 +110,11 @@ class Context:
         """Weights (2, m, 3) of one formula per horizontal axis: ``kinds[axis] -> name``."""
         out = []
         for axis in self.track.horizontal:
-            coef = np.zeros((5, 3))
-            coef[:, axis] = COEFFICIENTS[kinds[axis]](*self.t_hold)
+            terms = COEFFICIENTS[kinds[axis]](*self.t_hold)
+            if any(terms[len(self.windows):]):
+                raise ValueError(f"{kinds[axis]} needs epoch 4: the return to the first position")
+            coef = np.zeros((len(self.windows), 3))
+            coef[:, axis] = terms[:len(self.windows)]
             out.append(model.window_weights(self.track, self.windows, coef))
         return np.array(out)
 
@@ -215,6 +218,12 @@ class Choice:
 
     east_formula: str | None
     reason: str
+
+
+NO_RETURN = Choice(None, "the record does not return to the first position (000 Table 1): "
+                   "the mount rotation cannot be checked and eqs. 38, 44-45 are not "
+                   "applicable; the attitude- and velocity-error methods are given, "
+                   "unverified against mount rotation and accelerometer changes")
 
 
 def choose(geometry, check, heading_trusted, threshold):

@@ -36,6 +36,11 @@ def _dph(value):
     return None if value is None else float(value / DPH)
 
 
+def _arcsec(value):
+    """arcsec, None where not applicable (NaN)."""
+    return float(value / ARCSEC) if np.isfinite(value) else None
+
+
 def result_names(outcome):
     """``name -> (value rad/s, sigma rad/s)`` of every estimate, unit suffix added later."""
     g = outcome.geometry
@@ -47,10 +52,14 @@ def result_names(outcome):
         for i, axis in enumerate(h):
             out[f"beta_{AXES[axis]}_{name}"] = (est[name].value[i], est[name].sigma[i])
     ie, in_ = h.index(g.east), h.index(g.north)
-    pair = est[outcome.choice.east_formula or "eq44"]
-    out[f"beta_{n}_eq38"] = (pair.value[in_], pair.sigma[in_])
-    out[f"beta_{e}_eq44"] = (est["eq44"].value[ie], est["eq44"].sigma[ie])
-    out[f"beta_{e}_eq45"] = (est["eq45"].value[ie], est["eq45"].sigma[ie])
+    if "eq44" in est:
+        pair = est[outcome.choice.east_formula or "eq44"]
+        out[f"beta_{n}_eq38"] = (pair.value[in_], pair.sigma[in_])
+        out[f"beta_{e}_eq44"] = (est["eq44"].value[ie], est["eq44"].sigma[ie])
+        out[f"beta_{e}_eq45"] = (est["eq45"].value[ie], est["eq45"].sigma[ie])
+    else:  # no return to the first position: not applicable
+        for key in (f"beta_{n}_eq38", f"beta_{e}_eq44", f"beta_{e}_eq45"):
+            out[key] = (None, None)
     for axis in h:
         chosen = outcome.chosen[axis]
         out[f"beta_{AXES[axis]}"] = (None, None) if chosen is None else chosen[:2]
@@ -81,8 +90,8 @@ def build(outcome, record, settings, paper_case=None):
     results["initial_heading_err_deg"] = None if heading_err is None else heading_err / DEG
     h = outcome.geometry.horizontal
     for i, axis in enumerate(h):
-        results[f"mount_{AXES[axis]}_arcsec"] = float(outcome.check.residual[i] / ARCSEC)
-        results[f"mount_{AXES[axis]}_sigma_arcsec"] = float(outcome.check.sigma[i] / ARCSEC)
+        results[f"mount_{AXES[axis]}_arcsec"] = _arcsec(outcome.check.residual[i])
+        results[f"mount_{AXES[axis]}_sigma_arcsec"] = _arcsec(outcome.check.sigma[i])
     t_a, t_b = outcome.seq.hold_times
     results.update({"hold_a_s": t_a, "hold_b_s": t_b,
                     "heading_deg": float(outcome.align.euler[2] / DEG)})
@@ -106,7 +115,9 @@ def _warnings(outcome):
     if not outcome.geometry.aligned:
         out.append("no horizontal IMU axis points east at the first position (within 10 deg): "
                    "the east/north split of the return-sequence formulas is approximate")
-    if outcome.choice.east_formula is None:
+    if not outcome.seq.has_return:
+        out.append(outcome.choice.reason)
+    elif outcome.choice.east_formula is None:
         out.append("beta_" + AXES[outcome.geometry.east] + ": " + outcome.choice.reason)
     return tuple(out)
 
@@ -151,7 +162,7 @@ def _report(outcome, record, settings, names, paper_case):
         f"data: {record.source}, {record.n_samples} samples at {1 / record.dt:g} Hz",
         "sequence (000 Table 1): " + ", ".join(
             f"{k} = {'/'.join(p.labels)} {p.start:g}-{p.end:g} s"
-            for k, p in zip(("A", "B", "A'"), seq.positions, strict=True)),
+            for k, p in zip(("A", "B", "A'"), seq.positions, strict=True) if p is not None),
         f"navigation time at A {t_a:.1f} s, at B {t_b:.1f} s; "
         f"{'free-inertial' if settings.free else 'stationary (known position, zero velocity)'}"
         f" navigation, output every {np.median(np.diff(outcome.track.time)):g} s",
@@ -163,14 +174,21 @@ def _report(outcome, record, settings, names, paper_case):
         "", "estimates (deg/h)", _estimate_table(outcome, names),
         "", "mount rotation from the return to the start attitude (000 eqs. 35, 43)",
         _mount_table(outcome),
-        "", f"automatic choice: beta_{AXES[g.north]} from eq. 38; beta_{AXES[g.east]}: "
-        + (outcome.choice.east_formula or "none") + ". " + outcome.choice.reason,
+        "", _choice_line(outcome),
     ]
     if outcome.truth:
         lines += ["", _truth_lines(outcome)]
     if paper_case is not None:
         lines += ["", _paper_table(outcome, names, paper_case)]
     return "\n".join(lines)
+
+
+def _choice_line(outcome):
+    g = outcome.geometry
+    if not outcome.seq.has_return:
+        return "automatic choice: none. " + outcome.choice.reason
+    return (f"automatic choice: beta_{AXES[g.north]} from eq. 38; beta_{AXES[g.east]}: "
+            + (outcome.choice.east_formula or "none") + ". " + outcome.choice.reason)
 
 
 def _noise_line(outcome):
@@ -194,9 +212,11 @@ def _estimate_table(outcome, names):
 
 
 def _mount_table(outcome):
-    rows = [[AXES[a], outcome.check.residual[i] / ARCSEC, outcome.check.sigma[i] / ARCSEC,
-             outcome.threshold[i] / ARCSEC,
-             "yes" if abs(outcome.check.residual[i]) > outcome.threshold[i] else "no"]
+    c = outcome.check
+    rows = [[AXES[a], _arcsec(c.residual[i]), _arcsec(c.sigma[i]),
+             _arcsec(outcome.threshold[i]),
+             "n/a" if not np.isfinite(c.residual[i])
+             else "yes" if abs(c.residual[i]) > outcome.threshold[i] else "no"]
             for i, a in enumerate(outcome.geometry.horizontal)]
     return format_table(rows, ["axis", "residual", "1-sigma", "threshold", "turned"],
                         ["", "arcsec", "arcsec", "arcsec", ""], fmt=".4g")

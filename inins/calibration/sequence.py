@@ -39,16 +39,21 @@ class Sequence:
     Attributes
     ----------
     positions : tuple of Position
-        A, B, A'.
+        A, B, A' (A' is None when the record does not return to A).
     align : (float, float)
         Alignment window at A.
-    epochs : ndarray, shape (5, 2)
-        Start and end time of each epoch window.
+    epochs : ndarray, shape (5, 2) or (4, 2)
+        Start and end time of each epoch window (no epoch 4 without A').
     """
 
     positions: tuple
     align: tuple
     epochs: np.ndarray
+
+    @property
+    def has_return(self):
+        """True if the record returns to A (000 Table 1): needed by eqs. 35-45."""
+        return self.positions[2] is not None
 
     @property
     def epoch_times(self):
@@ -120,14 +125,20 @@ def find_return_sequence(record, labels=None):
         if _is_half_turn(mats[i], mats[i + 1]) and np.allclose(
                 mats[i], mats[i + 2], atol=ANGLE_TOL):
             return a, b, c
+    for i in range(len(pos) - 1):  # without the return: the two-position methods still run
+        a, b = pos[i:i + 2]
+        if labels is not None and not (labels[0] in a.labels and labels[1] in b.labels):
+            continue
+        if _is_half_turn(mats[i], mats[i + 1]):
+            return a, b, None
     listing = "; ".join(
         f"{'/'.join(p.labels) or '?'} at {np.degrees(p.angles).round(3).tolist()} deg "
         f"({p.start:g}-{p.end:g} s)" for p in pos) or "no holds"
     wanted = f" labelled {list(labels)}" if labels is not None else ""
     raise InputError(
-        "the return-sequence calibration needs the 000 Table 1 sequence: a hold at A, "
-        f"a 180 deg turn about the vertical, a hold at B, the turn back and a hold at A "
-        f"again{wanted}; positions found: {listing}", source=record.source, key="steps")
+        "gyro-bias calibration needs two positions 180 deg apart about the vertical (000 "
+        f"§2), and the return-sequence method a hold back at the first (000 Table 1){wanted}; "
+        f"positions found: {listing}", source=record.source, key="steps")
 
 
 def build_sequence(record, align_duration, epoch_window, settle, labels=None):
@@ -146,8 +157,9 @@ def build_sequence(record, align_duration, epoch_window, settle, labels=None):
     """
     a, b, c = find_return_sequence(record, labels)
     align = (a.start + settle, a.start + settle + align_duration)
-    needs = {"A": (a, align[1] + 2 * epoch_window), "B": (b, b.start + settle + 2 * epoch_window),
-             "A'": (c, c.start + settle + epoch_window)}
+    needs = {"A": (a, align[1] + 2 * epoch_window), "B": (b, b.start + settle + 2 * epoch_window)}
+    if c is not None:
+        needs["A'"] = (c, c.start + settle + epoch_window)
     for name, (p, latest) in needs.items():
         if p.end < latest - 1e-9:
             raise InputError(
@@ -160,6 +172,6 @@ def build_sequence(record, align_duration, epoch_window, settle, labels=None):
         [a.end - epoch_window, a.end],
         [b.start + settle, b.start + settle + epoch_window],
         [b.end - epoch_window, b.end],
-        [c.start + settle, c.start + settle + epoch_window],
+        *([[c.start + settle, c.start + settle + epoch_window]] if c is not None else []),
     ])
     return Sequence((a, b, c), align, epochs)

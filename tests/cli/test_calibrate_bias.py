@@ -60,12 +60,13 @@ def test_table_data_file_input(tmp_path):
     assert result.exit_code == 0, result.output
 
 
-def test_sequence_without_return_is_bad_input(tmp_path):
+def test_sequence_without_two_positions_180_deg_apart_is_bad_input(tmp_path):
     scenario = tmp_path / "s.yaml"
     shutil.copy(CONFIGS / "paper000" / "case1-no-disturbance.yaml", scenario)
-    result = run(scenario, "-o", tmp_path, "--set", "simulate.motion.4.angle_deg=-90")
+    result = run(scenario, "-o", tmp_path, "--set", "simulate.motion.2.angle_deg=90",
+                 "--set", "simulate.motion.4.angle_deg=-90")
     assert result.exit_code == 2
-    assert "000 Table 1" in result.output and "Traceback" not in result.output
+    assert "180 deg apart" in result.output and "Traceback" not in result.output
 
 
 def test_holds_too_short_is_bad_input(tmp_path):
@@ -110,3 +111,25 @@ def test_plot_without_matplotlib_is_a_clear_message(tmp_path, monkeypatch):
 def test_plot_on_a_command_without_figures(tmp_path):
     result = CliRunner().invoke(app, ["simulate-table", "-o", str(tmp_path), "--plot"])
     assert result.exit_code == 2 and "no figures" in result.output
+
+
+def test_two_positions_without_return_run_the_two_position_methods(tmp_path):
+    """Issue: where other methods can still run, the report warns and marks the
+    return-sequence method not applicable (no mount check without the return)."""
+    result = run(CONFIGS / "paper000" / "case1-no-disturbance.yaml", "-o", tmp_path,
+                 "--set", "simulate.motion=" + json.dumps(
+                     [{"kind": "hold", "duration_s": 300, "label": "align"},
+                      {"kind": "hold", "duration_s": 600, "label": "0deg"},
+                      {"kind": "rotate", "axis": "yaw", "angle_deg": 180, "rate_dps": 10},
+                      {"kind": "hold", "duration_s": 600, "label": "180deg"}]),
+                 "--set", "checks=[]")
+    assert result.exit_code == 0, result.output
+    summary = json.loads((tmp_path / "summary.json").read_text())
+    res, truth = summary["results"], summary["truth"]
+    for name in ("beta_x_dph", "beta_y_dph", "beta_y_eq38_dph", "beta_x_eq45_dph",
+                 "mount_x_arcsec"):
+        assert res[name] is None, name
+    for axis in "xy":  # noise-free, no disturbance: the two-position methods hold
+        assert abs(res[f"beta_{axis}_attitude_dph"] - truth[f"beta_{axis}_dph"]) < 0.0005
+    report = (tmp_path / "calibrate-bias.txt").read_text()
+    assert "does not return to the first position" in report
