@@ -204,7 +204,7 @@ def test_unknown_label_and_unusable_positions():
 
 def test_scenario_sources_and_relative_data_path(tmp_path):
     scenario = copy.deepcopy(yaml.safe_load(DEFAULT.read_text()))
-    with pytest.raises(ValueError, match="exactly one of data"):
+    with pytest.raises(ValueError, match="give either data"):
         AlignEttScenario.model_validate({**scenario, "data": "t.h5"})
     with pytest.raises(ValueError, match="seed"):  # the section carries no seed of its own
         AlignEttScenario.model_validate({**scenario, "simulate": {**scenario["simulate"],

@@ -85,7 +85,7 @@ def test_table_data_file_and_read_back(tmp_path):
      ("align-ett (ETT", "no vertical position", "positions.vertical_label")),
     (("--set", "positions.vertical_label=nope"),
      ("no hold labelled 'nope'", "'start', 'vertical', 'level'")),
-    (("--set", "data=t.h5"), ("exactly one of data",)),
+    (("--set", "data=t.h5"), ("data: give either data", "not both")),
 ])
 def test_bad_input_exits_2(tmp_path, args, fragments):
     result = invoke("align-ett", "-o", tmp_path, *args)

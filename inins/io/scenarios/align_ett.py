@@ -16,13 +16,12 @@ The nominal mounting (``imu_axes``) is design knowledge, not truth: the key, els
 """
 
 import numpy as np
-from pydantic import Field, field_validator, model_validator
+from pydantic import Field, field_validator
 
 from inins.calibration.ett import EttOptions
 from inins.core.units import ARCSEC, DEG, DEG_RTH, UG, UG_RTHZ
-from inins.io.scenario import ScenarioModel, ScenarioPath
 from inins.io.scenarios.common import NonNegFloat, PositiveFloat, Section
-from inins.io.scenarios.simulate_table import DIRECTIONS, Direction, TableSetup
+from inins.io.scenarios.simulate_table import DIRECTIONS, Direction, TableSource
 
 
 class Positions(Section):
@@ -41,15 +40,10 @@ class Positions(Section):
         "the hold")
 
 
-class AlignEttScenario(ScenarioModel):
+class AlignEttScenario(TableSource):
     """Azimuth of the IMU on the table from its accelerometers at the pitch-90 deg and level
     positions (equivalent linear transformation, 000 §3.1), compared with gyrocompassing."""
 
-    data: ScenarioPath | None = Field(
-        None, description="table-data HDF5 file (simulate-table or import-log output), "
-        "relative to the scenario file; give this or simulate")
-    simulate: TableSetup | None = Field(
-        None, description="a simulate-table scenario run in memory; give this or data")
     imu_axes: list[Direction] | None = Field(
         None, min_length=3, max_length=3,
         description="nominal mounting: table directions of the IMU x, y, z axes (000: "
@@ -78,13 +72,6 @@ class AlignEttScenario(ScenarioModel):
             if not np.allclose(mat.T @ mat, np.eye(3)) or np.linalg.det(mat) < 0:
                 raise ValueError("the three directions must form a right-handed triad")
         return value
-
-    @model_validator(mode="after")
-    def _one_source(self):
-        if (self.data is None) == (self.simulate is None):
-            raise ValueError("give exactly one of data (a table-data file) and simulate "
-                             "(a simulate-table scenario)")
-        return self
 
     def mat_tb0(self):
         """Nominal mounting (IMU body -> platform), or None to take it from the estimate."""

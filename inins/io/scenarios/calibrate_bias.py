@@ -6,9 +6,9 @@ from typing import Literal
 from pydantic import Field, model_validator
 
 from inins.core.units import ARCSEC, DEG, DEG_RTH, DPH, UG_RTHZ, UG_S
-from inins.io.scenario import ScenarioModel, ScenarioPath, ScenarioSection
+from inins.io.scenario import ScenarioPath, ScenarioSection
 from inins.io.scenarios.common import NonNegFloat, NonNegVec3, PositiveFloat
-from inins.io.scenarios.simulate_table import TableSetup
+from inins.io.scenarios.simulate_table import TableSource
 from inins.io.validation import KeyPathError
 
 
@@ -79,15 +79,9 @@ class MountDetection(ScenarioSection):
     floor_arcsec: NonNegFloat = Field(0.5, description="and larger than this (arcsec)")
 
 
-class CalibrateBiasScenario(ScenarioModel):
+class CalibrateBiasScenario(TableSource):
     """Horizontal gyro-bias calibration from a rate-table return sequence (000 §2-3)."""
 
-    data: ScenarioPath | None = Field(
-        None, description="table-data HDF5 (simulate-table or import-log output), relative "
-        "to this scenario file")
-    simulate: TableSetup | None = Field(
-        None, description="a simulate-table scenario run in memory instead of reading data "
-        "(so one scenario is one run of a sweep)")
     alignment: Alignment = Field(default_factory=Alignment)
     sequence: Sequence = Field(default_factory=Sequence)
     navigation: Navigation = Field(default_factory=Navigation)
@@ -97,13 +91,6 @@ class CalibrateBiasScenario(ScenarioModel):
                                    "(deg/h); 000 calibrates the horizontal ones")
     paper000_case: Literal[1, 2, 3, 4] | None = Field(
         None, description="print the numbers of 000 §3.2 case 1-4 beside ours (1)")
-
-    @model_validator(mode="after")
-    def _one_source(self):
-        if (self.data is None) == (self.simulate is None):
-            raise KeyPathError(("data",), "give either data (a table-data file) or a "
-                               "simulate: section, not both and not neither")
-        return self
 
     def settings(self, sensor=None, ett=None):
         """Settings in SI; ``sensor`` (SensorErrors of a simulation) fills missing noise;

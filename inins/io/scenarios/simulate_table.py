@@ -7,7 +7,7 @@ from pydantic import Field, field_validator, model_validator
 
 from inins.core import rotation
 from inins.core.units import ARCSEC, DEG, UG
-from inins.io.scenario import ScenarioModel
+from inins.io.scenario import ScenarioModel, ScenarioPath
 from inins.io.scenarios.common import (
     Imu,
     NonNegFloat,
@@ -249,3 +249,21 @@ class TableSetup(Section):
 
 class SimulateTableScenario(TableSetup, ScenarioModel):
     """An IMU on a 2- or 3-axis rate table running a motion program."""
+
+
+class TableSource(ScenarioModel):
+    """Top level of a scenario that reads a table record: a file, or a simulation."""
+
+    data: ScenarioPath | None = Field(
+        None, description="table-data HDF5 (simulate-table or import-log output), relative "
+        "to this scenario file; give this or simulate")
+    simulate: TableSetup | None = Field(
+        None, description="a simulate-table scenario run in memory instead of reading data "
+        "(so one scenario is one run of a sweep); give this or data")
+
+    @model_validator(mode="after")
+    def _one_source(self):
+        if (self.data is None) == (self.simulate is None):
+            raise KeyPathError(("data",), "give either data (a table-data file) or a "
+                               "simulate: section, not both and not neither")
+        return self
