@@ -11,8 +11,8 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 
 from inins.calibration import methods, navigate, sequence
-from inins.core import errors, rotation
-from inins.errors import InputError
+from inins.core import error_model, rotation
+from inins.exceptions import InputError
 
 
 @dataclass(frozen=True)
@@ -198,7 +198,7 @@ def _with_truth(outcome, record, ctx):
     inside = (truth.time > t0) & (truth.time <= t1)
     bias = truth.gyro_bias[inside].mean(axis=0)
     quat0 = _interp_quat(truth.time, truth.quat_nb, t0)
-    phi0 = errors.attitude_error(outcome.align.mat_nb, rotation.mat_from_quat(quat0))
+    phi0 = error_model.attitude_error(outcome.align.mat_nb, rotation.mat_from_quat(quat0))
     mount = np.stack([np.interp(track.time, truth.time, truth.mount_rotvec[:, i])
                       for i in range(3)], axis=1)
     predicted = {}

@@ -60,7 +60,7 @@ import numpy as np
 from inins.calibration import alignment
 from inins.core import earth, rotation
 from inins.core.units import DEG, UG
-from inins.errors import InputError
+from inins.exceptions import InputError
 from inins.table.kinematics import platform_matrix
 
 W_PITCH90 = np.array([[1.0, 0.0, 0.0], [0.0, 0.0, 1.0], [0.0, -1.0, 0.0]])

@@ -43,7 +43,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from inins.core import earth, rotation
-from inins.errors import InputError
+from inins.exceptions import InputError
 
 
 @dataclass(frozen=True)

@@ -9,7 +9,7 @@ import numpy as np
 from inins.calibration import alignment
 from inins.calibration.model import Track, vertical_axis
 from inins.core import strapdown
-from inins.errors import InputError
+from inins.exceptions import InputError
 
 MAX_TRACK_POINTS = 200_000
 """The output grid is thinned to at most this many points (memory of the model arrays)."""

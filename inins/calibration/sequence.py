@@ -16,7 +16,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from inins.core import rotation
-from inins.errors import InputError
+from inins.exceptions import InputError
 from inins.table.kinematics import platform_matrix
 
 ANGLE_TOL = 1e-4  # rad: holds closer than this are at the same table angles

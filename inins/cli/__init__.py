@@ -23,7 +23,7 @@ that provides exactly two names:
     :class:`inins.results.SeriesSink` writing into CMD.h5 on a background
     thread). ``seed`` is the seed to use (``--seed`` > scenario > 0), not
     necessarily ``model.seed``. ``run`` raises
-    :class:`inins.errors.InputError` for bad input and never prints or exits.
+    :class:`inins.exceptions.InputError` for bad input and never prints or exits.
 
 The module may import anything at its top: it is imported only when the
 command runs (or ``inins schema`` asks for its model). A placeholder sets

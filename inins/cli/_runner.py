@@ -30,7 +30,7 @@ from typing import Annotated
 import typer
 
 from inins.cli._registry import CommandUnavailable, load_command
-from inins.errors import InputError
+from inins.exceptions import InputError
 
 EXIT_OK, EXIT_CHECK_FAILED, EXIT_BAD_INPUT, EXIT_INTERNAL, EXIT_INTERRUPTED = 0, 1, 2, 3, 130
 DEFAULT_OUTDIR = Path("out")

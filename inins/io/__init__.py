@@ -5,7 +5,7 @@ Modules
 scenario      typed scenario models (:class:`ScenarioModel`), :func:`load_scenario`
 labunits      lab-unit key suffixes, SI factors, documentation checks
 yaml_source   YAML with line numbers, ``--set`` overrides
-validation    pydantic errors -> one :class:`~inins.errors.InputError`
+validation    pydantic errors -> one :class:`~inins.exceptions.InputError`
 checks        safe evaluation of the scenario's pass/fail ``checks``
 atomic        write-to-temporary-then-rename
 hdf5          the results file: writer, storage layout, readers

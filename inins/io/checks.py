@@ -16,7 +16,7 @@ Allowed
     with :mod:`ast` and walked node by node, never passed to ``eval``.
 
 A name no result or truth carries, or an expression outside this grammar, is
-bad input (:class:`~inins.errors.InputError` naming ``checks[i]``). A value
+bad input (:class:`~inins.exceptions.InputError` naming ``checks[i]``). A value
 that is None or NaN (a method not applicable), a missing truth, or an
 arithmetic error (division by zero) makes the check fail with a ``reason``.
 """
@@ -25,7 +25,7 @@ import ast
 import math
 import operator
 
-from inins.errors import InputError
+from inins.exceptions import InputError
 
 _FUNCS = {"abs": abs, "min": min, "max": max, "sqrt": math.sqrt}
 _BINOPS = {

@@ -25,7 +25,7 @@ import numpy as np
 from inins.calibration.ett import EttResult, paper_angles
 from inins.core import rotation
 from inins.core.units import ARCSEC
-from inins.errors import InputError
+from inins.exceptions import InputError
 from inins.io.report import format_table
 from inins.results import CommandResult, Series
 

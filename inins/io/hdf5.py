@@ -28,7 +28,7 @@ from pathlib import Path
 import h5py
 import numpy as np
 
-from inins.errors import InputError
+from inins.exceptions import InputError
 from inins.io.atomic import AtomicFile
 from inins.io.provenance import PROVENANCE_KEYS
 

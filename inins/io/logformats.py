@@ -20,7 +20,7 @@ from pathlib import Path
 
 import numpy as np
 
-from inins.errors import InputError
+from inins.exceptions import InputError
 
 CHUNK_ROWS = 1 << 16
 """Rows per block."""

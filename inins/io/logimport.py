@@ -26,7 +26,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from inins.core.units import ARCSEC, DEG, G0
-from inins.errors import InputError
+from inins.exceptions import InputError
 from inins.io import logcheck
 from inins.io.logformats import Hdf5Log, TextLog, open_psins
 from inins.results import CommandResult, Series

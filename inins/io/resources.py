@@ -8,7 +8,7 @@ looked up here, the packaged copy first, and nowhere else.
 
 from pathlib import Path
 
-from inins.errors import InputError
+from inins.exceptions import InputError
 
 _PACKAGE_DIR = Path(__file__).resolve().parent.parent
 

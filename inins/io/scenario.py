@@ -34,7 +34,7 @@ from typing import Annotated
 from pydantic import AfterValidator, BaseModel, ConfigDict, Field, model_validator
 from pydantic_core import PydanticCustomError
 
-from inins.errors import InputError
+from inins.exceptions import InputError
 from inins.io.labunits import (  # noqa: F401 (re-exported: the scenario author's toolbox)
     UNIT_SUFFIXES,
     field_doc_problems,

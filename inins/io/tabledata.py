@@ -38,7 +38,7 @@ from pathlib import Path
 import h5py
 import numpy as np
 
-from inins.errors import InputError
+from inins.exceptions import InputError
 from inins.table.record import Step, Truth
 
 CHUNK_SAMPLES = 1 << 18

@@ -10,7 +10,7 @@ by ``--set`` are attributed to that option instead of a line.
 import difflib
 import typing
 
-from inins.errors import InputError
+from inins.exceptions import InputError
 from inins.io.yaml_source import format_path, line_of
 
 _MAX_LISTED = 5

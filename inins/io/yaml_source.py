@@ -19,7 +19,7 @@ import re
 
 import yaml
 
-from inins.errors import InputError
+from inins.exceptions import InputError
 
 _BOOL = "tag:yaml.org,2002:bool"
 _FLOAT = "tag:yaml.org,2002:float"

@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 from inins.calibration import alignment
-from inins.core import earth, errors, rotation, trajectory
+from inins.core import earth, error_model, rotation, trajectory
 from inins.core.units import ARCSEC, DEG, DPH, UG
 
 LAT = 45.0 * DEG
@@ -23,7 +23,7 @@ def test_error_free_alignment_is_exact(euler_deg):
     mat_nb = rotation.mat_from_euler(*np.radians(euler_deg))
     dtheta, dv, dt = window(mat_nb)
     result = alignment.align_stationary(dtheta, dv, dt, LAT)
-    assert np.abs(errors.attitude_error(result.mat_nb, mat_nb)).max() < 1e-4 * ARCSEC
+    assert np.abs(error_model.attitude_error(result.mat_nb, mat_nb)).max() < 1e-4 * ARCSEC
 
 
 def test_heading_error_is_east_gyro_bias_over_horizontal_earth_rate():
@@ -31,7 +31,7 @@ def test_heading_error_is_east_gyro_bias_over_horizontal_earth_rate():
     eps_east = 0.01 * DPH
     dtheta, dv, dt = window(mat_nb, gyro_bias=[0.0, eps_east, 0.0])
     result = alignment.align_stationary(dtheta, dv, dt, LAT)
-    phi = errors.attitude_error(result.mat_nb, mat_nb)
+    phi = error_model.attitude_error(result.mat_nb, mat_nb)
     # 000 §3.1: 0.01 deg/h at 45 deg latitude -> 0.054 deg
     assert abs(phi[2]) == pytest.approx(eps_east / (earth.RATE * np.cos(LAT)), rel=1e-3)
     assert np.degrees(abs(phi[2])) == pytest.approx(0.0539, abs=1e-4)
@@ -41,7 +41,7 @@ def test_tilt_error_is_accel_bias_over_g():
     mat_nb = rotation.mat_from_euler(0.0, 0.0, 0.0)
     dtheta, dv, dt = window(mat_nb, accel_bias=[100 * UG, 0.0, 0.0])
     result = alignment.align_stationary(dtheta, dv, dt, LAT)
-    phi = errors.attitude_error(result.mat_nb, mat_nb)
+    phi = error_model.attitude_error(result.mat_nb, mat_nb)
     g = earth.gravity(LAT, 100.0)
     assert abs(phi[1]) == pytest.approx(100 * UG / g, rel=1e-3)
 

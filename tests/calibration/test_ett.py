@@ -11,7 +11,7 @@ from scipy.stats import chi2
 from inins.calibration import ett
 from inins.core import earth, rotation
 from inins.core.units import ARCSEC, DEG, DPH, UG
-from inins.errors import InputError
+from inins.exceptions import InputError
 from inins.io.scenarios.align_ett import AlignEttScenario
 from inins.io.scenarios.simulate_table import TableSetup
 from inins.results import MemorySink

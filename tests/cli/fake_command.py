@@ -24,7 +24,7 @@ class FakeScenario(ScenarioModel):
 
 
 def _fail(model, where):
-    from inins.errors import InputError
+    from inins.exceptions import InputError
 
     if model.fail == where == "input":
         raise InputError("the data make no sense", source="log.csv", key="column gyro_x")

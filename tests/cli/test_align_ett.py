@@ -10,7 +10,7 @@ from typer.testing import CliRunner
 from inins.cli import app
 from inins.core import rotation
 from inins.core.units import ARCSEC
-from inins.errors import InputError
+from inins.exceptions import InputError
 from inins.io.ettresult import read_ett_result
 
 RESULTS = ("heading_deg", "heading_sigma_deg", "time_used_s", "gyrocompass_heading_deg",

@@ -5,7 +5,7 @@ import pytest
 from scipy.linalg import expm
 from scipy.optimize import curve_fit
 
-from inins.core import earth, errors, flight, rotation
+from inins.core import earth, error_model, flight, rotation
 from inins.core import strapdown as sd
 from inins.core import trajectory as tr
 from inins.core.units import ARCMIN, ARCSEC, DEG, DPH, MINUTE
@@ -28,8 +28,8 @@ def _navigate(truth, n, dt=DT, gyro_bias=None, increments=None, **options):
         dtheta = dtheta + np.asarray(gyro_bias) * dt
     _, series = sd.integrate(_start(truth), dtheta, dv, dt, **options)
     mat_nb, vel_n, lla = truth.state(series.time(dt))
-    phi = errors.attitude_error(series.mat_nb(), mat_nb)
-    return series, phi, series.vel_n - vel_n, errors.position_error_ned(series.lla, lla)
+    phi = error_model.attitude_error(series.mat_nb(), mat_nb)
+    return series, phi, series.vel_n - vel_n, error_model.position_error_ned(series.lla, lla)
 
 
 def _phi_model(lat, height, size):
@@ -226,7 +226,7 @@ def test_zero_velocity_mode_integrates_the_plain_velocity_error():
     aug[3:6, 3:6] = 0.0
     aug[:3, 6] = -mat_nb @ bias
     closed = np.array([expm(aug * s)[:6, 6] for s in series.time(DT)])
-    phi = errors.attitude_error(series.mat_nb(), mat_nb)
+    phi = error_model.attitude_error(series.mat_nb(), mat_nb)
     assert np.abs(phi - closed[:, :3]).max() < 1e-4 * np.abs(closed[:, :3]).max()
     assert np.abs(series.vel_n - closed[:, 3:]).max() < 1e-4 * np.abs(closed[:, 3:]).max()
     with pytest.raises(ValueError, match="zero_velocity"):

@@ -7,7 +7,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from inins.errors import InputError
+from inins.exceptions import InputError
 from inins.io.checks import CheckSyntaxError, evaluate_checks, parse_check
 
 RESULTS = {

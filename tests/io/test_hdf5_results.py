@@ -8,7 +8,7 @@ import h5py
 import numpy as np
 import pytest
 
-from inins.errors import InputError
+from inins.exceptions import InputError
 from inins.io.atomic import AtomicFile
 from inins.io.hdf5 import (
     CHUNK_BYTES,

@@ -8,7 +8,7 @@ import signal
 import numpy as np
 import pytest
 
-from inins.errors import InputError
+from inins.exceptions import InputError
 from inins.io import resources
 from inins.io.atomic import AtomicFile, AtomicGroup, deferred_interrupts, write_text_atomic
 from inins.io.report import build_report, format_table, format_value

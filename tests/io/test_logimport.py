@@ -15,7 +15,7 @@ import pytest
 
 from inins.core import earth
 from inins.core.units import ARCSEC, DEG, DPH, UG
-from inins.errors import InputError
+from inins.exceptions import InputError
 from inins.io import logcheck, logformats
 from inins.io.logimport import import_log
 from inins.io.resources import config_path

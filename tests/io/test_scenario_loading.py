@@ -7,7 +7,7 @@ import pytest
 from pydantic import Field, model_validator
 
 from inins.core.units import DEG, DPH
-from inins.errors import InputError
+from inins.exceptions import InputError
 from inins.io.scenario import (
     DEFAULT_SEED,
     NonNegative,

@@ -4,7 +4,7 @@ import pytest
 from hypothesis import given
 from hypothesis import strategies as st
 
-from inins.errors import InputError
+from inins.exceptions import InputError
 from inins.io.yaml_source import (
     apply_override,
     dump_yaml,

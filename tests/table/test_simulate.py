@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 import yaml
 
-from inins.core import earth, errors, rotation, strapdown
+from inins.core import earth, error_model, rotation, strapdown
 from inins.core.units import ARCSEC, DEG_RTH, DPH, UG
 from inins.io.scenarios.simulate_table import SimulateTableScenario
 from inins.results import MemorySink
@@ -43,7 +43,7 @@ def test_error_free_increments_reproduce_the_table_attitude():
     state = strapdown.NavState.from_attitude(mat0, np.zeros(3), sim.trajectory.lla)
     _, nav = strapdown.integrate(state, sink["imu/dtheta"], sink["imu/dv"], sim.dt,
                                  fixed_position=True, decimation=sim.truth_decimation)
-    phi = errors.attitude_error(rotation.mat_from_quat(nav.quat_nb),
+    phi = error_model.attitude_error(rotation.mat_from_quat(nav.quat_nb),
                                 rotation.mat_from_quat(sink["truth/quat_nb"]))
     assert np.abs(phi).max() < 0.1 * ARCSEC
     np.testing.assert_allclose(nav.vel_n, 0.0, atol=1e-6)  # m/s, over 43 min

@@ -39,7 +39,7 @@ Perturbations (``dL = dr_N / (R_N + h)``, ``dh = -dr_D``):
 (normal gravity of :func:`inins.core.earth.gravity`; the height gradient
 ``dg/dh ~ -2 g/R`` drives the unstable vertical channel). Nothing else is
 dropped at first order: the model is the exact Jacobian of the nonlinear
-error dynamics, which ``tests/core/test_errors.py`` checks column by column.
+error dynamics, which ``tests/core/test_error_model.py`` checks column by column.
 
 Mapping to 002 (12 states, eq. 2; same state order as :data:`ALIGN12`).
 F12 (dv <- phi) ``(a^n) x`` is ours ``[f_n x]`` with no sign change, ``a^n``

@@ -5,7 +5,7 @@ import numpy as np
 import pytest
 from scipy.linalg import expm
 
-from inins.core import earth, errors, trajectory
+from inins.core import earth, error_model, trajectory
 from inins.core import rotation as rot
 from inins.core.strapdown import NavState, integrate
 from inins.core.units import ARCMIN, ARCSEC, DEG, DPH, UG
@@ -16,36 +16,36 @@ LAT, LON, HEIGHT = np.radians(37.5), np.radians(127.0), 120.0
 
 
 def test_layouts_names_and_slices():
-    assert errors.ALIGN12.names == (
+    assert error_model.ALIGN12.names == (
         "dv_N", "dv_E", "dv_D", "phi_N", "phi_E", "phi_D",
         "ba_x", "ba_y", "ba_z", "bg_x", "bg_y", "bg_z",
     )  # fmt: skip
-    assert [len(lay) for lay in (errors.ALIGN12, errors.NAV15, errors.EKF17, errors.EKF26)] == [
+    assert [len(lay) for lay in (error_model.ALIGN12, error_model.NAV15, error_model.EKF17, error_model.EKF26)] == [
         12, 15, 17, 26,
     ]  # fmt: skip
-    assert errors.NAV15.names[:3] == ("dr_N", "dr_E", "dr_D")
-    assert errors.EKF17.names[15:] == ("clock_bias", "clock_drift")
-    assert errors.EKF26.names[17:] == (
+    assert error_model.NAV15.names[:3] == ("dr_N", "dr_E", "dr_D")
+    assert error_model.EKF17.names[15:] == ("clock_bias", "clock_drift")
+    assert error_model.EKF26.names[17:] == (
         "ma_yx", "ma_zx", "ma_zy", "mg_xy", "mg_xz", "mg_yx", "mg_yz", "mg_zx", "mg_zy",
     )  # fmt: skip
-    assert errors.EKF26.index("phi_E") == 7
-    assert errors.EKF26.slice("gyro_misalignment") == slice(20, 26)
-    assert errors.ALIGN12.slice("attitude") == slice(3, 6)
-    assert errors.EKF17.unit("clock_drift") == "m/s" and errors.NAV15.unit("bg_z") == "rad/s"
+    assert error_model.EKF26.index("phi_E") == 7
+    assert error_model.EKF26.slice("gyro_misalignment") == slice(20, 26)
+    assert error_model.ALIGN12.slice("attitude") == slice(3, 6)
+    assert error_model.EKF17.unit("clock_drift") == "m/s" and error_model.NAV15.unit("bg_z") == "rad/s"
     with pytest.raises(KeyError):
-        errors.ALIGN12.slice("position")
+        error_model.ALIGN12.slice("position")
     with pytest.raises(ValueError, match="unknown"):
-        errors.StateLayout(("dv_N", "psi_N"))
+        error_model.StateLayout(("dv_N", "psi_N"))
     with pytest.raises(ValueError, match="duplicate"):
-        errors.StateLayout(("dv_N", "dv_N"))
+        error_model.StateLayout(("dv_N", "dv_N"))
     with pytest.raises(ValueError, match="contiguous"):
-        errors.StateLayout(("dv_N", "phi_N", "dv_E")).slice("velocity")
+        error_model.StateLayout(("dv_N", "phi_N", "dv_E")).slice("velocity")
 
 
 def test_lla_offset_inverts_position_error():
     lla = np.array([LAT, LON, HEIGHT])
     dr = np.array([1234.5, -678.9, 42.0])
-    np.testing.assert_allclose(errors.position_error_ned(errors.lla_offset(lla, dr), lla), dr,
+    np.testing.assert_allclose(error_model.position_error_ned(error_model.lla_offset(lla, dr), lla), dr,
                                atol=1e-6)  # fmt: skip
 
 
@@ -74,8 +74,8 @@ def _flow(lla, vel_n, mat_nb, f_b, omega_ib_b, u, w_en=None):
 
 
 def _nav_error(est, true):
-    return np.concatenate([errors.position_error_ned(est[0], true[0]), est[1] - true[1],
-                           errors.attitude_error(est[2], true[2])])  # fmt: skip
+    return np.concatenate([error_model.position_error_ned(est[0], true[0]), est[1] - true[1],
+                           error_model.attitude_error(est[2], true[2])])  # fmt: skip
 
 
 def _sensor_matrices(layout, x):
@@ -94,12 +94,12 @@ def _sensor_matrices(layout, x):
 def test_system_matrix_is_the_jacobian_of_the_nonlinear_error_dynamics(transport_from_estimate):
     # every state the library knows, at a moving, rotating operating point; the INS
     # computes w_en from its own velocity and position, or is given the true one
-    layout = errors.FULL
+    layout = error_model.FULL
     lla = np.array([LAT, LON, 3000.0])
     vel_n = np.array([150.0, -80.0, 5.0])
     mat_nb = rot.mat_from_euler(20 * DEG, -10 * DEG, 130 * DEG)
     f_b, omega_ib_b = np.array([1.2, -0.7, -9.5]), np.array([0.03, -0.02, 0.05])
-    F = errors.system_matrix(layout, lla[0], lla[2], vel_n, mat_nb @ f_b, mat_nb, omega_ib_b,
+    F = error_model.system_matrix(layout, lla[0], lla[2], vel_n, mat_nb @ f_b, mat_nb, omega_ib_b,
                              transport_from_estimate=transport_from_estimate)  # fmt: skip
     w_en_given = None if transport_from_estimate else earth.rate_en_n(lla[0], lla[2], vel_n)
 
@@ -109,7 +109,7 @@ def test_system_matrix_is_the_jacobian_of_the_nonlinear_error_dynamics(transport
         s = layout.slice
         f_meas = f_b + x[s("accel_bias")] + e_a @ f_b
         w_meas = omega_ib_b + x[s("gyro_bias")] + e_g @ omega_ib_b
-        est = (errors.lla_offset(lla, x[s("position")]), vel_n + x[s("velocity")],
+        est = (error_model.lla_offset(lla, x[s("position")]), vel_n + x[s("velocity")],
                rot.mat_from_rotvec(-x[s("attitude")]) @ mat_nb)  # fmt: skip
         true = (lla, vel_n, mat_nb, f_b, omega_ib_b)
         ends = [_nav_error(_flow(*est, f_meas, w_meas, u, w_en_given), _flow(*true, u, w_en_given))
@@ -121,7 +121,7 @@ def test_system_matrix_is_the_jacobian_of_the_nonlinear_error_dynamics(transport
 
     # perturbation sizes in physical units; central differences cancel 2nd order terms
     steps = {"position": 100.0, "velocity": 0.1, "gyro_bias": 1e-6, "clock": 1.0}
-    step_of = {n: steps.get(group, 1e-3) for group, names in errors.GROUPS.items() for n in names}
+    step_of = {n: steps.get(group, 1e-3) for group, names in error_model.GROUPS.items() for n in names}
     for name in layout.names:
         i = layout.index(name)
         dx = np.zeros(len(layout))
@@ -137,16 +137,16 @@ def test_layouts_are_sub_blocks_and_stacks_broadcast():
     mats = rot.mat_from_euler([0.1, 0.2, -0.3], [0.0, 0.4, 0.1], [1.0, 2.0, 3.0])
     f_n = np.array([0.1, -0.2, -9.8])
     w_b = np.array([0.01, 0.02, -0.03])
-    F = errors.system_matrix(errors.EKF26, lat, 500.0, vel, f_n, mats, w_b)
+    F = error_model.system_matrix(error_model.EKF26, lat, 500.0, vel, f_n, mats, w_b)
     assert F.shape == (3, 26, 26)
     for k in range(3):
-        Fk = errors.system_matrix(errors.EKF26, lat[k], 500.0, vel[k], f_n, mats[k], w_b)
+        Fk = error_model.system_matrix(error_model.EKF26, lat[k], 500.0, vel[k], f_n, mats[k], w_b)
         np.testing.assert_array_equal(F[k], Fk)
-        idx = [errors.EKF26.index(n) for n in errors.ALIGN12.names]
-        sub = errors.system_matrix(errors.ALIGN12, lat[k], 500.0, vel[k], f_n, mats[k])
+        idx = [error_model.EKF26.index(n) for n in error_model.ALIGN12.names]
+        sub = error_model.system_matrix(error_model.ALIGN12, lat[k], 500.0, vel[k], f_n, mats[k])
         np.testing.assert_array_equal(sub, Fk[np.ix_(idx, idx)])
     with pytest.raises(ValueError, match="omega_ib_b"):
-        errors.system_matrix(errors.EKF26, lat[0], 0.0, vel[0], f_n, mats[0])
+        error_model.system_matrix(error_model.EKF26, lat[0], 0.0, vel[0], f_n, mats[0])
 
 
 # ------------------------------------------------------------------ 002 and classic results
@@ -156,13 +156,13 @@ def test_align12_blocks_are_002_eq2():
     vel_n = np.array([180.0, 60.0, -4.0])
     f_n = np.array([0.8, -1.5, -9.7])
     mat_nb = rot.mat_from_euler(0.2, 0.05, 2.5)
-    F = errors.system_matrix(errors.ALIGN12, LAT, 2000.0, vel_n, f_n, mat_nb)
+    F = error_model.system_matrix(error_model.ALIGN12, LAT, 2000.0, vel_n, f_n, mat_nb)
     w_ie, w_en = earth.rate_ie_n(LAT), earth.rate_en_n(LAT, 2000.0, vel_n)
     rn, re = earth.principal_radii(LAT)
     # phi <- dv: d w_en / d v, the Schuler coupling
     j_v = np.array([[0, 1 / (re + 2000.0), 0], [-1 / (rn + 2000.0), 0, 0],
                     [0, -np.tan(LAT) / (re + 2000.0), 0]])  # fmt: skip
-    sl = errors.ALIGN12.slice
+    sl = error_model.ALIGN12.slice
     v, a, ba, bg = sl("velocity"), sl("attitude"), sl("accel_bias"), sl("gyro_bias")
     # 002 F11 = -(2 w_ie + w_en)x, plus our v x dw_en(dv) term (O(v/R))
     np.testing.assert_allclose(F[v, v], -rot.skew(2 * w_ie + w_en) + rot.skew(vel_n) @ j_v,
@@ -174,10 +174,10 @@ def test_align12_blocks_are_002_eq2():
     np.testing.assert_array_equal(F[a, bg], -mat_nb)
     assert not F[v, bg].any() and not F[a, ba].any() and not F[ba].any() and not F[bg].any()
     # at rest F11 is exactly 002's -(2 w_ie)x
-    F0 = errors.system_matrix(errors.ALIGN12, LAT, 0.0, np.zeros(3), f_n, mat_nb)
+    F0 = error_model.system_matrix(error_model.ALIGN12, LAT, 0.0, np.zeros(3), f_n, mat_nb)
     np.testing.assert_array_equal(F0[v, v], -rot.skew(2 * w_ie))
     # w_en supplied from truth (dw_en = 0): 002's eq. 2 literally, phi <- dv block zero
-    F2 = errors.system_matrix(errors.ALIGN12, LAT, 2000.0, vel_n, f_n, mat_nb,
+    F2 = error_model.system_matrix(error_model.ALIGN12, LAT, 2000.0, vel_n, f_n, mat_nb,
                               transport_from_estimate=False)  # fmt: skip
     np.testing.assert_allclose(F2[v, v], -rot.skew(2 * w_ie + w_en), rtol=1e-14)
     assert not F2[a, v].any()
@@ -189,9 +189,9 @@ def test_stationary_schuler_foucault_and_earth_rate_modes():
     # s (s^2 + W^2) [(s^2 + ws^2)^2 + 4 s^2 W^2 sin^2 L] = 0, roots
     # 0, +-i W, +-i (sqrt(ws^2 + W^2 sin^2 L) +- W sin L)
     g = earth.gravity(LAT, HEIGHT)
-    F = errors.system_matrix(errors.NAV15, LAT, HEIGHT, np.zeros(3), [0, 0, -g], np.eye(3))
+    F = error_model.system_matrix(error_model.NAV15, LAT, HEIGHT, np.zeros(3), [0, 0, -g], np.eye(3))
     names = ("dr_N", "dr_E", "dv_N", "dv_E", "phi_N", "phi_E", "phi_D")
-    idx = [errors.NAV15.index(n) for n in names]
+    idx = [error_model.NAV15.index(n) for n in names]
     ev = np.linalg.eigvals(F[np.ix_(idx, idx)])
     assert np.abs(ev.real).max() < 1e-15  # neutrally stable: no sign error anywhere
     w = np.sort(ev.imag[ev.imag > 0])
@@ -214,26 +214,26 @@ def test_stationary_schuler_foucault_and_earth_rate_modes():
 def test_propagate_steps_and_shapes():
     f_n = [0.0, 0.0, -earth.gravity(LAT, 0.0)]
     x0 = np.zeros(15)
-    x0[errors.NAV15.index("ba_x")] = 1e-3
-    one = errors.propagate(errors.NAV15, x0, 10.0, LAT, 0.0, np.zeros(3), f_n, np.eye(3))
-    F = errors.system_matrix(errors.NAV15, LAT, 0.0, np.zeros(3), f_n, np.eye(3))
+    x0[error_model.NAV15.index("ba_x")] = 1e-3
+    one = error_model.propagate(error_model.NAV15, x0, 10.0, LAT, 0.0, np.zeros(3), f_n, np.eye(3))
+    F = error_model.system_matrix(error_model.NAV15, LAT, 0.0, np.zeros(3), f_n, np.eye(3))
     np.testing.assert_allclose(one[1], expm(F * 10.0) @ x0, rtol=1e-14)
-    many = errors.propagate(errors.NAV15, x0, np.full(5, 2.0), LAT, 0.0, np.zeros(3), f_n,
+    many = error_model.propagate(error_model.NAV15, x0, np.full(5, 2.0), LAT, 0.0, np.zeros(3), f_n,
                             np.eye(3))  # fmt: skip
     assert many.shape == (6, 15)
     np.testing.assert_allclose(many[-1], one[1], rtol=1e-9, atol=1e-15)
     # dv_N = ba_x t to first order at the start
-    assert many[1, errors.NAV15.index("dv_N")] == pytest.approx(2e-3, rel=1e-5)
+    assert many[1, error_model.NAV15.index("dv_N")] == pytest.approx(2e-3, rel=1e-5)
     with pytest.raises(ValueError, match="1-D"):
-        errors.propagate(errors.NAV15, x0, np.ones((2, 2)), LAT, 0.0, np.zeros(3), f_n, np.eye(3))
+        error_model.propagate(error_model.NAV15, x0, np.ones((2, 2)), LAT, 0.0, np.zeros(3), f_n, np.eye(3))
 
 
 def test_noise_matrix():
     mat_nb = rot.mat_from_euler(0.3, -0.2, 1.1)
     arw, vrw = 0.002 * DEG / 60.0, np.array([1e-4, 2e-4, 3e-4])
-    Qc = errors.noise_matrix(errors.EKF17, mat_nb, arw, vrw, gyro_bias_rw=1e-9,
+    Qc = error_model.noise_matrix(error_model.EKF17, mat_nb, arw, vrw, gyro_bias_rw=1e-9,
                              clock_bias_psd=0.1, clock_drift_psd=0.01)  # fmt: skip
-    sl = errors.EKF17.slice
+    sl = error_model.EKF17.slice
     np.testing.assert_allclose(
         Qc[sl("attitude"), sl("attitude")], arw**2 * np.eye(3), rtol=1e-12, atol=1e-12 * arw**2
     )  # isotropic: any attitude
@@ -242,7 +242,7 @@ def test_noise_matrix():
     np.testing.assert_allclose(np.diag(Qc[sl("gyro_bias"), sl("gyro_bias")]), 1e-18)
     assert Qc[15, 15] == 0.1 and Qc[16, 16] == 0.01
     assert not Qc[sl("position")].any() and not Qc[sl("accel_bias")].any()
-    assert errors.noise_matrix(errors.NAV15, np.stack([mat_nb] * 4), arw, vrw).shape == (4, 15, 15)
+    assert error_model.noise_matrix(error_model.NAV15, np.stack([mat_nb] * 4), arw, vrw).shape == (4, 15, 15)
 
 
 # ------------------------------------------------------------------ linear vs nonlinear
@@ -258,7 +258,7 @@ INITIAL_AND_BIASES = {
 
 
 def _group(values, group):
-    return np.array([values.get(name, 0.0) for name in errors.GROUPS[group]])
+    return np.array([values.get(name, 0.0) for name in error_model.GROUPS[group]])
 
 
 def _strapdown_errors(traj, values, duration, rate_hz, *, fixed_position=False):
@@ -267,22 +267,22 @@ def _strapdown_errors(traj, values, duration, rate_hz, *, fixed_position=False):
     actual (dr, dv, phi) errors against the truth, shape (m, 9)."""
     dt = 1.0 / rate_hz
     dtheta, dv = trajectory.ideal_increments(traj, np.arange(round(duration * rate_hz) + 1) * dt)
-    x = np.array([values.get(n, 0.0) for n in errors.FULL.names])
-    e_a, e_g = _sensor_matrices(errors.FULL, x)
+    x = np.array([values.get(n, 0.0) for n in error_model.FULL.names])
+    e_a, e_g = _sensor_matrices(error_model.FULL, x)
     dtheta = dtheta @ (np.eye(3) + e_g).T + _group(values, "gyro_bias") * dt
     dv = dv @ (np.eye(3) + e_a).T + _group(values, "accel_bias") * dt
     mat_nb, vel_n, lla = (a[0] for a in traj.state(np.zeros(1)))
     state = NavState.from_attitude(
         rot.mat_from_rotvec(-_group(values, "attitude")) @ mat_nb,
         vel_n + _group(values, "velocity"),
-        errors.lla_offset(lla, _group(values, "position")),
+        error_model.lla_offset(lla, _group(values, "position")),
     )
     _, series = integrate(state, dtheta, dv, dt, fixed_position=fixed_position,
                           decimation=round(rate_hz))  # fmt: skip
     time = series.time(dt)
     mat_nb, vel_n, lla = traj.state(time)
-    actual = np.concatenate([errors.position_error_ned(series.lla, lla), series.vel_n - vel_n,
-                             errors.attitude_error(series.mat_nb(), mat_nb)], axis=1)  # fmt: skip
+    actual = np.concatenate([error_model.position_error_ned(series.lla, lla), series.vel_n - vel_n,
+                             error_model.attitude_error(series.mat_nb(), mat_nb)], axis=1)  # fmt: skip
     return time, actual
 
 
@@ -295,7 +295,7 @@ def _linear_errors(traj, layout, values, duration, step, **kwargs):
     omega_ib_b, f_b = traj.rates(mid)
     f_n = np.einsum("kij,kj->ki", mat_nb, f_b)
     x0 = [values.get(name, 0.0) for name in layout.names]
-    x = errors.propagate(layout, x0, np.full(n, step), lla[:, 0], lla[:, 2], vel_n, f_n, mat_nb,
+    x = error_model.propagate(layout, x0, np.full(n, step), lla[:, 0], lla[:, 2], vel_n, f_n, mat_nb,
                          omega_ib_b, **kwargs)  # fmt: skip
     return x[round(1.0 / step) :: round(1.0 / step)]
 
@@ -318,8 +318,8 @@ def test_nav15_linear_model_matches_free_inertial_strapdown_over_30_min():
     # channel (dr_D reaches ~2 km) all in play. Measured: every state within 0.6 %.
     values = INITIAL_AND_BIASES
     _, actual = _strapdown_errors(STATIONARY, values, 1800.0, 100.0)
-    linear = _linear_errors(STATIONARY, errors.NAV15, values, 1800.0, 1.0)
-    deviation = _relative_deviation(actual, linear, errors.NAV15)
+    linear = _linear_errors(STATIONARY, error_model.NAV15, values, 1800.0, 1.0)
+    deviation = _relative_deviation(actual, linear, error_model.NAV15)
     assert len(deviation) == 9 and max(deviation.values()) < 0.10, deviation
     # the run is not trivially small: tilts of arcminutes, km-level position errors
     assert np.abs(actual[:, 1]).max() > 1000.0 and np.abs(actual[:, 8]).max() > 3 * ARCMIN
@@ -331,13 +331,13 @@ def test_align12_linear_model_matches_fixed_position_strapdown_over_30_min():
     values = {k: v for k, v in INITIAL_AND_BIASES.items() if not k.startswith("dr")}
     _, actual = _strapdown_errors(STATIONARY, values, 1800.0, 100.0, fixed_position=True)
     assert np.abs(actual[:, :3]).max() < 1e-6  # position held (m)
-    linear = _linear_errors(STATIONARY, errors.ALIGN12, values, 1800.0, 1.0,
+    linear = _linear_errors(STATIONARY, error_model.ALIGN12, values, 1800.0, 1.0,
                             transport_from_estimate=False)  # fmt: skip
-    deviation = _relative_deviation(actual, linear, errors.ALIGN12)
+    deviation = _relative_deviation(actual, linear, error_model.ALIGN12)
     assert len(deviation) == 6 and max(deviation.values()) < 0.10, deviation
     # the free-navigation model (with the Schuler coupling) does not describe this run
-    wrong = _linear_errors(STATIONARY, errors.ALIGN12, values, 1800.0, 1.0)
-    assert max(_relative_deviation(actual, wrong, errors.ALIGN12).values()) > 0.10
+    wrong = _linear_errors(STATIONARY, error_model.ALIGN12, values, 1800.0, 1.0)
+    assert max(_relative_deviation(actual, wrong, error_model.ALIGN12).values()) > 0.10
 
 
 def test_ekf26_misalignment_columns_match_strapdown_on_a_turntable():
@@ -354,13 +354,13 @@ def test_ekf26_misalignment_columns_match_strapdown_on_a_turntable():
     )  # fmt: skip
     values = dict(
         zip(
-            errors.GROUPS["accel_misalignment"] + errors.GROUPS["gyro_misalignment"],
+            error_model.GROUPS["accel_misalignment"] + error_model.GROUPS["gyro_misalignment"],
             np.array([20, -30, 25, 30, -20, 25, -35, 15, -25]) * ARCSEC,
             strict=True,
         )
     )
     _, actual = _strapdown_errors(traj, values, 180.0, 100.0)
-    linear = _linear_errors(traj, errors.EKF26, values, 180.0, 0.05)
-    deviation = _relative_deviation(actual, linear, errors.EKF26)
+    linear = _linear_errors(traj, error_model.EKF26, values, 180.0, 0.05)
+    deviation = _relative_deviation(actual, linear, error_model.EKF26)
     assert len(deviation) == 9 and max(deviation.values()) < 0.10, deviation
     assert np.abs(actual[:, 8]).max() > 10 * ARCMIN  # heading drift from the symmetric part
