@@ -22,15 +22,20 @@ MODULES = ("bench_strapdown", "bench_imu", "bench_table")
 
 def _module(name):
     code = f"import json, benchmarks.{name} as m; print(json.dumps(m.run()))"
-    out = subprocess.run([sys.executable, "-c", code], check=True, capture_output=True,
-                         text=True, cwd=HERE.parent)
+    out = subprocess.run(
+        [sys.executable, "-c", code], check=True, capture_output=True, text=True, cwd=HERE.parent
+    )
     return json.loads(out.stdout.strip().splitlines()[-1])
 
 
 def _command(*args):
     """Run ``inins ARGS`` in a child; its wall time, peak RSS and exit code."""
-    out = subprocess.run([sys.executable, "-m", "benchmarks._measure", *args],
-                         capture_output=True, text=True, cwd=HERE.parent)
+    out = subprocess.run(
+        [sys.executable, "-m", "benchmarks._measure", *args],
+        capture_output=True,
+        text=True,
+        cwd=HERE.parent,
+    )
     figures = json.loads(out.stderr.strip().splitlines()[-1])
     if figures["exit"] != 0:
         raise RuntimeError(f"inins {' '.join(args)} failed:\n{out.stderr}")
@@ -41,8 +46,7 @@ def _help_startup():
     times = []
     for _ in range(7):
         start = time.perf_counter()
-        subprocess.run([sys.executable, "-m", "inins", "--help"], check=True,
-                       capture_output=True)
+        subprocess.run([sys.executable, "-m", "inins", "--help"], check=True, capture_output=True)
         times.append(time.perf_counter() - start)
     return {"median_s": statistics.median(times), "max_s": max(times)}
 
@@ -53,16 +57,22 @@ def _table_commands(outdir, long):
     figures = {}
     runs = {"2h_1khz": []}
     if long:  # the same sequence stretched to 24 h: 86.4 M samples
-        runs["24h_1khz"] = ["--set", "motion.0.duration_s=43170", "--set",
-                            "motion.2.duration_s=43170", "--set",
-                            "mount.rotations.0.duration_s=86400"]
+        runs["24h_1khz"] = [
+            "--set",
+            "motion.0.duration_s=43170",
+            "--set",
+            "motion.2.duration_s=43170",
+            "--set",
+            "mount.rotations.0.duration_s=86400",
+        ]
     for name, extra in runs.items():
         out = Path(outdir) / name
         args = ("simulate-table", str(scenarios / "table1-2h-1khz.yaml"), "-o", str(out), *extra)
         figures[f"simulate_table_{name}"] = _command(*args)
         shutil.copy(scenarios / "calibrate-2h-1khz.yaml", out / "calibrate.yaml")
-        figures[f"calibrate_bias_{name}"] = _command("calibrate-bias", str(out / "calibrate.yaml"),
-                                                     "-o", str(out / "calibrate"))
+        figures[f"calibrate_bias_{name}"] = _command(
+            "calibrate-bias", str(out / "calibrate.yaml"), "-o", str(out / "calibrate")
+        )
     return figures
 
 

@@ -30,8 +30,10 @@ def main():
     code = code or _once(app)
     warm = time.perf_counter() - start
     rss = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0
-    print(json.dumps({"wall_s": wall, "warm_s": warm, "peak_rss_mb": rss, "exit": code}),
-          file=sys.stderr)
+    print(
+        json.dumps({"wall_s": wall, "warm_s": warm, "peak_rss_mb": rss, "exit": code}),
+        file=sys.stderr,
+    )
 
 
 if __name__ == "__main__":

@@ -9,7 +9,7 @@ from pathlib import Path
 import numpy as np
 import yaml
 
-from inins.io.scenarios.simulate_table import SimulateTableScenario
+from inins.scenario.simulate_table import SimulateTableScenario
 from inins.table.simulate import simulation_chunks
 
 SCENARIO = Path(__file__).parent / "scenarios" / "table1-2h-1khz.yaml"

@@ -1,4 +1,4 @@
-"""Neutral result containers shared by the method packages and the I/O layer.
+"""Neutral result containers and text tables shared by the commands and the I/O layer.
 
 Methods (``inins.table``, ``inins.calibration``) return a :class:`CommandResult`
 of plain numpy arrays; :mod:`inins.io` writes it to HDF5, a text report and
@@ -7,6 +7,7 @@ into a :class:`SeriesSink` handed to them by the caller. Nothing here imports
 h5py, yaml or the CLI.
 """
 
+import math
 from dataclasses import dataclass, field
 from typing import Protocol
 
@@ -76,13 +77,43 @@ class SeriesSink(Protocol):
     """
 
     def create(
-        self, path: str, row_shape: tuple, dtype, units: str, frame: str = "",
-        description: str = "", expected_rows: int | None = None, attrs: dict | None = None,
+        self,
+        path: str,
+        row_shape: tuple,
+        dtype,
+        units: str,
+        frame: str = "",
+        description: str = "",
+        expected_rows: int | None = None,
+        attrs: dict | None = None,
     ) -> None: ...
 
     def append(self, path: str, rows: np.ndarray) -> None: ...
 
     def set_attrs(self, path: str, attrs: dict) -> None: ...
+
+
+class NullSink:
+    """A :class:`SeriesSink` that keeps nothing (a run whose series nobody reads)."""
+
+    def create(
+        self,
+        path,
+        row_shape,
+        dtype,
+        units,
+        frame="",
+        description="",
+        expected_rows=None,
+        attrs=None,
+    ):
+        pass
+
+    def append(self, path, rows):
+        pass
+
+    def set_attrs(self, path, attrs):
+        pass
 
 
 class MemorySink:
@@ -93,8 +124,17 @@ class MemorySink:
         self.attrs = {}
         self._rows = {}
 
-    def create(self, path, row_shape, dtype, units, frame="", description="",
-               expected_rows=None, attrs=None):
+    def create(
+        self,
+        path,
+        row_shape,
+        dtype,
+        units,
+        frame="",
+        description="",
+        expected_rows=None,
+        attrs=None,
+    ):
         self.meta[path] = (tuple(row_shape), np.dtype(dtype), units, frame, description)
         self._rows[path] = []
         if attrs:
@@ -114,3 +154,74 @@ class MemorySink:
         row_shape, dtype = self.meta[path][:2]
         parts = self._rows[path]
         return np.concatenate(parts) if parts else np.empty((0, *row_shape), dtype)
+
+
+# --------------------------------------------------------------------------- text tables
+
+
+def format_value(value, fmt: str = ".6g") -> str:
+    """One cell: numbers with ``fmt``, None as ``n/a``, booleans as yes/no."""
+    if value is None:
+        return "n/a"
+    if isinstance(value, bool):
+        return "yes" if value else "no"
+    if hasattr(value, "item") and getattr(value, "ndim", 0) == 0:
+        value = value.item()
+    if isinstance(value, int):
+        return str(value)
+    if isinstance(value, float):
+        return "nan" if math.isnan(value) else format(value, fmt)
+    return str(value)
+
+
+def format_table(rows, headers, units=None, fmt: str = ".6g", indent: int = 0) -> str:
+    """Rows as an aligned plain-text table.
+
+    Parameters
+    ----------
+    rows : sequence of sequence
+        Cells: numbers (right-aligned, formatted with ``fmt``), text
+        (left-aligned), None (``n/a``).
+    headers : sequence of str
+        Column titles.
+    units : sequence of str, optional
+        Unit per column, shown under the title as ``[unit]`` (empty: none).
+    fmt : str
+        Number format, e.g. ``".6g"`` or ``".3e"``.
+    indent : int
+        Spaces before every line.
+
+    Returns
+    -------
+    str
+        Lines joined with newlines (no trailing newline).
+    """
+    rows = [list(r) for r in rows]
+    ncol = len(headers)
+    if any(len(r) != ncol for r in rows):
+        raise ValueError(f"every row needs {ncol} cells")
+    numeric = [
+        bool(rows) and all(_is_number(r[c]) or r[c] is None for r in rows) for c in range(ncol)
+    ]
+    head = [list(headers)]
+    if units is not None and any(units):
+        head.append([f"[{u}]" if u else "" for u in units])
+    body = [[format_value(v, fmt) for v in r] for r in rows]
+    widths = [max(len(line[c]) for line in head + body) for c in range(ncol)]
+    pad = " " * indent
+
+    def line(cells):
+        parts = [
+            cell.rjust(widths[c]) if numeric[c] else cell.ljust(widths[c])
+            for c, cell in enumerate(cells)
+        ]
+        return (pad + "  ".join(parts)).rstrip()
+
+    rule = pad + "  ".join("-" * w for w in widths)
+    return "\n".join([*(line(h) for h in head), rule, *(line(b) for b in body)])
+
+
+def _is_number(value) -> bool:
+    if hasattr(value, "item") and getattr(value, "ndim", 0) == 0:
+        value = value.item()
+    return isinstance(value, int | float) and not isinstance(value, bool)

@@ -17,6 +17,7 @@ heading error ``eps_E / (W cos lat)`` (000 §3.1, 003 eq. 10), an accelerometer 
 heading noise ``N / (W cos lat sqrt(T))``.
 """
 
+import enum
 from dataclasses import dataclass
 
 import numpy as np
@@ -24,8 +25,15 @@ import numpy as np
 from inins.core import earth, rotation
 
 
+class HeadingSource(enum.StrEnum):
+    """Where an alignment's heading came from."""
+
+    GYROCOMPASS = "gyrocompass"
+    GIVEN = "known heading"
+
+
 @dataclass(frozen=True)
-class Alignment:
+class StationaryAlignment:
     """Result of a stationary alignment.
 
     Attributes
@@ -40,8 +48,7 @@ class Alignment:
         1-sigma heading noise (rad) from the angle random walk given, NaN if unknown.
     tilt_sigma : float
         1-sigma levelling noise (rad) from the velocity random walk given, NaN if unknown.
-    method : str
-        ``"gyrocompass"`` or ``"known heading"``.
+    method : HeadingSource
     """
 
     mat_nb: np.ndarray
@@ -50,7 +57,7 @@ class Alignment:
     duration: float
     heading_sigma: float
     tilt_sigma: float
-    method: str
+    method: HeadingSource
 
     @property
     def euler(self):
@@ -123,37 +130,13 @@ def align_stationary(dtheta, dv, dt, lat, heading=None, arw=np.nan, vrw=np.nan):
 def align_from_means(omega_b, f_b, duration, lat, heading=None, arw=np.nan, vrw=np.nan):
     """:func:`align_stationary` from the mean rate (rad/s) and specific force (m/s^2)
     over a window of ``duration`` (s)."""
-    method = "known heading" if heading is not None else "gyrocompass"
+    method = HeadingSource.GIVEN if heading is not None else HeadingSource.GYROCOMPASS
     if heading is None:
         heading = gyrocompass_heading(omega_b, f_b)
     mat_nb = rotation.axis_rotation(2, heading) @ level(f_b)
     w_h = earth.RATE * np.cos(lat)
-    heading_sigma = arw / (w_h * np.sqrt(duration)) if method == "gyrocompass" else 0.0
+    heading_sigma = arw / (w_h * np.sqrt(duration)) if method == HeadingSource.GYROCOMPASS else 0.0
     tilt_sigma = vrw / (np.linalg.norm(f_b) * np.sqrt(duration))
-    return Alignment(mat_nb, omega_b, f_b, duration, float(heading_sigma), float(tilt_sigma),
-                     method)
-
-
-BLOCKS = 50
-"""Blocks the noise density is estimated from (:func:`noise_density`)."""
-
-
-def noise_density(increments, dt, blocks=BLOCKS):
-    """White-noise density (unit/sqrt(s)) per axis from the scatter of block means.
-
-    Over a window at rest, the mean rate of a block of length tau has the standard
-    deviation ``N / sqrt(tau)`` for white noise of density N (angle or velocity random
-    walk), so ``N = std(block means) sqrt(tau)``. Block sums carry the quantization
-    remainder, so pulse quantization adds only ``~q / tau`` per block.
-
-    Parameters
-    ----------
-    increments : ndarray, shape (n, 3)
-        Increments (rad or m/s) of a window at rest.
-    dt : float
-        Sample interval (s).
-    """
-    size = max(1, increments.shape[0] // blocks)
-    count = increments.shape[0] // size
-    means = increments[:count * size].reshape(count, size, 3).sum(axis=1) / (size * dt)
-    return means.std(axis=0, ddof=1) * np.sqrt(size * dt)
+    return StationaryAlignment(
+        mat_nb, omega_b, f_b, duration, float(heading_sigma), float(tilt_sigma), method
+    )

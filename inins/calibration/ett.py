@@ -58,7 +58,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from inins.calibration import alignment
-from inins.core import earth, rotation
+from inins.core import earth, noise, rotation
 from inins.core.units import DEG, UG
 from inins.exceptions import InputError
 from inins.table.kinematics import platform_matrix
@@ -72,8 +72,6 @@ LEVEL_COS = np.cos(10.0 * DEG)
 """A hold is level when the platform normal is within 10 deg of the vertical ..."""
 VERTICAL_SIN = np.sin(10.0 * DEG)
 """... and vertical (table pitched 90 deg) when it is within 10 deg of the horizontal."""
-BLOCKS = 50
-"""Blocks per window for the data-driven noise of a window mean."""
 METHOD = "align-ett (ETT azimuth alignment, 000 §3.1)"
 
 
@@ -103,7 +101,7 @@ class EttOptions:
 
 
 @dataclass(frozen=True)
-class Position:
+class EttPosition:
     """One table position: the hold (``step`` index, ``label``), the averaged window
     ``[time_start, time_end]`` (s), the mean specific force ``f_b`` (m/s^2, (3,)) and
     encoder angles ``angles`` (rad, (g,)) with the 1 sigma of each mean."""
@@ -171,25 +169,42 @@ class EttTruth:
 
 
 @dataclass(frozen=True)
+class HeadingSigma:
+    """Contributions to the ETT heading 1 sigma (rad): accelerometer noise of the window
+    means, accelerometer bias, encoder noise, table base azimuth."""
+
+    noise: float
+    bias: float
+    encoder: float
+    azimuth: float
+
+    @property
+    def total(self):
+        """Root sum of squares (rad)."""
+        return float(
+            np.sqrt(sum(v * v for v in (self.noise, self.bias, self.encoder, self.azimuth)))
+        )
+
+
+@dataclass(frozen=True)
 class EttEstimate:
     """Everything :func:`align_ett` found: the :class:`EttResult`, both positions, the
     000 eq. 48 angles ``alpha`` (azimuth offset), ``beta``, ``gamma`` (tilts about 000's
-    x and y) in rad, the heading 1-sigma contributions ``sigma`` (rad: ``noise``,
-    ``bias``, ``encoder``, ``azimuth``), ``time_used`` (s: settle + window at both
-    positions + the steps between), the gyrocompass over the level hold and its time (s),
-    where the noise figures came from (``"stated"`` or ``"data"``), truth and warnings."""
+    x and y) in rad, the heading 1-sigma contributions ``sigma``, ``time_used`` (s:
+    settle + window at both positions + the steps between), the gyrocompass over the
+    level hold and its time (s), whether the noise figures were stated (else taken from the data), truth and warnings."""
 
     result: EttResult
-    vertical: Position
-    level: Position
+    vertical: EttPosition
+    level: EttPosition
     alpha: float
     beta: float
     gamma: float
-    sigma: dict
+    sigma: HeadingSigma
     time_used: float
-    gyrocompass: alignment.Alignment
+    gyrocompass: alignment.StationaryAlignment
     gyrocompass_time: float
-    noise_source: str
+    noise_stated: bool
     truth: EttTruth | None
     warnings: tuple
 
@@ -260,19 +275,30 @@ def _named(record, label, key):
         if s.label == label:
             return i
     known = ", ".join(repr(s.label) for _, s in _holds(record)) or "none"
-    raise InputError(f"{METHOD}: no hold labelled {label!r} in the step schedule "
-                     f"(hold labels: {known})", source=record.source, key=key)
+    raise InputError(
+        f"{METHOD}: no hold labelled {label!r} in the step schedule (hold labels: {known})",
+        source=record.source,
+        key=key,
+    )
 
 
 def _no_vertical(record, holds, up):
-    listed = ", ".join(f"{s.label or '#' + str(i)} (normal "
-                       f"{np.degrees(np.arccos(min(abs(up[i][2]), 1.0))):.0f} deg from "
-                       "vertical)" for i, s in holds) or "none"
+    listed = (
+        ", ".join(
+            f"{s.label or '#' + str(i)} (normal "
+            f"{np.degrees(np.arccos(min(abs(up[i][2]), 1.0))):.0f} deg from "
+            "vertical)"
+            for i, s in holds
+        )
+        or "none"
+    )
     return InputError(
         f"{METHOD}: the record has no vertical position (a hold with the table pitched "
         f"90 deg, platform normal horizontal); holds: {listed}. Add one to the motion "
-        "program or name it with positions.vertical_label", source=record.source,
-        key="positions.vertical_label")
+        "program or name it with positions.vertical_label",
+        source=record.source,
+        key="positions.vertical_label",
+    )
 
 
 def select_positions(record, options):
@@ -301,15 +327,21 @@ def select_positions(record, options):
     if options.level_label is not None:
         level = _named(record, options.level_label, "positions.level_label")
         if abs(up[level][2]) < LEVEL_COS:
-            raise InputError(f"{METHOD}: the hold {options.level_label!r} is not level "
-                             "(platform normal more than 10 deg from the vertical)",
-                             source=record.source, key="positions.level_label")
+            raise InputError(
+                f"{METHOD}: the hold {options.level_label!r} is not level "
+                "(platform normal more than 10 deg from the vertical)",
+                source=record.source,
+                key="positions.level_label",
+            )
     else:
         found = [i for i, _ in holds if abs(up[i][2]) > LEVEL_COS]
         if not found:
-            raise InputError(f"{METHOD}: the record has no level hold (platform normal "
-                             "vertical); add one or name it with positions.level_label",
-                             source=record.source, key="positions.level_label")
+            raise InputError(
+                f"{METHOD}: the record has no level hold (platform normal "
+                "vertical); add one or name it with positions.level_label",
+                source=record.source,
+                key="positions.level_label",
+            )
         after = [i for i in found if i > vertical]
         level = after[0] if after else found[-1]
     if abs(up[vertical] @ up[level]) > np.cos(45.0 * DEG):
@@ -317,7 +349,10 @@ def select_positions(record, options):
         raise InputError(
             f"{METHOD}: the holds {names[0]!r} and {names[1]!r} see gravity within 45 deg "
             "of the same table axis, so they do not fix the azimuth; use one vertical "
-            "(table pitch 90 deg) and one level hold", source=record.source, key="positions")
+            "(table pitch 90 deg) and one level hold",
+            source=record.source,
+            key="positions",
+        )
     return vertical, level
 
 
@@ -328,10 +363,13 @@ def _window(record, index, settle, window, name):
     if window is not None:
         stop = min(stop, first + round(window / record.dt))
     if stop - first < 2:
-        raise InputError(f"{METHOD}: the {name} hold {step.label!r} is "
-                         f"{step.end_time - step.start_time:g} s long, too short for a "
-                         f"settle time of {settle:g} s", source=record.source,
-                         key="positions.settle_s")
+        raise InputError(
+            f"{METHOD}: the {name} hold {step.label!r} is "
+            f"{step.end_time - step.start_time:g} s long, too short for a "
+            f"settle time of {settle:g} s",
+            source=record.source,
+            key="positions.settle_s",
+        )
     return first, stop
 
 
@@ -339,8 +377,8 @@ def window_mean(increments, dt, random_walk=None):
     """Mean rate of increments and the 1 sigma of that mean per axis.
 
     ``sigma = N / sqrt(T)`` for a stated random walk ``N``; otherwise the scatter of
-    :data:`BLOCKS` block means, ``std(block means) / sqrt(blocks)`` (block sums carry
-    the quantization remainder, so quantized data are not penalised per sample).
+    :data:`inins.core.noise.BLOCKS` block means, ``std(block means) / sqrt(blocks)``
+    (block sums carry the quantization remainder, so quantized data are not penalised per sample).
 
     Parameters
     ----------
@@ -353,7 +391,7 @@ def window_mean(increments, dt, random_walk=None):
     n = increments.shape[0]
     mean = increments.sum(axis=0) / (n * dt)
     if random_walk is None:
-        random_walk = alignment.noise_density(increments, dt, BLOCKS)
+        random_walk = noise.noise_density(increments, dt)
     return mean, np.broadcast_to(random_walk, (3,)) / np.sqrt(n * dt)
 
 
@@ -367,14 +405,14 @@ def _encoder(record, step, t_a, t_b):
 
 
 def measure(record, index, options, name):
-    """The :class:`Position` of hold ``index``: accelerometer and encoder means."""
+    """The :class:`EttPosition` of hold ``index``: accelerometer and encoder means."""
     first, stop = _window(record, index, options.settle, options.window, name)
     _, dv = record.imu(first, stop)
     f_b, f_sigma = window_mean(dv, record.dt, options.accel_vrw)
     t_a, t_b = record.t0 + first * record.dt, record.t0 + stop * record.dt
     step = record.steps[index]
     angles, angles_sigma = _encoder(record, step, t_a, t_b)
-    return Position(step.label, index, t_a, t_b, f_b, f_sigma, angles, angles_sigma)
+    return EttPosition(step.label, index, t_a, t_b, f_b, f_sigma, angles, angles_sigma)
 
 
 class _Solver:
@@ -383,16 +421,16 @@ class _Solver:
 
     def __init__(self, record, mat_n_base, vertical, level):
         self.axes, self.base = record.axes, mat_n_base
-        self.weights = np.array([vertical.time_end - vertical.time_start,
-                                 level.time_end - level.time_start])
-        self.x0 = np.concatenate([vertical.f_b, level.f_b, vertical.angles, level.angles,
-                                  [0.0]])
+        self.weights = np.array(
+            [vertical.time_end - vertical.time_start, level.time_end - level.time_start]
+        )
+        self.x0 = np.concatenate([vertical.f_b, level.f_b, vertical.angles, level.angles, [0.0]])
         self.g = vertical.angles.size
 
     def mat_tb(self, x):
         g = self.g
         base = rotation.axis_rotation(2, x[-1]) @ self.base
-        mat_nt = platform_matrix(self.axes, base, np.stack([x[6:6 + g], x[6 + g:6 + 2 * g]]))
+        mat_nt = platform_matrix(self.axes, base, np.stack([x[6 : 6 + g], x[6 + g : 6 + 2 * g]]))
         return solve_mounting(np.stack([x[:3], x[3:6]]), mat_nt, self.weights), mat_nt[1]
 
     def heading(self, x):
@@ -415,12 +453,15 @@ def _sigma(jac, vertical, level, options):
     """Heading 1 sigma contributions (rad)."""
     g = vertical.angles.size
     noise = np.hypot(jac[:3] * vertical.f_sigma, jac[3:6] * level.f_sigma)
-    encoder = np.hypot(jac[6:6 + g] * vertical.angles_sigma,
-                       jac[6 + g:6 + 2 * g] * level.angles_sigma)
-    return {"noise": float(np.linalg.norm(noise)),
-            "bias": float(np.linalg.norm(jac[:3] + jac[3:6]) * options.accel_bias_sigma),
-            "encoder": float(np.linalg.norm(encoder)),
-            "azimuth": float(abs(jac[-1]) * options.table_azimuth_sigma)}
+    encoder = np.hypot(
+        jac[6 : 6 + g] * vertical.angles_sigma, jac[6 + g : 6 + 2 * g] * level.angles_sigma
+    )
+    return HeadingSigma(
+        noise=float(np.linalg.norm(noise)),
+        bias=float(np.linalg.norm(jac[:3] + jac[3:6]) * options.accel_bias_sigma),
+        encoder=float(np.linalg.norm(encoder)),
+        azimuth=float(abs(jac[-1]) * options.table_azimuth_sigma),
+    )
 
 
 def _gyrocompass(record, level_index, options):
@@ -450,12 +491,18 @@ def _truth(record, vertical, level, gc_window, mat_tb0, jac):
     gc = _rows(truth, *(record.t0 + i * record.dt for i in gc_window))
     mat_nb_gc = rotation.mat_from_quat(truth.quat_nb[gc[gc.size // 2]])
     eps_e = (mat_nb_gc @ truth.gyro_bias[gc].mean(axis=0))[1]
-    ett_pred = sum(jac[3 * i:3 * i + 3] @ truth.accel_bias[_rows(truth, p.time_start,
-                                                                 p.time_end)].mean(axis=0)
-                   for i, p in enumerate((vertical, level)))
-    return EttTruth(float(rotation.euler_from_mat(mat_nb)[2]), mu,
-                    float(rotation.euler_from_mat(mat_nb_gc)[2]),
-                    float(-eps_e / (earth.RATE * np.cos(record.lla[0]))), float(ett_pred))
+    ett_pred = sum(
+        jac[3 * i : 3 * i + 3]
+        @ truth.accel_bias[_rows(truth, p.time_start, p.time_end)].mean(axis=0)
+        for i, p in enumerate((vertical, level))
+    )
+    return EttTruth(
+        float(rotation.euler_from_mat(mat_nb)[2]),
+        mu,
+        float(rotation.euler_from_mat(mat_nb_gc)[2]),
+        float(-eps_e / (earth.RATE * np.cos(record.lla[0]))),
+        float(ett_pred),
+    )
 
 
 def align_ett(record, options=None):
@@ -463,7 +510,7 @@ def align_ett(record, options=None):
 
     Parameters
     ----------
-    record : inins.table.record.TableRecord
+    record : inins.core.records.TableRecord
     options : EttOptions, optional
 
     Returns
@@ -485,29 +532,51 @@ def align_ett(record, options=None):
     level = measure(record, i_level, options, "level")
     for p in (vertical, level):
         if options.window is not None and p.time_end - p.time_start < options.window - record.dt:
-            warnings.append(f"hold {p.label!r} is shorter than settle_s + window_s: averaged "
-                            f"{p.time_end - p.time_start:g} s")
+            warnings.append(
+                f"hold {p.label!r} is shorter than settle_s + window_s: averaged "
+                f"{p.time_end - p.time_start:g} s"
+            )
     solver = _Solver(record, mat_n_base, vertical, level)
     mat_tb, mat_nt_level = solver.mat_tb(solver.x0)
     mat_tb0 = options.mat_tb0 if options.mat_tb0 is not None else nearest_axes(mat_tb)
     mu = rotation.rotvec_from_mat(mat_tb0.T @ mat_tb)
     if np.linalg.norm(mu) > 1.0 * DEG:
-        warnings.append(f"the IMU is {np.degrees(np.linalg.norm(mu)):.2f} deg off its "
-                        "nominal mounting: check imu_axes")
+        warnings.append(
+            f"the IMU is {np.degrees(np.linalg.norm(mu)):.2f} deg off its "
+            "nominal mounting: check imu_axes"
+        )
     heading = float(rotation.euler_from_mat(mat_nt_level @ mat_tb)[2])
     jac = solver.jacobian()
     sigma = _sigma(jac, vertical, level, options)
-    between = sum(s.end_time - s.start_time
-                  for s in record.steps[min(i_vertical, i_level) + 1:max(i_vertical, i_level)])
+    between = sum(
+        s.end_time - s.start_time
+        for s in record.steps[min(i_vertical, i_level) + 1 : max(i_vertical, i_level)]
+    )
     used = sum(p.time_end - record.steps[p.step].start_time for p in (vertical, level))
     gyrocompass, gc_window = _gyrocompass(record, i_level, options)
-    result = EttResult(mat_tb, mat_tb0, mu, heading,
-                       float(np.sqrt(sum(v * v for v in sigma.values()))), level.angles,
-                       mat_n_base, np.asarray(record.axes, dtype=float))
+    result = EttResult(
+        mat_tb,
+        mat_tb0,
+        mu,
+        heading,
+        sigma.total,
+        level.angles,
+        mat_n_base,
+        np.asarray(record.axes, dtype=float),
+    )
     truth = None
     if record.truth is not None:
         truth = _truth(record, vertical, level, gc_window, mat_tb0, jac)
     return EttEstimate(
-        result, vertical, level, *paper_angles(mu, mat_tb0), sigma, float(used + between),
-        gyrocompass, float((gc_window[1] - record.steps[i_level].start_index) * record.dt),
-        "stated" if options.accel_vrw is not None else "data", truth, tuple(warnings))
+        result,
+        vertical,
+        level,
+        *paper_angles(mu, mat_tb0),
+        sigma,
+        float(used + between),
+        gyrocompass,
+        float((gc_window[1] - record.steps[i_level].start_index) * record.dt),
+        options.accel_vrw is not None,
+        truth,
+        tuple(warnings),
+    )

@@ -1,6 +1,6 @@
 """Gyro-bias estimators of 000 on a navigated return sequence, and the automatic choice.
 
-Epoch tilts eps(0..4) (:mod:`inins.calibration.sequence`, :mod:`.model`) per
+Epoch tilts eps(0..4) (:mod:`inins.calibration.sequence`, :mod:`.tilt_model`) per
 horizontal body axis; T_A, T_B the navigation times between epochs at A and B:
 
 - attitude-error two-position method (000 eqs. 28-29; eq. 44 is the same
@@ -16,21 +16,50 @@ The heading error phi_D drives only the tilt about the axis pointing east at A
 east axis eq. 44 (attitude) is valid when the mount does not turn about that
 axis (M3 + M4 = 0) and eq. 45 when the initial heading error is ~0 (ETT or a
 known heading). Each estimate solves a pair of formulas (east axis, north axis)
-with their exact gains (:func:`inins.calibration.model.formula_gain`), so the
+with their exact gains (:func:`inins.calibration.tilt_model.formula_gain`), so the
 rotation time and Earth-rate coupling that the paper's first-order formulas
 neglect do not bias it.
 """
 
+import enum
 from dataclasses import dataclass, field
 
 import numpy as np
 
-from inins.calibration import model, velocity
+from inins.calibration import tilt_model, velocity
+
+
+class Estimator(enum.StrEnum):
+    """The estimates calibrate-bias reports side by side (a pair of formulas each, for
+    the east and north axes at A; :data:`COEFFICIENTS` names the per-axis formulas)."""
+
+    ATTITUDE = "attitude"
+    VELOCITY = "velocity"
+    EQ44 = "eq44"
+    EQ45 = "eq45"
+
+
+class Formula(enum.StrEnum):
+    """A per-axis linear combination of the epoch tilts."""
+
+    ATTITUDE = "attitude"
+    RETURN = "return"
+    RETURN_TO_START = "return_to_start"
+
+
+EQ38 = "eq38"
+"""Name of the north-axis return-sequence formula (000 eq. 38) in the results."""
 
 COEFFICIENTS = {
-    "attitude": lambda ta, tb: [-0.5 / ta, 0.5 / ta, -0.5 / tb, 0.5 / tb, 0.0],
-    "return": lambda ta, tb: [0.0, 1 / (ta + tb), -1 / (ta + tb), 1 / (ta + tb), -1 / (ta + tb)],
-    "return_to_start": lambda ta, tb: [-1.0, 0.0, 0.0, 0.0, 1.0],
+    Formula.ATTITUDE: lambda ta, tb: [-0.5 / ta, 0.5 / ta, -0.5 / tb, 0.5 / tb, 0.0],
+    Formula.RETURN: lambda ta, tb: [
+        0.0,
+        1 / (ta + tb),
+        -1 / (ta + tb),
+        1 / (ta + tb),
+        -1 / (ta + tb),
+    ],
+    Formula.RETURN_TO_START: lambda ta, tb: [-1.0, 0.0, 0.0, 0.0, 1.0],
 }
 
 
@@ -83,11 +112,11 @@ class Estimate:
 class Context:
     """What every estimator needs, computed once."""
 
-    track: model.Track
+    track: tilt_model.Track
     windows: np.ndarray
     t_hold: tuple
     eps: np.ndarray
-    response: model.Response
+    response: tilt_model.Response
     phi_response: np.ndarray
     arw: np.ndarray
     bias_z: float
@@ -98,24 +127,33 @@ class Context:
         """``gyrocompass``: the initial heading error follows the biases through the
         gyrocompass equilibrium ``phi_D = (mat_nb b)_E / (W cos lat)`` (000 §3.2:
         "heading error = beta_x / (Omega cos lambda)"); otherwise it is ~0."""
-        w_h = np.linalg.norm(model.earth.rate_ie_n(track.lat)[:2])
+        w_h = np.linalg.norm(tilt_model.earth.rate_ie_n(track.lat)[:2])
         heading = track.mat_nb[0][1] / w_h if gyrocompass else np.zeros(3)
-        phi_response = np.concatenate([-model.bias_response(track),
-                                       model.earth_transition(track)], axis=2)
-        return cls(track, np.asarray(windows), t_hold, model.tilts(track),
-                   model.Response.of(track), phi_response,
-                   np.broadcast_to(np.asarray(arw, float), (3,)), bias_z, heading)
+        phi_response = np.concatenate(
+            [-tilt_model.bias_response(track), tilt_model.earth_transition(track)], axis=2
+        )
+        return cls(
+            track,
+            np.asarray(windows),
+            t_hold,
+            tilt_model.tilts(track),
+            tilt_model.Response.of(track),
+            phi_response,
+            np.broadcast_to(np.asarray(arw, float), (3,)),
+            bias_z,
+            heading,
+        )
 
     def weights(self, kinds):
         """Weights (2, m, 3) of one formula per horizontal axis: ``kinds[axis] -> name``."""
         out = []
         for axis in self.track.horizontal:
             terms = COEFFICIENTS[kinds[axis]](*self.t_hold)
-            if any(terms[len(self.windows):]):
+            if any(terms[len(self.windows) :]):
                 raise ValueError(f"{kinds[axis]} needs epoch 4: the return to the first position")
             coef = np.zeros((len(self.windows), 3))
-            coef[:, axis] = terms[:len(self.windows)]
-            out.append(model.window_weights(self.track, self.windows, coef))
+            coef[:, axis] = terms[: len(self.windows)]
+            out.append(tilt_model.window_weights(self.track, self.windows, coef))
         return np.array(out)
 
     def evaluate(self, weights):
@@ -123,10 +161,10 @@ class Context:
         return np.einsum("kmi,mi->k", weights, self.eps)
 
     def gain(self, weights):
-        return model.formula_gain(weights, self.response)
+        return tilt_model.formula_gain(weights, self.response)
 
     def sigma(self, weights):
-        return model.arw_sigma(self.track, weights, self.arw, self.response)
+        return tilt_model.arw_sigma(self.track, weights, self.arw, self.response)
 
 
 def _with_heading(gain, heading_per_bias):
@@ -153,19 +191,19 @@ def solve(ctx, kinds, heading_known=False):
     weights = ctx.weights(kinds)
     gain = ctx.gain(weights)
     heading = np.zeros(3) if heading_known else ctx.heading_per_bias
-    return _estimate(ctx, ctx.evaluate(weights), _with_heading(gain, heading), gain.s_phi,
-                     weights, heading)
+    return _estimate(
+        ctx, ctx.evaluate(weights), _with_heading(gain, heading), gain.s_phi, weights, heading
+    )
 
 
 def solve_velocity(ctx, windows, vrw=0.0, quantum=0.0):
     """Velocity-error method (000 eq. 12): mean of the two holds' tilt rates from the
     velocity curvature, with exact gains (:func:`inins.calibration.velocity.fit_gain`)."""
     track, h = ctx.track, ctx.track.horizontal
-    fits = [velocity.fit_hold(track, w, float(np.mean(ctx.arw)), vrw, quantum)
-            for w in windows]
+    fits = [velocity.fit_hold(track, w, float(np.mean(ctx.arw)), vrw, quantum) for w in windows]
     values = 0.5 * sum(velocity.tilt_rate(f, h) for f in fits)
     gain = 0.5 * sum(velocity.fit_gain(track, f, h, ctx.phi_response) for f in fits)
-    gain = model.Gain(gain[:, :3], gain[:, 3:])
+    gain = tilt_model.Gain(gain[:, :3], gain[:, 3:])
     s_bias = _with_heading(gain, ctx.heading_per_bias)
     est = _estimate(ctx, values, s_bias, gain.s_phi, None, ctx.heading_per_bias)
     inv = np.linalg.inv(s_bias[:, h])
@@ -203,7 +241,7 @@ def mount_check(ctx, reference, heading_sigma=0.0):
     """
     track = ctx.track
     h, v = track.horizontal, track.down_axis
-    weights = ctx.weights(dict.fromkeys(h, "return_to_start"))
+    weights = ctx.weights(dict.fromkeys(h, Formula.RETURN_TO_START))
     gain = ctx.gain(weights)
     k = _with_heading(gain, ctx.heading_per_bias)
     residual = ctx.evaluate(weights) - k[:, h] @ reference.value - k[:, v] * ctx.bias_z
@@ -216,14 +254,17 @@ def mount_check(ctx, reference, heading_sigma=0.0):
 class Choice:
     """The automatic choice for the east axis and why (000 §3.2)."""
 
-    east_formula: str | None
+    east_formula: Estimator | None
     reason: str
 
 
-NO_RETURN = Choice(None, "the record does not return to the first position (000 Table 1): "
-                   "the mount rotation cannot be checked and eqs. 38, 44-45 are not "
-                   "applicable; the attitude- and velocity-error methods are given, "
-                   "unverified against mount rotation and accelerometer changes")
+NO_RETURN = Choice(
+    None,
+    "the record does not return to the first position (000 Table 1): "
+    "the mount rotation cannot be checked and eqs. 38, 44-45 are not "
+    "applicable; the attitude- and velocity-error methods are given, "
+    "unverified against mount rotation and accelerometer changes",
+)
 
 
 def choose(geometry, check, heading_trusted, threshold):
@@ -236,17 +277,29 @@ def choose(geometry, check, heading_trusted, threshold):
     moved = abs(check.residual[east]) > threshold[east]
     if heading_trusted:
         if moved:
-            return Choice("eq45", "mount rotation about the east axis detected from the return "
-                          "to the start attitude (000 eq. 43) and the initial heading is known "
-                          "(ETT or given): eq. 45 is valid, eq. 44 is not")
-        return Choice("eq44", "no mount rotation about the east axis (000 eq. 43): eq. 44 "
-                      "(the attitude-error combination, lower noise than eq. 45) is valid")
+            return Choice(
+                Estimator.EQ45,
+                "mount rotation about the east axis detected from the return "
+                "to the start attitude (000 eq. 43) and the initial heading is known "
+                "(ETT or given): eq. 45 is valid, eq. 44 is not",
+            )
+        return Choice(
+            Estimator.EQ44,
+            "no mount rotation about the east axis (000 eq. 43): eq. 44 "
+            "(the attitude-error combination, lower noise than eq. 45) is valid",
+        )
     if moved:
-        return Choice(None, "the return to the start attitude (000 eq. 43) disagrees with the "
-                      "heading error of the gyrocompass alignment: the mount turned about the "
-                      "east axis, and with an initial heading error this cannot be separated "
-                      "from the bias (000 §3.2). No valid formula for this axis: align with "
-                      "ETT (inins align-ett) or give a known heading, and repeat")
-    return Choice("eq44", "no mount rotation about the east axis detected (the return to the "
-                  "start attitude matches the gyrocompass heading error, 000 eqs. 26, 43): "
-                  "eq. 44 is valid; eq. 45 carries the heading error")
+        return Choice(
+            None,
+            "the return to the start attitude (000 eq. 43) disagrees with the "
+            "heading error of the gyrocompass alignment: the mount turned about the "
+            "east axis, and with an initial heading error this cannot be separated "
+            "from the bias (000 §3.2). No valid formula for this axis: align with "
+            "ETT (inins align-ett) or give a known heading, and repeat",
+        )
+    return Choice(
+        Estimator.EQ44,
+        "no mount rotation about the east axis detected (the return to the "
+        "start attitude matches the gyrocompass heading error, 000 eqs. 26, 43): "
+        "eq. 44 is valid; eq. 45 carries the heading error",
+    )

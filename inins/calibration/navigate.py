@@ -7,8 +7,8 @@ chunk by chunk from the record (a 24 h log streams from disk).
 import numpy as np
 
 from inins.calibration import alignment
-from inins.calibration.model import Track, vertical_axis
-from inins.core import strapdown
+from inins.calibration.tilt_model import Track, vertical_axis
+from inins.core import noise, strapdown
 from inins.exceptions import InputError
 
 MAX_TRACK_POINTS = 200_000
@@ -24,25 +24,27 @@ def align(record, window, lat, heading=None, arw=None, vrw=None):
     """Stationary alignment over ``window`` (s, s) of the record (000 §2: before Table 1).
 
     Noise densities not given (None) are estimated from the window
-    (:func:`inins.calibration.alignment.noise_density`).
+    (:func:`inins.core.noise.noise_density`).
 
     Returns
     -------
-    alignment : inins.calibration.alignment.Alignment
+    alignment : inins.calibration.alignment.StationaryAlignment
     arw, vrw : ndarray, shape (3,)
         Angle (rad/sqrt(s)) and velocity (m/s/sqrt(s)) random walk used.
     """
     k0, k1 = sample_index(record, window[0]), sample_index(record, window[1])
-    if k1 - k0 < 2 * alignment.BLOCKS:
-        raise InputError(f"the alignment window {window[0]:g}-{window[1]:g} s holds too few "
-                         "samples", source=record.source, key="alignment")
+    if k1 - k0 < 2 * noise.BLOCKS:
+        raise InputError(
+            f"the alignment window {window[0]:g}-{window[1]:g} s holds too few samples",
+            source=record.source,
+            key="alignment",
+        )
     dtheta, dv = record.imu(k0, k1)
-    arw = alignment.noise_density(dtheta, record.dt) if arw is None else arw
-    vrw = alignment.noise_density(dv, record.dt) if vrw is None else vrw
+    arw = noise.noise_density(dtheta, record.dt) if arw is None else arw
+    vrw = noise.noise_density(dv, record.dt) if vrw is None else vrw
     arw = np.broadcast_to(np.asarray(arw, float), (3,))
     vrw = np.broadcast_to(np.asarray(vrw, float), (3,))
-    result = alignment.align_stationary(dtheta, dv, record.dt, lat, heading, arw.mean(),
-                                        vrw.mean())
+    result = alignment.align_stationary(dtheta, dv, record.dt, lat, heading, arw.mean(), vrw.mean())
     return result, arw, vrw
 
 
@@ -51,7 +53,7 @@ def navigate(record, mat_nb0, t_start, t_end, output_rate, free=False, progress=
 
     Parameters
     ----------
-    record : inins.table.record.TableRecord
+    record : inins.core.records.TableRecord
     mat_nb0 : ndarray, shape (3, 3)
         Attitude at ``t_start`` (from the alignment).
     output_rate : float
@@ -70,20 +72,29 @@ def navigate(record, mat_nb0, t_start, t_end, output_rate, free=False, progress=
     Track
     """
     k0, k1 = sample_index(record, t_start), sample_index(record, t_end)
-    decimation = max(1, round(1.0 / (output_rate * record.dt)),
-                     int(np.ceil((k1 - k0) / MAX_TRACK_POINTS)))
+    decimation = max(
+        1, round(1.0 / (output_rate * record.dt)), int(np.ceil((k1 - k0) / MAX_TRACK_POINTS))
+    )
     state = strapdown.NavState.from_attitude(mat_nb0, np.zeros(3), record.lla)
     parts = []
     for k, dtheta, dv in record.imu_chunks(k0, k1):
-        state, series = strapdown.integrate(state, dtheta, dv, record.dt,
-                                            fixed_position=not free, zero_velocity=not free,
-                                            fixed_height=free, decimation=decimation)
+        state, series = strapdown.integrate(
+            state,
+            dtheta,
+            dv,
+            record.dt,
+            fixed_position=not free,
+            zero_velocity=not free,
+            fixed_height=free,
+            decimation=decimation,
+        )
         parts.append(series)
         if progress is not None:
             progress(k + dtheta.shape[0] - k0, k1 - k0)
     series = strapdown.NavSeries.concatenate(parts)
-    time = np.concatenate([[record.t0 + k0 * record.dt],
-                           series.time(record.dt, record.t0 + k0 * record.dt)])
+    time = np.concatenate(
+        [[record.t0 + k0 * record.dt], series.time(record.dt, record.t0 + k0 * record.dt)]
+    )
     mat_nb = np.concatenate([mat_nb0[None], series.mat_nb()])
     vel = np.concatenate([np.zeros((1, 3)), series.vel_n])
     axis, sign = vertical_axis(mat_nb0)

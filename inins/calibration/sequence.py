@@ -84,13 +84,21 @@ def positions(steps):
         if step.kind != "hold":
             continue
         last = found[-1] if found else None
-        if (last is not None and abs(last.end - step.start_time) < 1e-9
-                and np.allclose(last.angles, step.angles_end, atol=ANGLE_TOL)):
-            found[-1] = Position(last.start, step.end_time, last.angles,
-                                 (*last.labels, step.label))
+        if (
+            last is not None
+            and abs(last.end - step.start_time) < 1e-9
+            and np.allclose(last.angles, step.angles_end, atol=ANGLE_TOL)
+        ):
+            found[-1] = Position(last.start, step.end_time, last.angles, (*last.labels, step.label))
         else:
-            found.append(Position(step.start_time, step.end_time,
-                                  np.asarray(step.angles_end, float), (step.label,)))
+            found.append(
+                Position(
+                    step.start_time,
+                    step.end_time,
+                    np.asarray(step.angles_end, float),
+                    (step.label,),
+                )
+            )
     return found
 
 
@@ -106,7 +114,7 @@ def find_return_sequence(record, labels=None):
 
     Parameters
     ----------
-    record : inins.table.record.TableRecord
+    record : inins.core.records.TableRecord
     labels : sequence of 3 str, optional
         Labels of a hold in A, B and A'; default: the first matching triple.
 
@@ -118,27 +126,37 @@ def find_return_sequence(record, labels=None):
     pos = positions(record.steps)
     mats = [platform_matrix(record.axes, record.mat_n_base, p.angles) for p in pos]
     for i in range(len(pos) - 2):
-        a, b, c = pos[i:i + 3]
-        if labels is not None and not all(lab in p.labels for lab, p in zip(labels, (a, b, c),
-                                                                              strict=True)):
+        a, b, c = pos[i : i + 3]
+        if labels is not None and not all(
+            lab in p.labels for lab, p in zip(labels, (a, b, c), strict=True)
+        ):
             continue
         if _is_half_turn(mats[i], mats[i + 1]) and np.allclose(
-                mats[i], mats[i + 2], atol=ANGLE_TOL):
+            mats[i], mats[i + 2], atol=ANGLE_TOL
+        ):
             return a, b, c
     for i in range(len(pos) - 1):  # without the return: the two-position methods still run
-        a, b = pos[i:i + 2]
+        a, b = pos[i : i + 2]
         if labels is not None and not (labels[0] in a.labels and labels[1] in b.labels):
             continue
         if _is_half_turn(mats[i], mats[i + 1]):
             return a, b, None
-    listing = "; ".join(
-        f"{'/'.join(p.labels) or '?'} at {np.degrees(p.angles).round(3).tolist()} deg "
-        f"({p.start:g}-{p.end:g} s)" for p in pos) or "no holds"
+    listing = (
+        "; ".join(
+            f"{'/'.join(p.labels) or '?'} at {np.degrees(p.angles).round(3).tolist()} deg "
+            f"({p.start:g}-{p.end:g} s)"
+            for p in pos
+        )
+        or "no holds"
+    )
     wanted = f" labelled {list(labels)}" if labels is not None else ""
     raise InputError(
         "gyro-bias calibration needs two positions 180 deg apart about the vertical (000 "
         f"§2), and the return-sequence method a hold back at the first (000 Table 1){wanted}; "
-        f"positions found: {listing}", source=record.source, key="steps")
+        f"positions found: {listing}",
+        source=record.source,
+        key="steps",
+    )
 
 
 def build_sequence(record, align_duration, epoch_window, settle, labels=None):
@@ -146,7 +164,7 @@ def build_sequence(record, align_duration, epoch_window, settle, labels=None):
 
     Parameters
     ----------
-    record : inins.table.record.TableRecord
+    record : inins.core.records.TableRecord
     align_duration : float
         Alignment time at the start of A (s).
     epoch_window : float
@@ -165,13 +183,17 @@ def build_sequence(record, align_duration, epoch_window, settle, labels=None):
             raise InputError(
                 f"position {name} ({'/'.join(p.labels)}) lasts {p.end - p.start:g} s, too "
                 f"short for the alignment ({align_duration:g} s), the settling ({settle:g} s) "
-                f"and the epoch windows ({epoch_window:g} s)", source=record.source,
-                key="steps")
-    epochs = np.array([
-        [align[1], align[1] + epoch_window],
-        [a.end - epoch_window, a.end],
-        [b.start + settle, b.start + settle + epoch_window],
-        [b.end - epoch_window, b.end],
-        *([[c.start + settle, c.start + settle + epoch_window]] if c is not None else []),
-    ])
+                f"and the epoch windows ({epoch_window:g} s)",
+                source=record.source,
+                key="steps",
+            )
+    epochs = np.array(
+        [
+            [align[1], align[1] + epoch_window],
+            [a.end - epoch_window, a.end],
+            [b.start + settle, b.start + settle + epoch_window],
+            [b.end - epoch_window, b.end],
+            *([[c.start + settle, c.start + settle + epoch_window]] if c is not None else []),
+        ]
+    )
     return Sequence((a, b, c), align, epochs)

@@ -64,7 +64,7 @@ def fit_hold(track, window, arw=0.0, vrw=0.0, quantum=0.0):
 
     Parameters
     ----------
-    track : inins.calibration.model.Track
+    track : inins.calibration.tilt_model.Track
     window : (float, float)
     arw, vrw, quantum : float
         Angle random walk (rad/sqrt(s)), velocity random walk (m/s/sqrt(s)) and
@@ -77,8 +77,9 @@ def fit_hold(track, window, arw=0.0, vrw=0.0, quantum=0.0):
     inside = np.flatnonzero((track.time >= window[0] - 1e-9) & (track.time <= window[1] + 1e-9))
     if inside.size < 10:
         raise ValueError(f"too few navigation outputs in {window[0]:g}-{window[1]:g} s")
-    inside = inside[np.unique(np.linspace(0, inside.size - 1, min(inside.size,
-                                                                  MAX_FIT_POINTS)).astype(int))]
+    inside = inside[
+        np.unique(np.linspace(0, inside.size - 1, min(inside.size, MAX_FIT_POINTS)).astype(int))
+    ]
     tau = track.time[inside] - track.time[inside[0]]
     design = _design(tau)
     solver = np.linalg.pinv(design)  # (3, p); row 2 gives the t^2 coefficient
@@ -98,7 +99,7 @@ def tilt_rate(fit, horizontal):
 def fit_gain(track, fit, horizontal, phi_response):
     """Response of the fitted tilt rate to the unknowns of the linear error model.
 
-    With ``phi(t) = sum_u phi_response[t, :, u] x_u`` (:mod:`inins.calibration.model`),
+    With ``phi(t) = sum_u phi_response[t, :, u] x_u`` (:mod:`inins.calibration.tilt_model`),
     ``dv_N = g int phi_E`` and ``dv_E = -g int phi_N`` from the first fitted sample,
     so the fitted ``dphi/dt = 2 L int phi`` and the body tilt rate is
     ``-(mat_bn dphi/dt)_h``.
@@ -115,8 +116,9 @@ def fit_gain(track, fit, horizontal, phi_response):
     k0, k1 = fit.points[0], fit.points[-1] + 1
     seg = phi_response[k0:k1]
     dt = np.diff(track.time[k0:k1])[:, None, None]
-    integral = np.concatenate([np.zeros((1, *seg.shape[1:])),
-                               np.cumsum(0.5 * (seg[1:] + seg[:-1]) * dt, axis=0)])
+    integral = np.concatenate(
+        [np.zeros((1, *seg.shape[1:])), np.cumsum(0.5 * (seg[1:] + seg[:-1]) * dt, axis=0)]
+    )
     phi_rate = 2.0 * np.einsum("p,pru->ru", fit.curvature_row, integral[fit.points - k0])
     phi_rate[2] = 0.0  # the vertical is not observed
     return -(fit.mat_bn @ phi_rate)[horizontal]

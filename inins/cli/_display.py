@@ -9,7 +9,7 @@ from rich.console import Console
 from rich.table import Table
 from rich.text import Text
 
-from inins.io.report import format_value
+from inins.results import format_value
 
 MAX_ROWS = 40
 
@@ -25,8 +25,9 @@ def results_table(summary: dict) -> Table | None:
     if not results:
         return None
     has_truth = any(k in truth for k in results)
-    table = Table(title="results", title_justify="left", show_edge=False, pad_edge=False,
-                  box=box.SIMPLE_HEAD)
+    table = Table(
+        title="results", title_justify="left", show_edge=False, pad_edge=False, box=box.SIMPLE_HEAD
+    )
     table.add_column("name")
     table.add_column("value", justify="right")
     if has_truth:
@@ -53,8 +54,9 @@ def checks_table(summary: dict) -> Table | None:
     checks = summary.get("checks", [])
     if not checks:
         return None
-    table = Table(title="checks", title_justify="left", show_edge=False, pad_edge=False,
-                  box=box.SIMPLE_HEAD)
+    table = Table(
+        title="checks", title_justify="left", show_edge=False, pad_edge=False, box=box.SIMPLE_HEAD
+    )
     for col, justify in (("check", "left"), ("value", "right"), ("result", "left")):
         table.add_column(col, justify=justify)
     for c in checks:
@@ -83,8 +85,12 @@ def print_summary(summary: dict, out: Console | None = None) -> None:
 def print_outcome(summary: dict, paths, elapsed_s: float) -> None:
     """What a finished run prints: summary, then the files written."""
     out = console()
-    out.print(Text(f"inins {summary['command']}: done in {elapsed_s:.1f} s "
-                   f"(scenario {summary['scenario']}, seed {summary['seed']})"))
+    out.print(
+        Text(
+            f"inins {summary['command']}: done in {elapsed_s:.1f} s "
+            f"(scenario {summary['scenario']}, seed {summary['seed']})"
+        )
+    )
     print_summary(summary, out)
     out.print(Text("wrote " + ", ".join(str(p) for p in paths)))
 
@@ -92,14 +98,19 @@ def print_outcome(summary: dict, paths, elapsed_s: float) -> None:
 def print_datasets(datasets, out: Console | None = None) -> None:
     """A listing of datasets: path, shape, dtype, units, frame, description."""
     out = out or console()
-    table = Table(title="datasets", title_justify="left", show_edge=False, pad_edge=False,
-                  box=box.SIMPLE_HEAD)
+    table = Table(
+        title="datasets", title_justify="left", show_edge=False, pad_edge=False, box=box.SIMPLE_HEAD
+    )
     for col in ("path", "shape", "dtype", "units", "frame", "description"):
         table.add_column(col, overflow="fold")
     for d in datasets:
         shape = "x".join(str(n) for n in d["shape"]) or "scalar"
-        table.add_row(*(Text(str(v)) for v in (d["path"], shape, d["dtype"], d["units"],
-                                                d["frame"], d["description"])))
+        table.add_row(
+            *(
+                Text(str(v))
+                for v in (d["path"], shape, d["dtype"], d["units"], d["frame"], d["description"])
+            )
+        )
     out.print(table)
 
 
@@ -113,9 +124,14 @@ class ProgressBar:
         from rich.progress import BarColumn, Progress, TextColumn, TimeRemainingColumn
 
         self._progress = Progress(
-            TextColumn(label), BarColumn(), TextColumn("{task.percentage:>3.0f}%"),
-            TimeRemainingColumn(), console=Console(stderr=True), transient=True,
-            disable=not Console(stderr=True).is_terminal)
+            TextColumn(label),
+            BarColumn(),
+            TextColumn("{task.percentage:>3.0f}%"),
+            TimeRemainingColumn(),
+            console=Console(stderr=True),
+            transient=True,
+            disable=not Console(stderr=True).is_terminal,
+        )
         self._task = None
 
     def __enter__(self):

@@ -4,8 +4,8 @@ from typing import Annotated
 
 import typer
 
-from inins.cli._registry import COMMANDS, find_command, load_command
 from inins.cli._runner import guarded
+from inins.commands import COMMANDS, find_command, load_command
 
 
 def make_schema_command(commands=COMMANDS):
@@ -13,10 +13,12 @@ def make_schema_command(commands=COMMANDS):
     names = ", ".join(spec.name for spec in commands)
 
     def schema(
-        command: Annotated[str, typer.Argument(
-            metavar="CMD", help=f"Command whose scenario to describe: {names}.")],
-        debug: Annotated[bool, typer.Option("--debug", help="Show the traceback of an error.")]
-        = False,
+        command: Annotated[
+            str, typer.Argument(metavar="CMD", help=f"Command whose scenario to describe: {names}.")
+        ],
+        debug: Annotated[
+            bool, typer.Option("--debug", help="Show the traceback of an error.")
+        ] = False,
     ) -> None:
         """Print the JSON Schema of a command's scenario (every key with its unit)."""
         raise typer.Exit(guarded("inins schema", debug, lambda: _print_schema(command, commands)))

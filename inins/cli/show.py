@@ -10,12 +10,13 @@ from inins.cli._runner import guarded
 
 def show(
     file: Annotated[Path, typer.Argument(metavar="FILE.h5", help="An inins results file.")],
-    as_json: Annotated[bool, typer.Option(
-        "--json", help="Print only the summary, as summary.json would hold it.")] = False,
-    scenario: Annotated[bool, typer.Option(
-        "--scenario", help="Print only the scenario YAML the run used.")] = False,
-    debug: Annotated[bool, typer.Option("--debug", help="Show the traceback of an error.")]
-    = False,
+    as_json: Annotated[
+        bool, typer.Option("--json", help="Print only the summary, as summary.json would hold it.")
+    ] = False,
+    scenario: Annotated[
+        bool, typer.Option("--scenario", help="Print only the scenario YAML the run used.")
+    ] = False,
+    debug: Annotated[bool, typer.Option("--debug", help="Show the traceback of an error.")] = False,
 ) -> None:
     """Print a results file's provenance, summary and datasets (with units and frames)."""
     raise typer.Exit(guarded("inins show", debug, lambda: _show(file, as_json, scenario)))
@@ -37,8 +38,7 @@ def _show(file: Path, as_json: bool, scenario: bool) -> int:
         typer.echo(prov.get("scenario_yaml", ""), nl=False)
         return 0
     out = console()
-    for key in ("command", "inins_version", "created_utc", "scenario_source", "seed",
-                "platform"):
+    for key in ("command", "inins_version", "created_utc", "scenario_source", "seed", "platform"):
         out.print(Text(f"{key:16s}{prov.get(key, '')}"))
     for item in prov.get("scenario_overrides") or []:
         out.print(Text(f"{'override':16s}--set {item}"))

@@ -142,10 +142,16 @@ misalignments ``ma_xy, ma_xz, ma_yz`` are zero by the body-frame definition.
 """
 
 _GROUP_UNITS = (
-    ("position", "m"), ("velocity", "m/s"), ("attitude", "rad"), ("accel_bias", "m/s^2"),
-    ("gyro_bias", "rad/s"), ("accel_scale", "1"), ("gyro_scale", "1"),
-    ("accel_misalignment", "rad"), ("gyro_misalignment", "rad"),
-)  # fmt: skip
+    ("position", "m"),
+    ("velocity", "m/s"),
+    ("attitude", "rad"),
+    ("accel_bias", "m/s^2"),
+    ("gyro_bias", "rad/s"),
+    ("accel_scale", "1"),
+    ("gyro_scale", "1"),
+    ("accel_misalignment", "rad"),
+    ("gyro_misalignment", "rad"),
+)
 UNITS = {n: u for g, u in _GROUP_UNITS for n in GROUPS[g]} | {
     "clock_bias": "m",
     "clock_drift": "m/s",
@@ -330,8 +336,14 @@ def system_matrix(
     if omega_ib_b is None and needs_rate:
         raise ValueError("omega_ib_b is required for gyro scale-factor/misalignment states")
     omega_ib_b = np.zeros(3) if omega_ib_b is None else np.asarray(omega_ib_b, dtype=float)
-    shape = np.broadcast_shapes(lat.shape, height.shape, vel_n.shape[:-1], f_n.shape[:-1],
-                                mat_nb.shape[:-2], omega_ib_b.shape[:-1])  # fmt: skip
+    shape = np.broadcast_shapes(
+        lat.shape,
+        height.shape,
+        vel_n.shape[:-1],
+        f_n.shape[:-1],
+        mat_nb.shape[:-2],
+        omega_ib_b.shape[:-1],
+    )
     lat, height = np.broadcast_to(lat, shape), np.broadcast_to(height, shape)
     vel_n = np.broadcast_to(vel_n, (*shape, 3))
     f_n = np.broadcast_to(f_n, (*shape, 3))
@@ -380,8 +392,17 @@ def system_matrix(
     return big[..., idx[:, None], idx[None, :]]
 
 
-def noise_matrix(layout, mat_nb, arw, vrw, *, accel_bias_rw=0.0, gyro_bias_rw=0.0,
-                 clock_bias_psd=0.0, clock_drift_psd=0.0):  # fmt: skip
+def noise_matrix(
+    layout,
+    mat_nb,
+    arw,
+    vrw,
+    *,
+    accel_bias_rw=0.0,
+    gyro_bias_rw=0.0,
+    clock_bias_psd=0.0,
+    clock_drift_psd=0.0,
+):
     """Process-noise spectral density ``Qc = G Q G^T`` of the error state.
 
     White sensor noise enters as ``dv' += C_nb w_a`` and ``phi' -= C_nb w_g``
@@ -430,8 +451,19 @@ def noise_matrix(layout, mat_nb, arw, vrw, *, accel_bias_rw=0.0, gyro_bias_rw=0.
     return big[..., idx[:, None], idx[None, :]]
 
 
-def propagate(layout, x0, dt, lat, height, vel_n, f_n, mat_nb, omega_ib_b=None, *,
-              transport_from_estimate=True):  # fmt: skip
+def propagate(
+    layout,
+    x0,
+    dt,
+    lat,
+    height,
+    vel_n,
+    f_n,
+    mat_nb,
+    omega_ib_b=None,
+    *,
+    transport_from_estimate=True,
+):
     """Propagate the noise-free linear error model over a trajectory of operating points.
 
     ``x_{k+1} = expm(F_k dt_k) x_k`` with ``F_k`` from :func:`system_matrix` at
@@ -459,8 +491,16 @@ def propagate(layout, x0, dt, lat, height, vel_n, f_n, mat_nb, omega_ib_b=None, 
     """
     from scipy.linalg import expm  # scipy is slow to import; only this needs it
 
-    F = system_matrix(layout, lat, height, vel_n, f_n, mat_nb, omega_ib_b,
-                      transport_from_estimate=transport_from_estimate)  # fmt: skip
+    F = system_matrix(
+        layout,
+        lat,
+        height,
+        vel_n,
+        f_n,
+        mat_nb,
+        omega_ib_b,
+        transport_from_estimate=transport_from_estimate,
+    )
     dt = np.asarray(dt, dtype=float)
     steps = np.broadcast_shapes(F.shape[:-2], dt.shape) or (1,)
     if len(steps) != 1:

@@ -83,10 +83,18 @@ class SmoothVelocity:
 
 
 FLIGHT_PLAN = (
-    (30.0, "speed", 100.0), (40.0, "climb", 5.0), (90.0, "turn", 80.0),
-    (150.0, "speed", 150.0), (170.0, "climb", 0.0), (210.0, "turn", -90.0),
-    (290.0, "climb", -8.0), (330.0, "turn", 70.0), (400.0, "speed", 120.0),
-    (420.0, "climb", 0.0), (450.0, "turn", -100.0), (530.0, "climb", 6.0),
+    (30.0, "speed", 100.0),
+    (40.0, "climb", 5.0),
+    (90.0, "turn", 80.0),
+    (150.0, "speed", 150.0),
+    (170.0, "climb", 0.0),
+    (210.0, "turn", -90.0),
+    (290.0, "climb", -8.0),
+    (330.0, "turn", 70.0),
+    (400.0, "speed", 120.0),
+    (420.0, "climb", 0.0),
+    (450.0, "turn", -100.0),
+    (530.0, "climb", 6.0),
     (540.0, "turn", 50.0),
 )
 """Default 10-min plan: (start s, kind, value); speed m/s, climb rate m/s, turn deg (+ right)."""
@@ -127,8 +135,12 @@ def flight_velocity(plan=FLIGHT_PLAN, speed=50.0, track=np.pi / 6, bank=np.pi / 
             new = np.array([speed * np.cos(course), speed * np.sin(course), -climb])
             rows.append((centre, tau, new - current))
             current = new
-    return SmoothVelocity(v0, np.array([r[0] for r in rows]), np.array([r[1] for r in rows]),
-                          np.array([r[2] for r in rows]))
+    return SmoothVelocity(
+        v0,
+        np.array([r[0] for r in rows]),
+        np.array([r[1] for r in rows]),
+        np.array([r[2] for r in rows]),
+    )
 
 
 def _flight_position(velocity, origin, scale, index, order, time):
@@ -148,8 +160,9 @@ def _flight_attitude(velocity, aoa, index, time):
     return 2.0 * np.arctan(vel[..., 1] / (ground + vel[..., 0]))  # track, valid off south
 
 
-def aircraft_trajectory(lat=37.0 * DEG, lon=127.0 * DEG, height=1000.0, velocity=None,
-                        aoa=2.0 * DEG):
+def aircraft_trajectory(
+    lat=37.0 * DEG, lon=127.0 * DEG, height=1000.0, velocity=None, aoa=2.0 * DEG
+):
     """Aircraft-like :class:`Analytic` truth with turns, accelerations, climbs and descents.
 
     Default: 10 min, speed 50 -> 100 -> 150 -> 120 m/s, five coordinated turns

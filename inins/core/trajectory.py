@@ -234,8 +234,14 @@ def _vel_n(lla, lla_rate):
     """``[(rn + h) dlat, (re + h) cos(lat) dlon, -dh]`` (complex-safe), shape (n, 3)."""
     lat, height = lla[..., 0], lla[..., 2]
     rn, re = earth.principal_radii(lat)
-    return np.stack([(rn + height) * lla_rate[..., 0],
-                     (re + height) * np.cos(lat) * lla_rate[..., 1], -lla_rate[..., 2]], -1)
+    return np.stack(
+        [
+            (rn + height) * lla_rate[..., 0],
+            (re + height) * np.cos(lat) * lla_rate[..., 1],
+            -lla_rate[..., 2],
+        ],
+        -1,
+    )
 
 
 def euler_rates_to_body(euler, euler_rate):
@@ -306,11 +312,14 @@ class Analytic:
             pairs = [complex_step(f, time) for f in funcs]
             acc = [second_derivative(f, time, self.step2) for f in funcs] if second else None
         else:
-            rates = [complex_step(f, time) for f in (self.lat_rate, self.lon_rate,
-                                                      self.height_rate)]
+            rates = [
+                complex_step(f, time) for f in (self.lat_rate, self.lon_rate, self.height_rate)
+            ]
             acc = [r[1] for r in rates]
-            pairs = [(np.real(f(time + 0j)), r[0])
-                     for f, r in zip((self.lat, self.lon, self.height), rates, strict=True)]
+            pairs = [
+                (np.real(f(time + 0j)), r[0])
+                for f, r in zip((self.lat, self.lon, self.height), rates, strict=True)
+            ]
         lla = np.stack([np.broadcast_to(p[0], np.shape(time)) for p in pairs], -1)
         lla_rate = np.stack([p[1] for p in pairs], -1)
         return lla, lla_rate, None if acc is None else np.stack(acc, -1)
@@ -371,8 +380,9 @@ class Coning(_Smooth):
         w = 2.0 * np.pi * self.frequency
         theta = self.half_angle
         axial = np.full_like(time, -2.0 * w * np.sin(0.5 * theta) ** 2)
-        return np.stack([axial, -w * np.sin(theta) * np.sin(w * time),
-                         w * np.sin(theta) * np.cos(w * time)], -1)
+        return np.stack(
+            [axial, -w * np.sin(theta) * np.sin(w * time), w * np.sin(theta) * np.cos(w * time)], -1
+        )
 
     def state(self, time):
         """Attitude (n, 3, 3), velocity (n, 3) m/s (zero) and lla (n, 3) at ``time`` (n,) s."""

@@ -88,7 +88,9 @@ def encode_attrs(attrs: dict, prefix: str = "") -> dict:
 
 
 def _attr_value(value):
-    if isinstance(value, str | bool | int | float | np.generic):
+    if isinstance(value, str):
+        return str(value)  # an enum.StrEnum member becomes its plain text
+    if isinstance(value, bool | int | float | np.generic):
         return value
     if isinstance(value, list | tuple) and all(isinstance(v, str) for v in value):
         return np.array(list(value), dtype=h5py.string_dtype())
@@ -114,8 +116,9 @@ def _json_default(value):
 
 def _dataset_array(path, data) -> np.ndarray:
     arr = np.asarray(data)
-    if arr.dtype.kind == "U" or (arr.dtype == object and all(isinstance(v, str) for v in
-                                                             arr.ravel())):
+    if arr.dtype.kind == "U" or (
+        arr.dtype == object and all(isinstance(v, str) for v in arr.ravel())
+    ):
         return arr.astype(h5py.string_dtype())
     if arr.dtype.kind not in "biufcS":
         raise TypeError(f"dataset {path!r}: cannot store data of dtype {arr.dtype}")
@@ -254,6 +257,29 @@ def open_results(path):
         raise InputError(f"cannot read as HDF5 ({exc})", source=str(path)) from None
 
 
+def read_datasets(path, group, names, what="an inins results file"):
+    """The datasets ``names`` of ``group`` in a results file, as float arrays by name.
+
+    Raises
+    ------
+    InputError
+        Missing file, not HDF5, no such group (the file is not ``what``), or a
+        dataset missing.
+    """
+    with open_results(path) as f:
+        g = f.get(group)
+        if not isinstance(g, h5py.Group):
+            raise InputError(f"not {what}: no group {group}", source=str(path))
+        missing = [name for name in names if name not in g]
+        if missing:
+            raise InputError(
+                f"incomplete {group} group: missing {', '.join(missing)}",
+                source=str(path),
+                key=group,
+            )
+        return {name: np.asarray(g[name][()], dtype=float) for name in names}
+
+
 def read_provenance(path) -> dict:
     """Root attributes of a results file (``summary_json`` excluded), as Python values."""
     with open_results(path) as f:
@@ -271,8 +297,7 @@ def read_summary(path) -> dict:
     with open_results(path) as f:
         text = f.attrs.get("summary_json")
     if text is None:
-        raise InputError("not an inins results file (no summary_json attribute)",
-                         source=str(path))
+        raise InputError("not an inins results file (no summary_json attribute)", source=str(path))
     return json.loads(text)
 
 
@@ -282,10 +307,14 @@ def list_datasets(path) -> list[dict]:
 
     def visit(name, obj):
         if isinstance(obj, h5py.Dataset):
-            found.append({
-                "path": name, "shape": obj.shape, "dtype": str(obj.dtype),
-                **{k: _plain(obj.attrs.get(k, "")) for k in ("units", "frame", "description")},
-            })
+            found.append(
+                {
+                    "path": name,
+                    "shape": obj.shape,
+                    "dtype": str(obj.dtype),
+                    **{k: _plain(obj.attrs.get(k, "")) for k in ("units", "frame", "description")},
+                }
+            )
 
     with open_results(path) as f:
         f.visititems(visit)

@@ -62,8 +62,17 @@ class H5SeriesSink:
             self._thread.start()
 
     # -- SeriesSink -------------------------------------------------------
-    def create(self, path, row_shape, dtype, units, frame="", description="",
-               expected_rows=None, attrs=None) -> None:
+    def create(
+        self,
+        path,
+        row_shape,
+        dtype,
+        units,
+        frame="",
+        description="",
+        expected_rows=None,
+        attrs=None,
+    ) -> None:
         """Declare a dataset of rows of ``row_shape`` (it starts empty)."""
         if path in self._streams:
             raise ValueError(f"dataset {path!r} is created twice")
@@ -82,21 +91,19 @@ class H5SeriesSink:
         stream = self._stream(path)
         rows = np.asarray(rows)
         if rows.shape[1:] != stream.row_shape:
-            raise ValueError(
-                f"{path}: rows of shape {rows.shape[1:]}, declared {stream.row_shape}"
-            )
+            raise ValueError(f"{path}: rows of shape {rows.shape[1:]}, declared {stream.row_shape}")
         if not np.can_cast(rows.dtype, stream.dtype, "same_kind"):
             raise TypeError(f"{path}: cannot store {rows.dtype} rows in a {stream.dtype} dataset")
         i, n = 0, rows.shape[0]
         while i < n:
             if stream.fill == 0 and n - i >= stream.chunk:
                 whole = stream.chunk if self._thread else (n - i) // stream.chunk * stream.chunk
-                block = rows[i:i + whole]
+                block = rows[i : i + whole]
                 self._emit(path, stream, block.astype(stream.dtype, copy=self._thread is not None))
                 i += whole
                 continue
             take = min(stream.chunk - stream.fill, n - i)
-            stream.buffer[stream.fill:stream.fill + take] = rows[i:i + take]
+            stream.buffer[stream.fill : stream.fill + take] = rows[i : i + take]
             stream.fill += take
             i += take
             if stream.fill == stream.chunk:
@@ -151,7 +158,7 @@ class H5SeriesSink:
             raise KeyError(f"dataset {path!r} was not created in this sink") from None
 
     def _flush_buffer(self, path, stream) -> None:
-        block = stream.buffer[:stream.fill]
+        block = stream.buffer[: stream.fill]
         if self._thread is not None:  # hand the buffer over, start a new one
             stream.buffer = np.empty_like(stream.buffer)
         self._emit(path, stream, block)
@@ -206,7 +213,7 @@ class H5SeriesSink:
             _, _, start, block = op
             dset = self._file[path]
             dset.resize(start + block.shape[0], axis=0)
-            dset[start:start + block.shape[0]] = block
+            dset[start : start + block.shape[0]] = block
         else:
             if path in ("", "/"):
                 obj = self._file

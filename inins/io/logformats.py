@@ -80,8 +80,9 @@ class TextLog:
         Numeric rows after the header that are not data (PSINS: 3).
     """
 
-    def __init__(self, path, delimiter=",", comment="#", skip_lines=0, header=False,
-                 preamble_rows=0):
+    def __init__(
+        self, path, delimiter=",", comment="#", skip_lines=0, header=False, preamble_rows=0
+    ):
         self.path, self.source = Path(path), str(path)
         self.delimiter, self.comment = delimiter, comment
         self.names = None
@@ -102,15 +103,19 @@ class TextLog:
                     break
         self.data_line = consumed + 1  # first line that may hold data
         if header and self.names is None:
-            raise InputError("no header line found (the file has no lines besides comments)",
-                             source=self.source, key="log.csv.header")
+            raise InputError(
+                "no header line found (the file has no lines besides comments)",
+                source=self.source,
+                key="log.csv.header",
+            )
 
     def _open(self):
         try:
             return open(self.path, encoding="utf-8", newline=None)
         except OSError as exc:
-            raise InputError(f"cannot read the log: {exc.strerror}", source=self.source,
-                             key="log.file") from None
+            raise InputError(
+                f"cannot read the log: {exc.strerror}", source=self.source, key="log.file"
+            ) from None
 
     def _skipped(self, text):
         stripped = text.strip()
@@ -128,8 +133,11 @@ class TextLog:
                     raise ValueError(field)
                 float(_unquote(field))
             except ValueError:
-                raise InputError(f"column {j}: expected a number, got {field.strip()!r}",
-                                 source=self.source, line=line) from None
+                raise InputError(
+                    f"column {j}: expected a number, got {field.strip()!r}",
+                    source=self.source,
+                    line=line,
+                ) from None
         return [float(_unquote(v)) for v in fields]
 
     def column_index(self, ref, key):
@@ -137,12 +145,19 @@ class TextLog:
         if isinstance(ref, int):
             return ref
         if self.names is None:
-            raise InputError(f"column {ref!r} is named but the file has no header line; "
-                             "give 0-based column indices or set log.csv.header: true",
-                             source=self.source, key=key)
+            raise InputError(
+                f"column {ref!r} is named but the file has no header line; "
+                "give 0-based column indices or set log.csv.header: true",
+                source=self.source,
+                key=key,
+            )
         if ref not in self.names:
-            raise InputError(f"no column {ref!r} in the header (line {self.header_line}: "
-                             f"{', '.join(self.names)})", source=self.source, key=key)
+            raise InputError(
+                f"no column {ref!r} in the header (line {self.header_line}: "
+                f"{', '.join(self.names)})",
+                source=self.source,
+                key=key,
+            )
         return self.names.index(ref)
 
     def blocks(self, columns, n_columns=None, chunk=None):
@@ -168,8 +183,9 @@ class TextLog:
                 try:
                     lines = list(itertools.islice(f, chunk))
                 except UnicodeDecodeError as exc:
-                    raise InputError(f"not UTF-8 text ({exc.reason}) after line {line - 1}",
-                                     source=self.source) from None
+                    raise InputError(
+                        f"not UTF-8 text ({exc.reason}) after line {line - 1}", source=self.source
+                    ) from None
                 if not lines:
                     return
                 done += sum(map(len, lines))
@@ -181,7 +197,9 @@ class TextLog:
                         raise InputError(
                             f"column index {max(columns)} is out of range: the rows have "
                             f"{table.shape[1]} columns (indices start at 0)",
-                            source=self.source, key="log.columns")
+                            source=self.source,
+                            key="log.columns",
+                        )
                     yield Block(table[:, columns], first_row, rows, done)
                     first_row += table.shape[0]
                 line += len(lines)
@@ -191,12 +209,18 @@ class TextLog:
         try:
             with warnings.catch_warnings():
                 warnings.simplefilter("ignore")  # a block of comments only: no data
-                table = np.loadtxt(lines, delimiter=self.delimiter, comments=self.comment or None,
-                                   ndmin=2, quotechar='"')
+                table = np.loadtxt(
+                    lines,
+                    delimiter=self.delimiter,
+                    comments=self.comment or None,
+                    ndmin=2,
+                    quotechar='"',
+                )
         except ValueError:
             table = None
-        if table is None or (n_columns is not None and table.shape[0]
-                             and table.shape[1] != n_columns):
+        if table is None or (
+            n_columns is not None and table.shape[0] and table.shape[1] != n_columns
+        ):
             self._diagnose(lines, line, n_columns)
             raise InputError("cannot parse the data", source=self.source, line=line)
         if table.shape[0] == len(lines):
@@ -212,8 +236,11 @@ class TextLog:
             fields = self._split(text)
             n_columns = len(fields) if n_columns is None else n_columns
             if len(fields) != n_columns:
-                raise InputError(f"expected {n_columns} columns, found {len(fields)}",
-                                 source=self.source, line=line + i)
+                raise InputError(
+                    f"expected {n_columns} columns, found {len(fields)}",
+                    source=self.source,
+                    line=line + i,
+                )
             self._numbers(text, line + i)
 
 
@@ -230,8 +257,9 @@ class Hdf5Log:
             with h5py.File(self.path, "r"):
                 pass
         except OSError as exc:
-            raise InputError(f"cannot read as HDF5 ({exc})", source=self.source,
-                             key="log.file") from None
+            raise InputError(
+                f"cannot read as HDF5 ({exc})", source=self.source, key="log.file"
+            ) from None
 
     def _resolve(self, f, refs, keys):
         """(dataset, column or None) per reference, and the common row count."""
@@ -243,20 +271,33 @@ class Hdf5Log:
             name, col = (match["name"], int(match["index"])) if match else (ref, None)
             dset = f.get(name)
             if not isinstance(dset, h5py.Dataset):
-                raise InputError(f"no dataset {name!r} in the file (datasets: "
-                                 f"{', '.join(_datasets(f)) or 'none'})", source=self.source,
-                                 key=key)
+                raise InputError(
+                    f"no dataset {name!r} in the file (datasets: "
+                    f"{', '.join(_datasets(f)) or 'none'})",
+                    source=self.source,
+                    key=key,
+                )
             if dset.ndim not in (1, 2) or (col is None) != (dset.ndim == 1):
                 shape = "x".join(map(str, dset.shape))
-                raise InputError(f"dataset {name!r} has shape {shape}; name a 1-D dataset or "
-                                 f"a column of a 2-D one as {name}[j]", source=self.source,
-                                 key=key)
+                raise InputError(
+                    f"dataset {name!r} has shape {shape}; name a 1-D dataset or "
+                    f"a column of a 2-D one as {name}[j]",
+                    source=self.source,
+                    key=key,
+                )
             if col is not None and col >= dset.shape[1]:
-                raise InputError(f"dataset {name!r} has {dset.shape[1]} columns, no column "
-                                 f"{col} (indices start at 0)", source=self.source, key=key)
+                raise InputError(
+                    f"dataset {name!r} has {dset.shape[1]} columns, no column "
+                    f"{col} (indices start at 0)",
+                    source=self.source,
+                    key=key,
+                )
             if n is not None and dset.shape[0] != n:
-                raise InputError(f"dataset {name!r} has {dset.shape[0]} rows, the columns "
-                                 f"before it {n}", source=self.source, key=key)
+                raise InputError(
+                    f"dataset {name!r} has {dset.shape[0]} rows, the columns before it {n}",
+                    source=self.source,
+                    key=key,
+                )
             n = dset.shape[0]
             out.append((name, col))
         return out, n
@@ -277,8 +318,11 @@ class Hdf5Log:
                         cache[name] = f[name][k0:k1]
                     data = cache[name]
                     if data.dtype.kind not in "biuf":
-                        raise InputError(f"dataset {name!r} holds {data.dtype}, expected "
-                                         "numbers", source=self.source, key=keys[j])
+                        raise InputError(
+                            f"dataset {name!r} holds {data.dtype}, expected numbers",
+                            source=self.source,
+                            key=keys[j],
+                        )
                     values[:, j] = data if col is None else data[:, col]
                 yield Block(values, k0, None, int(self.size * k1 / n))
 
@@ -288,8 +332,7 @@ def _datasets(f):
     import h5py
 
     found = []
-    f.visititems(lambda path, obj: found.append(path) if isinstance(obj, h5py.Dataset)
-                 else None)
+    f.visititems(lambda path, obj: found.append(path) if isinstance(obj, h5py.Dataset) else None)
     return found
 
 
@@ -325,37 +368,66 @@ def open_psins(path):
     with open(path, encoding="utf-8", errors="replace") as f:
         first = f.readline()
     if "PSINS" not in first or "SIMU" not in first:
-        raise InputError("not a PSINS SIMU log (its first line must name PSINS and SIMU)",
-                         source=str(path), line=1)
+        raise InputError(
+            "not a PSINS SIMU log (its first line must name PSINS and SIMU)",
+            source=str(path),
+            line=1,
+        )
     log = TextLog(path, None, "%", preamble_rows=3)
     return log, psins_header(log)
 
 
-def psins_header(log):
-    """The three header rows of a PSINS SIMU text log.
+@dataclass(frozen=True)
+class PsinsHeader:
+    """The three header rows of a PSINS SIMU log, in the log's units and axis order.
 
-    Returns
-    -------
-    dict
-        ``attitude_deg`` (pitch, roll, yaw; PSINS: ENU, yaw counter-clockwise
-        from north), ``velocity_mps`` (E, N, U), ``lat_deg``, ``lon_deg``,
-        ``height_m``, ``t0_s``, ``dt_s``, ``g_mps2``, ``gyro_pulse_arcsec`` (3,),
-        ``accel_pulse_ug_s`` (3,), in the log's axis order.
+    ``attitude_deg`` (pitch, roll, yaw; PSINS: ENU, yaw counter-clockwise from
+    north), ``velocity_mps`` (E, N, U), site, ``t0_s``, ``dt_s``, the ``g_mps2`` of
+    its micro-g, and the pulse weights ``gyro_pulse_arcsec`` and
+    ``accel_pulse_ug_s`` (3,).
     """
+
+    attitude_deg: list
+    velocity_mps: list
+    lat_deg: float
+    lon_deg: float
+    height_m: float
+    t0_s: float
+    dt_s: float
+    g_mps2: float
+    gyro_pulse_arcsec: list
+    accel_pulse_ug_s: list
+
+
+def psins_header(log):
+    """The three header rows of a PSINS SIMU text log (:class:`PsinsHeader`)."""
     if len(log.preamble) < 3:
-        raise InputError("a PSINS log needs 3 header rows before the data",
-                         source=log.source)
+        raise InputError("a PSINS log needs 3 header rows before the data", source=log.source)
     for line, row in log.preamble:
         if len(row) < 6:
-            raise InputError(f"PSINS header row: expected 6 numbers, found {len(row)}",
-                             source=log.source, line=line)
+            raise InputError(
+                f"PSINS header row: expected 6 numbers, found {len(row)}",
+                source=log.source,
+                line=line,
+            )
     (_, avp), (line2, pos), (line3, scale) = log.preamble
     if not pos[4] > 0 or not pos[5] > 0:
-        raise InputError("PSINS header: the sampling interval (ms) and g must be > 0",
-                         source=log.source, line=line2)
+        raise InputError(
+            "PSINS header: the sampling interval (ms) and g must be > 0",
+            source=log.source,
+            line=line2,
+        )
     if not all(v > 0 for v in scale[:6]):
-        raise InputError("PSINS header: pulse weights must be > 0", source=log.source,
-                         line=line3)
-    return {"attitude_deg": avp[0:3], "velocity_mps": avp[3:6], "lat_deg": pos[0],
-            "lon_deg": pos[1], "height_m": pos[2], "t0_s": pos[3], "dt_s": pos[4] * 1e-3,
-            "g_mps2": pos[5], "gyro_pulse_arcsec": scale[0:3], "accel_pulse_ug_s": scale[3:6]}
+        raise InputError("PSINS header: pulse weights must be > 0", source=log.source, line=line3)
+    return PsinsHeader(
+        attitude_deg=avp[0:3],
+        velocity_mps=avp[3:6],
+        lat_deg=pos[0],
+        lon_deg=pos[1],
+        height_m=pos[2],
+        t0_s=pos[3],
+        dt_s=pos[4] * 1e-3,
+        g_mps2=pos[5],
+        gyro_pulse_arcsec=scale[0:3],
+        accel_pulse_ug_s=scale[3:6],
+    )

@@ -4,8 +4,16 @@ import platform
 from datetime import UTC, datetime
 
 PROVENANCE_KEYS = (
-    "inins_version", "command", "created_utc", "scenario_yaml", "scenario_source",
-    "scenario_overrides", "seed", "python_version", "numpy_version", "h5py_version",
+    "inins_version",
+    "command",
+    "created_utc",
+    "scenario_yaml",
+    "scenario_source",
+    "scenario_overrides",
+    "seed",
+    "python_version",
+    "numpy_version",
+    "h5py_version",
     "platform",
 )
 """Root attributes every results file carries (plus ``summary_json``)."""

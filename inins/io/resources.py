@@ -52,7 +52,8 @@ def config_path(command: str, name: str = "default") -> Path:
         known = ", ".join(available_configs(command)) or "none"
         raise InputError(
             f"no shipped scenario '{name}' for {command} (available: {known}); "
-            "give a SCENARIO.yaml", source=f"configs/{command}/{name}.yaml",
+            "give a SCENARIO.yaml",
+            source=f"configs/{command}/{name}.yaml",
         )
     return path
 

@@ -58,7 +58,7 @@ def build_summary(command, inins_version, scenario, seed, results, truth, checks
     results, truth : dict
         Flat name -> number or None.
     checks : list of dict
-        From :func:`inins.io.checks.evaluate_checks`.
+        From :func:`inins.scenario.checks.evaluate_checks`.
     """
     return {
         "command": command,
@@ -67,8 +67,9 @@ def build_summary(command, inins_version, scenario, seed, results, truth, checks
         "seed": int(seed),
         "results": {k: json_scalar(v, k) for k, v in results.items()},
         "truth": {k: json_scalar(v, k) for k, v in truth.items()},
-        "checks": [{k: json_scalar(v) if k == "value" else v for k, v in c.items()}
-                   for c in checks],
+        "checks": [
+            {k: json_scalar(v) if k == "value" else v for k, v in c.items()} for c in checks
+        ],
         "passed": all(c["passed"] for c in checks),
     }
 

@@ -1,5 +1,10 @@
-"""The table-data HDF5 layout: written by simulate-table and the log importer, read by
-calibrate-bias and align-ett.
+"""The table-data HDF5 layout, declared once: written by simulate-table and import-log,
+read by calibrate-bias and align-ett (and by :class:`TableData` here).
+
+:data:`LAYOUT` declares every dataset (name, dtype, row shape, units, frame,
+description); :func:`declare` creates them in a :class:`inins.results.SeriesSink`,
+:func:`append_chunk` writes a :class:`inins.core.records.TableChunk`,
+:func:`encode_steps` / :func:`decode_steps` convert the step schedule.
 
 Layout (every dataset carries ``units``, ``frame`` and ``description`` attributes)::
 
@@ -24,7 +29,7 @@ Layout (every dataset carries ``units``, ``frame`` and ``description`` attribute
     /table/time  (m,)     s, encoder reading times
     /table/encoder (m, g) rad, encoder readings
     /import, /check       import-log only: import settings (attrs) and the stationary
-                          check of each hold (inins.io.logcheck)
+                          check of each hold (inins.calibration.stationary)
     /truth/...            simulation only: time (m,), quat_nb (m, 4),
                           table_angles (m, g), mount_rotvec (m, 3),
                           gyro_bias (m, 3), accel_bias (m, 3); attrs: sensor
@@ -38,36 +43,228 @@ from pathlib import Path
 import h5py
 import numpy as np
 
+from inins.core import pulses
+from inins.core.records import TRUTH_SERIES, Step, StepKind, TableRecord, Truth
 from inins.exceptions import InputError
-from inins.table.record import Step, Truth
+from inins.results import Series
 
 CHUNK_SAMPLES = 1 << 18
+G = "g"
+"""Placeholder in a row shape for the number of gimbals."""
 
 
 @dataclass(frozen=True)
-class TableData:
-    """A table-data file: metadata in memory, IMU increments read in chunks.
+class DatasetSpec:
+    """One dataset of the layout: dtype, row shape (``"g"``: one per gimbal), units,
+    frame and description."""
 
-    Implements :class:`inins.table.record.TableRecord`.
+    dtype: str
+    row_shape: tuple
+    units: str
+    frame: str
+    description: str
+
+    def shape(self, n_gimbals):
+        """The row shape with the gimbal count filled in."""
+        return tuple(n_gimbals if d == G else d for d in self.row_shape)
+
+
+LAYOUT = {
+    "imu/dtheta": DatasetSpec("float64", (3,), "rad", "b", "IMU dtheta increments per sample"),
+    "imu/dv": DatasetSpec("float64", (3,), "m/s", "b", "IMU dv increments per sample"),
+    "steps/kind": DatasetSpec("S8", (), "1", "", "hold, rotate or spin"),
+    "steps/label": DatasetSpec(
+        "S32",
+        (),
+        "1",
+        "",
+        "position label given in the scenario or log, or found from the encoders",
+    ),
+    "steps/axis": DatasetSpec(
+        "int32", (), "1", "", "moving gimbal index (outer = 0), -1 for a hold"
+    ),
+    "steps/start_time": DatasetSpec("float64", (), "s", "", "step start"),
+    "steps/end_time": DatasetSpec("float64", (), "s", "", "step end"),
+    "steps/start_index": DatasetSpec(
+        "int64", (), "1", "", "first IMU sample starting at or after the start"
+    ),
+    "steps/stop_index": DatasetSpec(
+        "int64", (), "1", "", "one past the last IMU sample ending by the end"
+    ),
+    "steps/angles_start": DatasetSpec(
+        "float64", (G,), "rad", "t", "gimbal angles at the step start"
+    ),
+    "steps/angles_end": DatasetSpec("float64", (G,), "rad", "t", "gimbal angles at the step end"),
+    "table/time": DatasetSpec("float64", (), "s", "", "time of the encoder readings"),
+    "table/encoder": DatasetSpec(
+        "float64", (G,), "rad", "t", "encoder readings, outer gimbal first"
+    ),
+    "truth/time": DatasetSpec("float64", (), "s", "", "time of the truth samples"),
+    "truth/quat_nb": DatasetSpec(
+        "float64", (4,), "1", "nb", "true attitude quaternion, scalar first"
+    ),
+    "truth/table_angles": DatasetSpec(
+        "float64", (G,), "rad", "t", "true gimbal angles, outer first"
+    ),
+    "truth/mount_rotvec": DatasetSpec("float64", (3,), "rad", "b", "mount rotation vector"),
+    "truth/gyro_bias": DatasetSpec(
+        "float64", (3,), "rad/s", "b", "total gyro bias, mean over the interval"
+    ),
+    "truth/accel_bias": DatasetSpec(
+        "float64", (3,), "m/s^2", "b", "total accel bias, mean over the interval"
+    ),
+}
+"""Every dataset of the layout. IMU increments quantized to pulses are stored as int32
+counts (units ``count``) with a ``pulse_weight`` attribute (3,) in rad or m/s."""
+
+STEP_FIELDS = (
+    "kind",
+    "label",
+    "axis",
+    "start_time",
+    "end_time",
+    "start_index",
+    "stop_index",
+    "angles_start",
+    "angles_end",
+)
+"""The ``/steps`` datasets, one per :class:`inins.core.records.Step` field, in order."""
+
+
+def series(path, data, n_gimbals=0, description=None):
+    """A :class:`inins.results.Series` of layout dataset ``path`` holding ``data``."""
+    spec = LAYOUT[path]
+    data = np.asarray(data, dtype=spec.dtype)
+    data = data.reshape(len(data), *spec.shape(n_gimbals))
+    return Series(data, spec.units, spec.frame, description or spec.description)
+
+
+def declare(
+    sink, n_gimbals, pulse_weights=(None, None), truth=False, expected=(None, None), encoder=True
+):
+    """Create the streamed datasets (IMU increments, encoder, optionally truth) in ``sink``.
+
+    Parameters
+    ----------
+    sink : inins.results.SeriesSink
+    n_gimbals : int
+    pulse_weights : (ndarray or None, ndarray or None)
+        Gyro (rad) and accelerometer (m/s) pulse weights (3,) where the increments are
+        stored as int32 pulse counts, else None (float64 in SI).
+    truth : bool
+        Also the ``/truth`` datasets (simulation).
+    expected : (int or None, int or None)
+        Expected rows of the IMU and of the encoder/truth series (chunking hint).
+    encoder : bool
+        Also the ``/table`` encoder series (False: a log without table angles).
     """
+    for path, weight in zip(("imu/dtheta", "imu/dv"), pulse_weights, strict=True):
+        spec = LAYOUT[path]
+        if weight is None:
+            sink.create(
+                path,
+                spec.row_shape,
+                spec.dtype,
+                spec.units,
+                spec.frame,
+                spec.description,
+                expected_rows=expected[0],
+            )
+        else:
+            sink.create(
+                path,
+                spec.row_shape,
+                np.int32,
+                "count",
+                spec.frame,
+                spec.description.replace("increments", "pulse counts"),
+                expected_rows=expected[0],
+                attrs={"pulse_weight": np.asarray(weight)},
+            )
+    paths = ["table/time", "table/encoder"] if encoder else []
+    if truth:
+        paths = [f"truth/{name}" for name in TRUTH_SERIES] + paths
+    for path in paths:
+        spec = LAYOUT[path]
+        sink.create(
+            path,
+            spec.shape(n_gimbals),
+            spec.dtype,
+            spec.units,
+            spec.frame,
+            spec.description,
+            expected_rows=expected[1],
+        )
 
-    path: Path
-    t0: float
-    dt: float
-    n_samples: int
-    lla: np.ndarray
-    gimbals: tuple
-    axes: np.ndarray
-    mat_n_base: np.ndarray
-    steps: tuple
-    encoder_time: np.ndarray
-    encoder: np.ndarray
-    truth: Truth | None
+
+def append_chunk(sink, chunk, pulse_weights=(None, None), stored=(None, None), encoder=True):
+    """Write a :class:`inins.core.records.TableChunk` into datasets made by :func:`declare`.
+
+    ``stored`` may hold the IMU rows exactly as to be stored (a log's own pulse
+    counts); otherwise quantized increments are turned into counts here.
+    """
+    for path, rows, weight, given in zip(
+        ("imu/dtheta", "imu/dv"), (chunk.dtheta, chunk.dv), pulse_weights, stored, strict=True
+    ):
+        if given is not None:
+            rows = given
+        elif weight is not None:
+            rows = pulses.counts_from_increments(rows, weight)
+        sink.append(path, rows)
+    if chunk.truth is not None:
+        for name in TRUTH_SERIES:
+            sink.append(f"truth/{name}", getattr(chunk.truth, name))
+    if encoder:
+        sink.append("table/time", chunk.encoder_time)
+        sink.append("table/encoder", chunk.encoder)
+
+
+def encode_steps(steps, n_gimbals):
+    """The step schedule as ``/steps`` datasets: ``{path: Series}``."""
+    columns = {name: [getattr(s, name) for s in steps] for name in STEP_FIELDS}
+    columns["kind"] = [str(k).encode() for k in columns["kind"]]
+    columns["label"] = [label.encode() for label in columns["label"]]
+    return {
+        f"steps/{name}": series(f"steps/{name}", values, n_gimbals)
+        for name, values in columns.items()
+    }
+
+
+def decode_steps(columns):
+    """Steps from the ``/steps`` columns (``{field: array}``, any mapping of arrays)."""
+
+    def text(v):
+        return v.decode() if isinstance(v, bytes) else str(v)
+
+    n = len(columns["kind"])
+    return tuple(
+        Step(
+            StepKind(text(columns["kind"][i])),
+            text(columns["label"][i]),
+            int(columns["axis"][i]),
+            float(columns["start_time"][i]),
+            float(columns["end_time"][i]),
+            int(columns["start_index"][i]),
+            int(columns["stop_index"][i]),
+            columns["angles_start"][i],
+            columns["angles_end"][i],
+        )
+        for i in range(n)
+    )
+
+
+@dataclass(frozen=True)
+class TableData(TableRecord):
+    """A table-data file: a :class:`inins.core.records.TableRecord` whose IMU
+    increments are read in chunks from disk."""
+
+    path: Path = None
+    length: int = 0
 
     @property
-    def source(self):
-        """File name, for messages."""
-        return str(self.path)
+    def n_samples(self):
+        """Number of IMU samples."""
+        return self.length
 
     def imu(self, start=0, stop=None):
         """Increments of samples [start, stop) in SI: dtheta (rad), dv (m/s), each (k, 3)."""
@@ -96,15 +293,11 @@ class TableData:
             if pending is not None:
                 yield pending.result()
 
-    def sample_time(self, index):
-        """End time (s) of sample ``index``."""
-        return self.t0 + (np.asarray(index) + 1) * self.dt
-
 
 def _read_si(dset, k0, k1):
     rows = dset[k0:k1]
     if "pulse_weight" in dset.attrs:
-        return rows.astype(np.float64) * np.asarray(dset.attrs["pulse_weight"], dtype=float)
+        return pulses.increments_from_counts(rows, dset.attrs["pulse_weight"])
     return rows.astype(np.float64, copy=False)
 
 
@@ -118,24 +311,11 @@ def _text(values):
     return tuple(v.decode() if isinstance(v, bytes) else str(v) for v in values)
 
 
-def _steps(f):
-    g = f["steps"]
-    kinds, labels = _text(g["kind"][()]), _text(g["label"][()])
-    cols = {k: g[k][()] for k in ("axis", "start_time", "end_time", "start_index",
-                                  "stop_index", "angles_start", "angles_end")}
-    return tuple(
-        Step(kinds[i], labels[i], int(cols["axis"][i]), float(cols["start_time"][i]),
-             float(cols["end_time"][i]), int(cols["start_index"][i]),
-             int(cols["stop_index"][i]), cols["angles_start"][i], cols["angles_end"][i])
-        for i in range(len(kinds)))
-
-
 def _truth(f):
     if "truth" not in f:
         return None
     g = f["truth"]
-    return Truth(*(g[k][()] for k in ("time", "quat_nb", "table_angles", "mount_rotvec",
-                                      "gyro_bias", "accel_bias")), attrs=dict(g.attrs))
+    return Truth(*(g[k][()] for k in TRUTH_SERIES), attrs=dict(g.attrs))
 
 
 def read_table_data(path):
@@ -161,13 +341,19 @@ def read_table_data(path):
             raise InputError("imu/dtheta and imu/dv differ in length", source=name, key="imu")
         site = _require(f, "site", name).attrs
         table = _require(f, "table", name)
-        _require(f, "steps", name)
+        steps = _require(f, "steps", name)
         return TableData(
-            path=path, t0=float(imu.attrs["t0_s"]), dt=float(imu.attrs["dt_s"]),
-            n_samples=n,
+            t0=float(imu.attrs["t0_s"]),
+            dt=float(imu.attrs["dt_s"]),
             lla=np.array([site["lat_rad"], site["lon_rad"], site["height_m"]], dtype=float),
             gimbals=_text(table.attrs["gimbals"]),
             axes=np.asarray(table.attrs["axes"], dtype=float).reshape(-1, 3),
             mat_n_base=np.asarray(table.attrs["mat_n_base"], dtype=float).reshape(3, 3),
-            steps=_steps(f),
-            encoder_time=table["time"][()], encoder=table["encoder"][()], truth=_truth(f))
+            steps=decode_steps({k: steps[k][()] for k in STEP_FIELDS}),
+            encoder_time=table["time"][()],
+            encoder=table["encoder"][()],
+            truth=_truth(f),
+            source=name,
+            path=path,
+            length=n,
+        )

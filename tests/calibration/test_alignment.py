@@ -17,8 +17,9 @@ def window(mat_nb, seconds=300.0, rate=100.0, gyro_bias=0.0, accel_bias=0.0):
     return dtheta + np.asarray(gyro_bias) / rate, dv + np.asarray(accel_bias) / rate, 1 / rate
 
 
-@pytest.mark.parametrize("euler_deg", [(1.0, -2.0, 30.0), (0.3, 0.2, 275.0),
-                                       (180.0, 0.5, 90.0)])  # the last: z axis up
+@pytest.mark.parametrize(
+    "euler_deg", [(1.0, -2.0, 30.0), (0.3, 0.2, 275.0), (180.0, 0.5, 90.0)]
+)  # the last: z axis up
 def test_error_free_alignment_is_exact(euler_deg):
     mat_nb = rotation.mat_from_euler(*np.radians(euler_deg))
     dtheta, dv, dt = window(mat_nb)

@@ -9,10 +9,11 @@ import numpy as np
 import pytest
 import yaml
 
-from inins.calibration import calibrate, report
+from inins.calibration import bias
+from inins.commands import calibrate_bias
+from inins.commands._table import load_record
 from inins.core.units import DEG_RTH
-from inins.io.records import load_record
-from inins.io.scenarios.calibrate_bias import CalibrateBiasScenario
+from inins.scenario.calibrate_bias import CalibrateBiasScenario
 
 SEEDS = 200
 ARW_DEG_RTH = 0.001
@@ -30,11 +31,11 @@ def monte_carlo():
     values, sigmas, truth = [], None, None
     for seed in range(SEEDS):
         record, sensor = load_record(model.data, model.simulate, seed)
-        outcome = calibrate.calibrate(record, model.settings(sensor))
-        names = report.result_names(outcome)
+        outcome = bias.calibrate_bias(record, calibrate_bias._settings(model, sensor))
+        names = calibrate_bias.result_names(outcome)
         values.append({k: v[0] for k, v in names.items()})
         sigmas = {k: v[1] for k, v in names.items()}
-        truth = outcome.truth["bias"]
+        truth = outcome.truth.bias
         hold = sum(outcome.seq.hold_times)
     return values, sigmas, truth, hold
 

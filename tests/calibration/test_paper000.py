@@ -18,16 +18,21 @@ import numpy as np
 import pytest
 import yaml
 
-from inins.calibration import calibrate
+from inins.calibration import bias
+from inins.commands import calibrate_bias
+from inins.commands._table import load_record
 from inins.core import earth
 from inins.core.units import DPH, UG
-from inins.io.records import load_record
-from inins.io.scenarios.calibrate_bias import CalibrateBiasScenario
-from inins.io.scenarios.simulate_table import SimulateTableScenario
+from inins.scenario.calibrate_bias import CalibrateBiasScenario
+from inins.scenario.simulate_table import SimulateTableScenario
 
 CONFIGS = Path(__file__).parents[2] / "configs"
-CASES = {1: "case1-no-disturbance", 2: "case2-roll-mount", 3: "case3-pitch-mount",
-         4: "case4-pitch-mount-ett"}
+CASES = {
+    1: "case1-no-disturbance",
+    2: "case2-roll-mount",
+    3: "case3-pitch-mount",
+    4: "case4-pitch-mount-ett",
+}
 X, Y = 0, 1  # body axes; at A, x points east and y north (000's geometry)
 
 
@@ -46,7 +51,7 @@ def scenario(case, **simulate):
 
 def run(model, seed=1):
     record, sensor = load_record(model.data, model.simulate, seed)
-    return calibrate.calibrate(record, model.settings(sensor))
+    return bias.calibrate_bias(record, calibrate_bias._settings(model, sensor))
 
 
 @pytest.fixture(scope="module")
@@ -57,20 +62,22 @@ def outcomes():
 def first_order_predictions(outcome):
     """Bias of eqs. 44 and 45 (east axis) and of the attitude method on the north axis
     by 000's first-order equations, from the simulated M and phi_D(0)."""
-    m = outcome.truth["mount"]
+    m = outcome.truth.mount
     t = outcome.track.time
     epochs = outcome.seq.epoch_times
     at = [np.argmin(abs(t - e)) for e in epochs]
     t_a, t_b = outcome.seq.hold_times
     m_a, m_b = m[at[1]] - m[at[0]], m[at[3]] - m[at[2]]
     omega_n = earth.RATE * np.cos(outcome.track.lat)
-    return {"eq44_x": 0.5 * (m_a[X] / t_a + m_b[X] / t_b),
-            "eq45_x": omega_n * outcome.truth["phi0"][2],
-            "attitude_y": 0.5 * (m_a[Y] / t_a + m_b[Y] / t_b)}
+    return {
+        "eq44_x": 0.5 * (m_a[X] / t_a + m_b[X] / t_b),
+        "eq45_x": omega_n * outcome.truth.phi0[2],
+        "attitude_y": 0.5 * (m_a[Y] / t_a + m_b[Y] / t_b),
+    }
 
 
 def error(outcome, name, axis):
-    return outcome.estimates[name].value[axis] - outcome.truth["bias"][axis]
+    return outcome.estimates[name].value[axis] - outcome.truth.bias[axis]
 
 
 @pytest.mark.parametrize("case, formula", [(1, "eq44"), (2, "eq44"), (3, None), (4, "eq45")])
@@ -94,14 +101,13 @@ VALID = {  # formula -> body axes on which 000 says it is valid, per case
 @pytest.mark.parametrize("case", CASES)
 def test_valid_formulas_within_5_percent(outcomes, case):
     outcome = outcomes[case]
-    bias = outcome.truth["bias"]
+    bias = outcome.truth.bias
     for name, axes in VALID[case].items():
         for axis in axes:
             assert abs(error(outcome, name, axis)) < 0.05 * abs(bias[axis]), (name, axis)
 
 
-BIASED = {1: ("eq45_x",), 2: ("eq45_x", "attitude_y"), 3: ("eq44_x", "eq45_x"),
-          4: ("eq44_x",)}
+BIASED = {1: ("eq45_x",), 2: ("eq45_x", "attitude_y"), 3: ("eq44_x", "eq45_x"), 4: ("eq44_x",)}
 
 
 @pytest.mark.parametrize("case", CASES)
@@ -112,12 +118,12 @@ def test_biased_formulas_carry_the_predicted_bias(outcomes, case):
     for key in BIASED[case]:
         name, axis = key.split("_")
         actual = error(outcome, name, X if axis == "x" else Y)
-        assert abs(predicted[key]) > 0.3 * abs(outcome.truth["bias"][X])  # a real bias
+        assert abs(predicted[key]) > 0.3 * abs(outcome.truth.bias[X])  # a real bias
         assert actual == pytest.approx(predicted[key], rel=0.20), key
 
 
 def test_attitude_method_fails_under_mount_rotation_robust_method_holds(outcomes):
-    bias_y = outcomes[2].truth["bias"][Y]
+    bias_y = outcomes[2].truth.bias[Y]
     assert abs(error(outcomes[2], "attitude", Y)) > 0.5 * abs(bias_y)  # roll-axis mount
     assert abs(outcomes[2].chosen[Y][0] - bias_y) < 0.05 * abs(bias_y)  # eq. 38
 
@@ -127,10 +133,17 @@ def test_velocity_method_fails_under_accel_bias_change_after_rotation():
     error; the attitude-based methods do not see it. The velocity method's bias is
     predicted independently: a quadratic fit of the disturbance's own velocity curve."""
     step, tau = 50.0, 150.0
-    model = scenario(1, **{"disturbances.accel_bias_after_rotation": {
-        "step_ug": [step, step, 0.0], "settle_time_s": tau}})
+    model = scenario(
+        1,
+        **{
+            "disturbances.accel_bias_after_rotation": {
+                "step_ug": [step, step, 0.0],
+                "settle_time_s": tau,
+            }
+        },
+    )
     outcome = run(model)
-    bias = outcome.truth["bias"]
+    bias = outcome.truth.bias
     assert abs(outcome.chosen[X][0] - bias[X]) < 0.05 * abs(bias[X])
     assert abs(outcome.chosen[Y][0] - bias[Y]) < 0.05 * abs(bias[Y])
     # disturbance at hold B: body (x, y) change = step (1 - exp(-t/tau)). At 180 deg body x
@@ -159,10 +172,11 @@ def test_stationary_navigation_avoids_the_schuler_error():
     table's attitude history: dphi_N/dt = dv_E / R - (mat_nb b)_N, d dv_E/dt = -g phi_N."""
     stationary = run(scenario(1))
     free_model = scenario(1)
-    free_model = free_model.model_copy(update={"navigation": free_model.navigation.model_copy(
-        update={"mode": "free"})})
+    free_model = free_model.model_copy(
+        update={"navigation": free_model.navigation.model_copy(update={"mode": "free"})}
+    )
     free = run(free_model)
-    track, bias = stationary.track, stationary.truth["bias"]
+    track, bias = stationary.track, stationary.truth.bias
     lat = track.lat
     radius = earth.principal_radii(lat)[1] + 50.0
     g = earth.gravity(lat, 50.0)
@@ -191,8 +205,7 @@ def outcome_windows(outcome):
 def test_paper000_simulate_sections_match_simulate_table_cases():
     for stem in CASES.values():
         ours = yaml.safe_load((CONFIGS / "paper000" / f"{stem}.yaml").read_text())["simulate"]
-        theirs = yaml.safe_load(
-            (CONFIGS / "simulate-table" / f"paper000-{stem}.yaml").read_text())
+        theirs = yaml.safe_load((CONFIGS / "simulate-table" / f"paper000-{stem}.yaml").read_text())
         theirs.pop("seed")
         assert ours == theirs
         SimulateTableScenario.model_validate(theirs)

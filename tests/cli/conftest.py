@@ -8,7 +8,7 @@ import pytest
 from typer.testing import CliRunner
 
 from inins.cli import make_app
-from inins.cli._registry import CommandSpec
+from inins.commands import CommandSpec
 from inins.io import resources
 
 FAKE_MODULE = "inins_test_fake_command"
@@ -59,12 +59,13 @@ def app(fake_module, configs, monkeypatch):
     monkeypatch.setitem(sys.modules, stream.__name__, stream)
     (configs / "fake-stream").mkdir()
     (configs / "fake-stream" / "default.yaml").write_text("name: stream\n")
-    return make_app([
-        CommandSpec("fake", FAKE_MODULE, "A fake command."),
-        CommandSpec("fake-stream", stream.__name__, "A fake streaming command."),
-        CommandSpec("fake-todo", "inins.cli.run_ekf", "A placeholder."),
-        CommandSpec("fake-missing", "inins_test_no_such_module", "Not installed."),
-    ])
+    return make_app(
+        [
+            CommandSpec("fake", "A fake command.", module=FAKE_MODULE),
+            CommandSpec("fake-stream", "A fake streaming command.", module=stream.__name__),
+            CommandSpec("fake-todo", "A command of a later version.", available=False),
+        ]
+    )
 
 
 @pytest.fixture

@@ -8,14 +8,22 @@ import pytest
 from typer.testing import CliRunner
 
 from inins.cli import app
+from inins.commands.align_ett import read_ett_result
 from inins.core import rotation
 from inins.core.units import ARCSEC
 from inins.exceptions import InputError
-from inins.io.ettresult import read_ett_result
 
-RESULTS = ("heading_deg", "heading_sigma_deg", "time_used_s", "gyrocompass_heading_deg",
-           "gyrocompass_heading_err_deg", "heading_err_deg", "azimuth_offset_arcsec",
-           "tilt_x_arcsec", "tilt_y_arcsec")
+RESULTS = (
+    "heading_deg",
+    "heading_sigma_deg",
+    "time_used_s",
+    "gyrocompass_heading_deg",
+    "gyrocompass_heading_err_deg",
+    "heading_err_deg",
+    "azimuth_offset_arcsec",
+    "tilt_x_arcsec",
+    "tilt_y_arcsec",
+)
 
 SIMULATE = """\
 seed: 5
@@ -52,8 +60,7 @@ def test_default_scenario_writes_the_three_files(tmp_path):
     report = (tmp_path / "align-ett.txt").read_text()
     assert "B = W A U^-1" in report and "gyrocompass" in report
     ett = read_ett_result(tmp_path / "align-ett.h5")
-    assert np.degrees(ett.heading) == pytest.approx(summary["results"]["heading_deg"],
-                                                    abs=1e-12)
+    assert np.degrees(ett.heading) == pytest.approx(summary["results"]["heading_deg"], abs=1e-12)
     assert ett.heading_at(ett.level_angles) == pytest.approx(ett.heading, abs=1e-12)
     with h5py.File(tmp_path / "align-ett.h5") as f:
         assert f["ett/mu"].attrs["units"] == "rad"
@@ -66,7 +73,8 @@ def test_table_data_file_and_read_back(tmp_path):
     assert done.exit_code == 0, done.output
     (tmp_path / "ett.yaml").write_text(  # the data path is relative to the scenario file
         "data: sim/simulate-table.h5\nimu_axes: [right, forward, up]\npositions: {settle_s: 2}\n"
-        "checks: ['abs(err.heading_deg) < 4 * heading_sigma_deg']\n")
+        "checks: ['abs(err.heading_deg) < 4 * heading_sigma_deg']\n"
+    )
     result = invoke("align-ett", tmp_path / "ett.yaml", "-o", tmp_path / "out")
     assert result.exit_code == 0, result.output
     summary = json.loads((tmp_path / "out" / "summary.json").read_text())
@@ -77,16 +85,24 @@ def test_table_data_file_and_read_back(tmp_path):
     ett = read_ett_result(tmp_path / "out" / "align-ett.h5")
     truth = summary["truth"]["heading_deg"]
     assert rotation.wrap_angle(ett.heading - np.radians(truth)) / ARCSEC == pytest.approx(
-        res["heading_err_deg"] * 3600, abs=1e-6)
+        res["heading_err_deg"] * 3600, abs=1e-6
+    )
 
 
-@pytest.mark.parametrize(("args", "fragments"), [
-    (("--set", "simulate.motion=[{kind: hold, duration_s: 30, label: a}]"),
-     ("align-ett (ETT", "no vertical position", "positions.vertical_label")),
-    (("--set", "positions.vertical_label=nope"),
-     ("no hold labelled 'nope'", "'start', 'vertical', 'level'")),
-    (("--set", "data=t.h5"), ("data: give either data", "not both")),
-])
+@pytest.mark.parametrize(
+    ("args", "fragments"),
+    [
+        (
+            ("--set", "simulate.motion=[{kind: hold, duration_s: 30, label: a}]"),
+            ("align-ett (ETT", "no vertical position", "positions.vertical_label"),
+        ),
+        (
+            ("--set", "positions.vertical_label=nope"),
+            ("no hold labelled 'nope'", "'start', 'vertical', 'level'"),
+        ),
+        (("--set", "data=t.h5"), ("data: give either data", "not both")),
+    ],
+)
 def test_bad_input_exits_2(tmp_path, args, fragments):
     result = invoke("align-ett", "-o", tmp_path, *args)
     assert result.exit_code == 2, result.output

@@ -56,8 +56,16 @@ def test_provenance_attributes(invoke, tmp_path, configs):
 def test_summary_json_shape(invoke, tmp_path):
     invoke("fake", "-o", tmp_path)
     summary = json.loads((tmp_path / "summary.json").read_text())
-    assert list(summary) == ["command", "inins_version", "scenario", "seed", "results",
-                             "truth", "checks", "passed"]
+    assert list(summary) == [
+        "command",
+        "inins_version",
+        "scenario",
+        "seed",
+        "results",
+        "truth",
+        "checks",
+        "passed",
+    ]
     results = summary["results"]
     assert results["n_samples"] == 200 and isinstance(results["n_samples"], int)
     assert isinstance(results["bias_y_dph"], float)  # from np.float32
@@ -73,8 +81,16 @@ def test_report_text(invoke, tmp_path):
     invoke("fake", "-o", tmp_path)
     text = (tmp_path / "fake.txt").read_text()
     assert "\x1b[" not in text
-    for part in ("inins fake report", "configs/fake/default.yaml", "seed", "Gyro bias",
-                 "[deg/h]", "fake warning", "abs(err.bias_x_dph) < 0.001", "PASSED"):
+    for part in (
+        "inins fake report",
+        "configs/fake/default.yaml",
+        "seed",
+        "Gyro bias",
+        "[deg/h]",
+        "fake warning",
+        "abs(err.bias_x_dph) < 0.001",
+        "PASSED",
+    ):
         assert part in text
 
 
@@ -95,14 +111,26 @@ def test_not_applicable_result_fails_check_with_reason(invoke, tmp_path):
 
 
 def test_overrides_are_used_and_recorded(invoke, tmp_path):
-    result = invoke("fake", "-o", tmp_path, "--set", "duration_s=3", "--set",
-                    "bias_dph.1=0.5", "--set", "checks=[]")
+    result = invoke(
+        "fake",
+        "-o",
+        tmp_path,
+        "--set",
+        "duration_s=3",
+        "--set",
+        "bias_dph.1=0.5",
+        "--set",
+        "checks=[]",
+    )
     assert result.exit_code == 0, result.output
     with h5py.File(tmp_path / "fake.h5") as f:
         assert f["imu/gyro"].shape == (300, 3)
         text = f.attrs["scenario_yaml"]
-        assert list(f.attrs["scenario_overrides"]) == ["duration_s=3", "bias_dph.1=0.5",
-                                                       "checks=[]"]
+        assert list(f.attrs["scenario_overrides"]) == [
+            "duration_s=3",
+            "bias_dph.1=0.5",
+            "checks=[]",
+        ]
     assert "--set bias_dph.1=0.5" in text and "duration_s: 3" in text
     assert "override  --set duration_s=3" in (tmp_path / "fake.txt").read_text()
     summary = json.loads((tmp_path / "summary.json").read_text())

@@ -28,9 +28,13 @@ def test_default_imports_the_rlg_excerpt(tmp_path):
     assert r["samples"] == 40_000 and r["duration_s"] == 400.0
     assert abs(r["implied_lat_err_deg"]) < 1.0 and abs(r["earth_rate_horizontal_err_pct"]) < 5
     report = (tmp_path / "import-log.txt").read_text()
-    for text in ("PSINS header: lat 34.24604800 deg", "body x = +log y, body y = +log x, "
-                 "body z = -log z", "header yaw -90.6 deg (counter-clockwise) = azimuth "
-                 "90.600 deg", "the same without screening", "rows/s"):
+    for text in (
+        "PSINS header: lat 34.24604800 deg",
+        "body x = +log y, body y = +log x, body z = -log z",
+        "header yaw -90.6 deg (counter-clockwise) = azimuth 90.600 deg",
+        "the same without screening",
+        "rows/s",
+    ):
         assert text in report
     data = read_table_data(tmp_path / "import-log.h5")  # the table-data layout
     assert (data.n_samples, data.dt, data.t0) == (40_000, 0.01, 0.0)
@@ -57,33 +61,37 @@ def test_csv_example(tmp_path):
 
 def test_bad_log_exits_2_and_writes_nothing(tmp_path):
     log = tmp_path / "log.csv"
-    log.write_text("t,gx,gy,gz,ax,ay,az\n" + "".join(
-        f"{0.01 * k:.2f},0,0,0,0,0,-9.8\n" for k in range(1, 20)) + "0.20,0,0,0,x,0,-9.8\n")
+    log.write_text(
+        "t,gx,gy,gz,ax,ay,az\n"
+        + "".join(f"{0.01 * k:.2f},0,0,0,0,0,-9.8\n" for k in range(1, 20))
+        + "0.20,0,0,0,x,0,-9.8\n"
+    )
     scenario = tmp_path / "s.yaml"
     scenario.write_text(
         "log:\n  file: log.csv\n  format: csv\n  columns: {time: t, gyro: [gx, gy, gz], "
         "accel: [ax, ay, az]}\ngyro: {quantity: rate, unit: deg/s}\n"
-        "accel: {quantity: rate, unit: m/s^2}\nsite: {lat_deg: 37, lon_deg: 127, height_m: 50}\n")
+        "accel: {quantity: rate, unit: m/s^2}\nsite: {lat_deg: 37, lon_deg: 127, height_m: 50}\n"
+    )
     out = tmp_path / "out"
     out.mkdir()
     (out / "summary.json").write_text("earlier")
     result = invoke(scenario, "-o", out)
     assert result.exit_code == 2
-    assert result.stderr.strip() == (f"inins import-log: error: {log}:21: column 4: expected a "
-                                     "number, got 'x'")
+    assert result.stderr.strip() == (
+        f"inins import-log: error: {log}:21: column 4: expected a number, got 'x'"
+    )
     assert sorted(p.name for p in out.iterdir()) == ["summary.json"]
     assert (out / "summary.json").read_text() == "earlier"
     result = invoke(scenario, "-o", out, "--set", "accel.unit=m/s/s")
     assert result.exit_code == 2 and "s.yaml: accel.unit: expected one of" in result.stderr
     result = invoke(scenario, "-o", out, "--set", "log.file=none.csv")
     assert result.exit_code == 2
-    assert result.stderr.strip().endswith(f"{tmp_path / 'none.csv'}: log.file: log file not "
-                                          "found")
+    assert result.stderr.strip().endswith(f"{tmp_path / 'none.csv'}: log.file: log file not found")
 
 
 def test_schema_documents_every_key():
     result = CliRunner().invoke(app, ["schema", "import-log"])
     assert result.exit_code == 0
     props = json.loads(result.stdout)["$defs"]
-    assert props["Gyro"]["properties"]["pulse_weight_arcsec"]["unit"] == "arcsec"
+    assert props["LogGyro"]["properties"]["pulse_weight_arcsec"]["unit"] == "arcsec"
     assert props["LogStep"]["properties"]["start_s"]["unit"] == "s"

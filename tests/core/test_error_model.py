@@ -17,21 +17,47 @@ LAT, LON, HEIGHT = np.radians(37.5), np.radians(127.0), 120.0
 
 def test_layouts_names_and_slices():
     assert error_model.ALIGN12.names == (
-        "dv_N", "dv_E", "dv_D", "phi_N", "phi_E", "phi_D",
-        "ba_x", "ba_y", "ba_z", "bg_x", "bg_y", "bg_z",
-    )  # fmt: skip
-    assert [len(lay) for lay in (error_model.ALIGN12, error_model.NAV15, error_model.EKF17, error_model.EKF26)] == [
-        12, 15, 17, 26,
-    ]  # fmt: skip
+        "dv_N",
+        "dv_E",
+        "dv_D",
+        "phi_N",
+        "phi_E",
+        "phi_D",
+        "ba_x",
+        "ba_y",
+        "ba_z",
+        "bg_x",
+        "bg_y",
+        "bg_z",
+    )
+    assert [
+        len(lay)
+        for lay in (error_model.ALIGN12, error_model.NAV15, error_model.EKF17, error_model.EKF26)
+    ] == [
+        12,
+        15,
+        17,
+        26,
+    ]
     assert error_model.NAV15.names[:3] == ("dr_N", "dr_E", "dr_D")
     assert error_model.EKF17.names[15:] == ("clock_bias", "clock_drift")
     assert error_model.EKF26.names[17:] == (
-        "ma_yx", "ma_zx", "ma_zy", "mg_xy", "mg_xz", "mg_yx", "mg_yz", "mg_zx", "mg_zy",
-    )  # fmt: skip
+        "ma_yx",
+        "ma_zx",
+        "ma_zy",
+        "mg_xy",
+        "mg_xz",
+        "mg_yx",
+        "mg_yz",
+        "mg_zx",
+        "mg_zy",
+    )
     assert error_model.EKF26.index("phi_E") == 7
     assert error_model.EKF26.slice("gyro_misalignment") == slice(20, 26)
     assert error_model.ALIGN12.slice("attitude") == slice(3, 6)
-    assert error_model.EKF17.unit("clock_drift") == "m/s" and error_model.NAV15.unit("bg_z") == "rad/s"
+    assert (
+        error_model.EKF17.unit("clock_drift") == "m/s" and error_model.NAV15.unit("bg_z") == "rad/s"
+    )
     with pytest.raises(KeyError):
         error_model.ALIGN12.slice("position")
     with pytest.raises(ValueError, match="unknown"):
@@ -45,8 +71,9 @@ def test_layouts_names_and_slices():
 def test_lla_offset_inverts_position_error():
     lla = np.array([LAT, LON, HEIGHT])
     dr = np.array([1234.5, -678.9, 42.0])
-    np.testing.assert_allclose(error_model.position_error_ned(error_model.lla_offset(lla, dr), lla), dr,
-                               atol=1e-6)  # fmt: skip
+    np.testing.assert_allclose(
+        error_model.position_error_ned(error_model.lla_offset(lla, dr), lla), dr, atol=1e-6
+    )
 
 
 # ------------------------------------------------------------------ F is the exact Jacobian
@@ -74,8 +101,13 @@ def _flow(lla, vel_n, mat_nb, f_b, omega_ib_b, u, w_en=None):
 
 
 def _nav_error(est, true):
-    return np.concatenate([error_model.position_error_ned(est[0], true[0]), est[1] - true[1],
-                           error_model.attitude_error(est[2], true[2])])  # fmt: skip
+    return np.concatenate(
+        [
+            error_model.position_error_ned(est[0], true[0]),
+            est[1] - true[1],
+            error_model.attitude_error(est[2], true[2]),
+        ]
+    )
 
 
 def _sensor_matrices(layout, x):
@@ -99,8 +131,16 @@ def test_system_matrix_is_the_jacobian_of_the_nonlinear_error_dynamics(transport
     vel_n = np.array([150.0, -80.0, 5.0])
     mat_nb = rot.mat_from_euler(20 * DEG, -10 * DEG, 130 * DEG)
     f_b, omega_ib_b = np.array([1.2, -0.7, -9.5]), np.array([0.03, -0.02, 0.05])
-    F = error_model.system_matrix(layout, lla[0], lla[2], vel_n, mat_nb @ f_b, mat_nb, omega_ib_b,
-                             transport_from_estimate=transport_from_estimate)  # fmt: skip
+    F = error_model.system_matrix(
+        layout,
+        lla[0],
+        lla[2],
+        vel_n,
+        mat_nb @ f_b,
+        mat_nb,
+        omega_ib_b,
+        transport_from_estimate=transport_from_estimate,
+    )
     w_en_given = None if transport_from_estimate else earth.rate_en_n(lla[0], lla[2], vel_n)
 
     def error_rate(x, tau=0.05):
@@ -109,11 +149,16 @@ def test_system_matrix_is_the_jacobian_of_the_nonlinear_error_dynamics(transport
         s = layout.slice
         f_meas = f_b + x[s("accel_bias")] + e_a @ f_b
         w_meas = omega_ib_b + x[s("gyro_bias")] + e_g @ omega_ib_b
-        est = (error_model.lla_offset(lla, x[s("position")]), vel_n + x[s("velocity")],
-               rot.mat_from_rotvec(-x[s("attitude")]) @ mat_nb)  # fmt: skip
+        est = (
+            error_model.lla_offset(lla, x[s("position")]),
+            vel_n + x[s("velocity")],
+            rot.mat_from_rotvec(-x[s("attitude")]) @ mat_nb,
+        )
         true = (lla, vel_n, mat_nb, f_b, omega_ib_b)
-        ends = [_nav_error(_flow(*est, f_meas, w_meas, u, w_en_given), _flow(*true, u, w_en_given))
-                for u in (tau, -tau)]  # fmt: skip
+        ends = [
+            _nav_error(_flow(*est, f_meas, w_meas, u, w_en_given), _flow(*true, u, w_en_given))
+            for u in (tau, -tau)
+        ]
         rate = np.zeros(len(layout))
         rate[:9] = (ends[0] - ends[1]) / (2 * tau)
         rate[layout.index("clock_bias")] = x[layout.index("clock_drift")]
@@ -121,14 +166,17 @@ def test_system_matrix_is_the_jacobian_of_the_nonlinear_error_dynamics(transport
 
     # perturbation sizes in physical units; central differences cancel 2nd order terms
     steps = {"position": 100.0, "velocity": 0.1, "gyro_bias": 1e-6, "clock": 1.0}
-    step_of = {n: steps.get(group, 1e-3) for group, names in error_model.GROUPS.items() for n in names}
+    step_of = {
+        n: steps.get(group, 1e-3) for group, names in error_model.GROUPS.items() for n in names
+    }
     for name in layout.names:
         i = layout.index(name)
         dx = np.zeros(len(layout))
         dx[i] = step_of[name]
         column = (error_rate(dx) - error_rate(-dx)) / (2 * dx[i])
-        np.testing.assert_allclose(column, F[:, i], rtol=0, atol=2e-5 * np.abs(F[:, i]).max(),
-                                   err_msg=f"column {name}")  # fmt: skip
+        np.testing.assert_allclose(
+            column, F[:, i], rtol=0, atol=2e-5 * np.abs(F[:, i]).max(), err_msg=f"column {name}"
+        )
 
 
 def test_layouts_are_sub_blocks_and_stacks_broadcast():
@@ -160,13 +208,19 @@ def test_align12_blocks_are_002_eq2():
     w_ie, w_en = earth.rate_ie_n(LAT), earth.rate_en_n(LAT, 2000.0, vel_n)
     rn, re = earth.principal_radii(LAT)
     # phi <- dv: d w_en / d v, the Schuler coupling
-    j_v = np.array([[0, 1 / (re + 2000.0), 0], [-1 / (rn + 2000.0), 0, 0],
-                    [0, -np.tan(LAT) / (re + 2000.0), 0]])  # fmt: skip
+    j_v = np.array(
+        [
+            [0, 1 / (re + 2000.0), 0],
+            [-1 / (rn + 2000.0), 0, 0],
+            [0, -np.tan(LAT) / (re + 2000.0), 0],
+        ]
+    )
     sl = error_model.ALIGN12.slice
     v, a, ba, bg = sl("velocity"), sl("attitude"), sl("accel_bias"), sl("gyro_bias")
     # 002 F11 = -(2 w_ie + w_en)x, plus our v x dw_en(dv) term (O(v/R))
-    np.testing.assert_allclose(F[v, v], -rot.skew(2 * w_ie + w_en) + rot.skew(vel_n) @ j_v,
-                               rtol=1e-14, atol=1e-20)  # fmt: skip
+    np.testing.assert_allclose(
+        F[v, v], -rot.skew(2 * w_ie + w_en) + rot.skew(vel_n) @ j_v, rtol=1e-14, atol=1e-20
+    )
     np.testing.assert_array_equal(F[v, a], rot.skew(f_n))  # 002 F12 = (a^n)x, a^n = f_n
     np.testing.assert_allclose(F[a, a], -rot.skew(w_ie + w_en), rtol=1e-14)  # 002 F22
     np.testing.assert_allclose(F[a, v], j_v, rtol=1e-14)
@@ -177,8 +231,9 @@ def test_align12_blocks_are_002_eq2():
     F0 = error_model.system_matrix(error_model.ALIGN12, LAT, 0.0, np.zeros(3), f_n, mat_nb)
     np.testing.assert_array_equal(F0[v, v], -rot.skew(2 * w_ie))
     # w_en supplied from truth (dw_en = 0): 002's eq. 2 literally, phi <- dv block zero
-    F2 = error_model.system_matrix(error_model.ALIGN12, LAT, 2000.0, vel_n, f_n, mat_nb,
-                              transport_from_estimate=False)  # fmt: skip
+    F2 = error_model.system_matrix(
+        error_model.ALIGN12, LAT, 2000.0, vel_n, f_n, mat_nb, transport_from_estimate=False
+    )
     np.testing.assert_allclose(F2[v, v], -rot.skew(2 * w_ie + w_en), rtol=1e-14)
     assert not F2[a, v].any()
     np.testing.assert_array_equal(F2[:, 3:], F[:, 3:])  # only the dv columns change
@@ -189,7 +244,9 @@ def test_stationary_schuler_foucault_and_earth_rate_modes():
     # s (s^2 + W^2) [(s^2 + ws^2)^2 + 4 s^2 W^2 sin^2 L] = 0, roots
     # 0, +-i W, +-i (sqrt(ws^2 + W^2 sin^2 L) +- W sin L)
     g = earth.gravity(LAT, HEIGHT)
-    F = error_model.system_matrix(error_model.NAV15, LAT, HEIGHT, np.zeros(3), [0, 0, -g], np.eye(3))
+    F = error_model.system_matrix(
+        error_model.NAV15, LAT, HEIGHT, np.zeros(3), [0, 0, -g], np.eye(3)
+    )
     names = ("dr_N", "dr_E", "dv_N", "dv_E", "phi_N", "phi_E", "phi_D")
     idx = [error_model.NAV15.index(n) for n in names]
     ev = np.linalg.eigvals(F[np.ix_(idx, idx)])
@@ -218,43 +275,68 @@ def test_propagate_steps_and_shapes():
     one = error_model.propagate(error_model.NAV15, x0, 10.0, LAT, 0.0, np.zeros(3), f_n, np.eye(3))
     F = error_model.system_matrix(error_model.NAV15, LAT, 0.0, np.zeros(3), f_n, np.eye(3))
     np.testing.assert_allclose(one[1], expm(F * 10.0) @ x0, rtol=1e-14)
-    many = error_model.propagate(error_model.NAV15, x0, np.full(5, 2.0), LAT, 0.0, np.zeros(3), f_n,
-                            np.eye(3))  # fmt: skip
+    many = error_model.propagate(
+        error_model.NAV15, x0, np.full(5, 2.0), LAT, 0.0, np.zeros(3), f_n, np.eye(3)
+    )
     assert many.shape == (6, 15)
     np.testing.assert_allclose(many[-1], one[1], rtol=1e-9, atol=1e-15)
     # dv_N = ba_x t to first order at the start
     assert many[1, error_model.NAV15.index("dv_N")] == pytest.approx(2e-3, rel=1e-5)
     with pytest.raises(ValueError, match="1-D"):
-        error_model.propagate(error_model.NAV15, x0, np.ones((2, 2)), LAT, 0.0, np.zeros(3), f_n, np.eye(3))
+        error_model.propagate(
+            error_model.NAV15, x0, np.ones((2, 2)), LAT, 0.0, np.zeros(3), f_n, np.eye(3)
+        )
 
 
 def test_noise_matrix():
     mat_nb = rot.mat_from_euler(0.3, -0.2, 1.1)
     arw, vrw = 0.002 * DEG / 60.0, np.array([1e-4, 2e-4, 3e-4])
-    Qc = error_model.noise_matrix(error_model.EKF17, mat_nb, arw, vrw, gyro_bias_rw=1e-9,
-                             clock_bias_psd=0.1, clock_drift_psd=0.01)  # fmt: skip
+    Qc = error_model.noise_matrix(
+        error_model.EKF17,
+        mat_nb,
+        arw,
+        vrw,
+        gyro_bias_rw=1e-9,
+        clock_bias_psd=0.1,
+        clock_drift_psd=0.01,
+    )
     sl = error_model.EKF17.slice
     np.testing.assert_allclose(
         Qc[sl("attitude"), sl("attitude")], arw**2 * np.eye(3), rtol=1e-12, atol=1e-12 * arw**2
     )  # isotropic: any attitude
-    np.testing.assert_allclose(Qc[sl("velocity"), sl("velocity")],
-                               mat_nb @ np.diag(vrw**2) @ mat_nb.T, rtol=1e-12)  # fmt: skip
+    np.testing.assert_allclose(
+        Qc[sl("velocity"), sl("velocity")], mat_nb @ np.diag(vrw**2) @ mat_nb.T, rtol=1e-12
+    )
     np.testing.assert_allclose(np.diag(Qc[sl("gyro_bias"), sl("gyro_bias")]), 1e-18)
     assert Qc[15, 15] == 0.1 and Qc[16, 16] == 0.01
     assert not Qc[sl("position")].any() and not Qc[sl("accel_bias")].any()
-    assert error_model.noise_matrix(error_model.NAV15, np.stack([mat_nb] * 4), arw, vrw).shape == (4, 15, 15)
+    assert error_model.noise_matrix(error_model.NAV15, np.stack([mat_nb] * 4), arw, vrw).shape == (
+        4,
+        15,
+        15,
+    )
 
 
 # ------------------------------------------------------------------ linear vs nonlinear
 
 NAV_NAMES = ("dr_N", "dr_E", "dr_D", "dv_N", "dv_E", "dv_D", "phi_N", "phi_E", "phi_D")
 INITIAL_AND_BIASES = {
-    "dr_N": 30.0, "dr_E": -20.0, "dr_D": 5.0,
-    "dv_N": 0.05, "dv_E": -0.03, "dv_D": 0.01,
-    "phi_N": 1.0 * ARCMIN, "phi_E": -0.7 * ARCMIN, "phi_D": 3.0 * ARCMIN,
-    "ba_x": 100 * UG, "ba_y": -80 * UG, "ba_z": 50 * UG,
-    "bg_x": 0.01 * DPH, "bg_y": -0.01 * DPH, "bg_z": 0.008 * DPH,
-}  # fmt: skip
+    "dr_N": 30.0,
+    "dr_E": -20.0,
+    "dr_D": 5.0,
+    "dv_N": 0.05,
+    "dv_E": -0.03,
+    "dv_D": 0.01,
+    "phi_N": 1.0 * ARCMIN,
+    "phi_E": -0.7 * ARCMIN,
+    "phi_D": 3.0 * ARCMIN,
+    "ba_x": 100 * UG,
+    "ba_y": -80 * UG,
+    "ba_z": 50 * UG,
+    "bg_x": 0.01 * DPH,
+    "bg_y": -0.01 * DPH,
+    "bg_z": 0.008 * DPH,
+}
 
 
 def _group(values, group):
@@ -277,12 +359,19 @@ def _strapdown_errors(traj, values, duration, rate_hz, *, fixed_position=False):
         vel_n + _group(values, "velocity"),
         error_model.lla_offset(lla, _group(values, "position")),
     )
-    _, series = integrate(state, dtheta, dv, dt, fixed_position=fixed_position,
-                          decimation=round(rate_hz))  # fmt: skip
+    _, series = integrate(
+        state, dtheta, dv, dt, fixed_position=fixed_position, decimation=round(rate_hz)
+    )
     time = series.time(dt)
     mat_nb, vel_n, lla = traj.state(time)
-    actual = np.concatenate([error_model.position_error_ned(series.lla, lla), series.vel_n - vel_n,
-                             error_model.attitude_error(series.mat_nb(), mat_nb)], axis=1)  # fmt: skip
+    actual = np.concatenate(
+        [
+            error_model.position_error_ned(series.lla, lla),
+            series.vel_n - vel_n,
+            error_model.attitude_error(series.mat_nb(), mat_nb),
+        ],
+        axis=1,
+    )
     return time, actual
 
 
@@ -295,8 +384,9 @@ def _linear_errors(traj, layout, values, duration, step, **kwargs):
     omega_ib_b, f_b = traj.rates(mid)
     f_n = np.einsum("kij,kj->ki", mat_nb, f_b)
     x0 = [values.get(name, 0.0) for name in layout.names]
-    x = error_model.propagate(layout, x0, np.full(n, step), lla[:, 0], lla[:, 2], vel_n, f_n, mat_nb,
-                         omega_ib_b, **kwargs)  # fmt: skip
+    x = error_model.propagate(
+        layout, x0, np.full(n, step), lla[:, 0], lla[:, 2], vel_n, f_n, mat_nb, omega_ib_b, **kwargs
+    )
     return x[round(1.0 / step) :: round(1.0 / step)]
 
 
@@ -331,8 +421,9 @@ def test_align12_linear_model_matches_fixed_position_strapdown_over_30_min():
     values = {k: v for k, v in INITIAL_AND_BIASES.items() if not k.startswith("dr")}
     _, actual = _strapdown_errors(STATIONARY, values, 1800.0, 100.0, fixed_position=True)
     assert np.abs(actual[:, :3]).max() < 1e-6  # position held (m)
-    linear = _linear_errors(STATIONARY, error_model.ALIGN12, values, 1800.0, 1.0,
-                            transport_from_estimate=False)  # fmt: skip
+    linear = _linear_errors(
+        STATIONARY, error_model.ALIGN12, values, 1800.0, 1.0, transport_from_estimate=False
+    )
     deviation = _relative_deviation(actual, linear, error_model.ALIGN12)
     assert len(deviation) == 6 and max(deviation.values()) < 0.10, deviation
     # the free-navigation model (with the Schuler coupling) does not describe this run
@@ -348,10 +439,13 @@ def test_ekf26_misalignment_columns_match_strapdown_on_a_turntable():
     # gives 20 % to 1200 %.
     rate = 10 * DEG
     traj = trajectory.Analytic(
-        roll=lambda t: 20 * DEG + 0 * t, pitch=lambda t: 10 * DEG + 0 * t,
-        heading=lambda t: 0.5 + rate * t, lat=lambda t: LAT + 0 * t,
-        lon=lambda t: LON + 0 * t, height=lambda t: HEIGHT + 0 * t,
-    )  # fmt: skip
+        roll=lambda t: 20 * DEG + 0 * t,
+        pitch=lambda t: 10 * DEG + 0 * t,
+        heading=lambda t: 0.5 + rate * t,
+        lat=lambda t: LAT + 0 * t,
+        lon=lambda t: LON + 0 * t,
+        height=lambda t: HEIGHT + 0 * t,
+    )
     values = dict(
         zip(
             error_model.GROUPS["accel_misalignment"] + error_model.GROUPS["gyro_misalignment"],

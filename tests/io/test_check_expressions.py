@@ -8,11 +8,17 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from inins.exceptions import InputError
-from inins.io.checks import CheckSyntaxError, evaluate_checks, parse_check
+from inins.scenario.checks import CheckSyntaxError, evaluate_checks, parse_check
 
 RESULTS = {
-    "beta_x_dph": 0.0012, "beta_y_dph": -0.0030, "valid": True, "na_dph": None,
-    "nan_dph": math.nan, "np_dph": np.float32(2.0), "np_ok": np.bool_(True), "count": 3,
+    "beta_x_dph": 0.0012,
+    "beta_y_dph": -0.0030,
+    "valid": True,
+    "na_dph": None,
+    "nan_dph": math.nan,
+    "np_dph": np.float32(2.0),
+    "np_ok": np.bool_(True),
+    "count": 3,
     "zero": 0.0,
 }
 TRUTH = {"beta_x_dph": 0.0016, "beta_y_dph": -0.0034, "zero": 0.0}

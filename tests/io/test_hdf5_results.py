@@ -37,8 +37,10 @@ def _result(n=100):
             "kinds": Series(np.array(["hold", "rotate"], dtype="S8"), "1"),
             "scalar": Series(np.float64(3.5), "s"),
         },
-        attrs={"a": {"k_s": 2.0, "nested": {"v": [1, 2]}, "none": None, "names": ["x", "y"]},
-               "": {"method": "eq44"}},
+        attrs={
+            "a": {"k_s": 2.0, "nested": {"v": [1, 2]}, "none": None, "names": ["x", "y"]},
+            "": {"method": "eq44"},
+        },
     )
 
 
@@ -53,9 +55,19 @@ def test_storage_options():
 
 
 def test_encode_attrs():
-    enc = encode_attrs({"a": 1, "d": {"e": {"f": "x"}}, "l": [1.0, 2.0], "s": ["p", "q"],
-                        "n": None, "m": [{"k": 1}], "r": [[1], [1, 2]],
-                        "np": np.float32(1.5), "arr": np.zeros(2)})
+    enc = encode_attrs(
+        {
+            "a": 1,
+            "d": {"e": {"f": "x"}},
+            "l": [1.0, 2.0],
+            "s": ["p", "q"],
+            "n": None,
+            "m": [{"k": 1}],
+            "r": [[1], [1, 2]],
+            "np": np.float32(1.5),
+            "arr": np.zeros(2),
+        }
+    )
     assert enc["a"] == 1 and enc["d.e.f"] == "x"
     assert enc["l"].dtype == float and list(enc["s"]) == ["p", "q"]
     assert json.loads(enc["n"]) is None and json.loads(enc["m"]) == [{"k": 1}]
@@ -145,7 +157,7 @@ def _stream(sink, n, block, seed=0):
     sink.create("imu/x", (3,), np.float64, "rad", "b", "rates", attrs={"dt_s": 0.01})
     sink.create("imu/k", (), np.int32, "count")
     for k0 in range(0, n, block):
-        rows = data[k0:k0 + block].copy()
+        rows = data[k0 : k0 + block].copy()
         sink.append("imu/x", rows)
         rows[:] = np.nan  # the caller reuses its buffer
         sink.append("imu/k", np.arange(k0, min(n, k0 + block), dtype=np.int32))

@@ -11,8 +11,9 @@ import pytest
 from inins.exceptions import InputError
 from inins.io import resources
 from inins.io.atomic import AtomicFile, AtomicGroup, deferred_interrupts, write_text_atomic
-from inins.io.report import build_report, format_table, format_value
+from inins.io.report import build_report
 from inins.io.summary import build_summary, json_scalar, summary_text, write_summary
+from inins.results import format_table, format_value
 
 
 def test_atomic_file_commit_and_discard(tmp_path):
@@ -86,12 +87,29 @@ def test_json_scalar():
 
 
 def test_summary_shape_and_file(tmp_path):
-    checks = [{"name": "x < 1", "passed": True, "value": np.float64(0.5)},
-              {"name": "y < 1", "passed": False, "value": None, "reason": "y is NaN"}]
-    summary = build_summary("demo", "0.1.0", "s.yaml", np.int64(4),
-                            {"x": np.float64(0.5), "y": math.nan}, {"x": 0.4}, checks)
-    assert list(summary) == ["command", "inins_version", "scenario", "seed", "results",
-                             "truth", "checks", "passed"]
+    checks = [
+        {"name": "x < 1", "passed": True, "value": np.float64(0.5)},
+        {"name": "y < 1", "passed": False, "value": None, "reason": "y is NaN"},
+    ]
+    summary = build_summary(
+        "demo",
+        "0.1.0",
+        "s.yaml",
+        np.int64(4),
+        {"x": np.float64(0.5), "y": math.nan},
+        {"x": 0.4},
+        checks,
+    )
+    assert list(summary) == [
+        "command",
+        "inins_version",
+        "scenario",
+        "seed",
+        "results",
+        "truth",
+        "checks",
+        "passed",
+    ]
     assert summary["results"] == {"x": 0.5, "y": None} and summary["passed"] is False
     write_summary(tmp_path / "summary.json", summary)
     assert json.loads((tmp_path / "summary.json").read_text()) == summary
@@ -102,7 +120,8 @@ def test_summary_shape_and_file(tmp_path):
 def test_format_table():
     text = format_table(
         [("beta_x", 0.0016123456, None), ("beta_y", -0.0034, 12)],
-        headers=("gyro", "estimate", "truth"), units=("", "deg/h", "deg/h"),
+        headers=("gyro", "estimate", "truth"),
+        units=("", "deg/h", "deg/h"),
     )
     lines = text.split("\n")
     assert lines[0].split() == ["gyro", "estimate", "truth"]
@@ -122,15 +141,30 @@ def test_format_value():
 
 
 def test_report():
-    prov = {"command": "demo", "inins_version": "0.1.0", "created_utc": "2025-01-01T00:00:00Z",
-            "scenario_source": "configs/demo/default.yaml", "seed": 3,
-            "scenario_overrides": ["a=1"]}
-    checks = [{"name": "x < 1", "passed": True, "value": 0.5},
-              {"name": "y < 1", "passed": False, "value": None, "reason": "y is NaN"}]
+    prov = {
+        "command": "demo",
+        "inins_version": "0.1.0",
+        "created_utc": "2025-01-01T00:00:00Z",
+        "scenario_source": "configs/demo/default.yaml",
+        "seed": 3,
+        "scenario_overrides": ["a=1"],
+    }
+    checks = [
+        {"name": "x < 1", "passed": True, "value": 0.5},
+        {"name": "y < 1", "passed": False, "value": None, "reason": "y is NaN"},
+    ]
     text = build_report(prov, "Body\n", ("careful",), checks)
-    for part in ("inins demo report", "2025-01-01T00:00:00Z", "configs/demo/default.yaml",
-                 "--set a=1", "seed      3", "Body", "- careful", "FAIL (y is NaN)",
-                 "FAILED: 1 of 2 checks passed"):
+    for part in (
+        "inins demo report",
+        "2025-01-01T00:00:00Z",
+        "configs/demo/default.yaml",
+        "--set a=1",
+        "seed      3",
+        "Body",
+        "- careful",
+        "FAIL (y is NaN)",
+        "FAILED: 1 of 2 checks passed",
+    ):
         assert part in text
     assert "\x1b" not in text and text.endswith("\n")
     assert "Checks" not in build_report(prov, "", (), ())
@@ -143,8 +177,7 @@ def test_config_path(tmp_path, monkeypatch):
     monkeypatch.setattr(resources, "configs_root", lambda: tmp_path)
     assert resources.config_path("cmd") == tmp_path / "cmd" / "default.yaml"
     assert resources.available_configs("cmd") == ["default", "paper-case-2"]
-    assert resources.display_name(tmp_path / "cmd" / "default.yaml") == \
-        "configs/cmd/default.yaml"
+    assert resources.display_name(tmp_path / "cmd" / "default.yaml") == "configs/cmd/default.yaml"
     with pytest.raises(InputError, match="available: default, paper-case-2"):
         resources.config_path("cmd", "nope")
 

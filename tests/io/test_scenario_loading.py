@@ -8,34 +8,34 @@ from pydantic import Field, model_validator
 
 from inins.core.units import DEG, DPH
 from inins.exceptions import InputError
-from inins.io.scenario import (
+from inins.scenario.base import (
     DEFAULT_SEED,
-    NonNegative,
-    Positive,
     ScenarioModel,
     ScenarioSection,
-    Vec3,
     field_doc_problems,
     load_scenario,
     resolve_seed,
     to_si,
     unit_of,
 )
-from inins.io.validation import KeyPathError
+from inins.scenario.types import NonNegFloat, PositiveFloat
+from inins.scenario.validation import KeyPathError
+
+Vec3 = tuple[float, float, float]  # strict: exactly three numbers (item-level messages)
 
 
 class Gyro(ScenarioSection):
     """Gyro errors."""
 
     bias_dph: Vec3 = Field((0.0, 0.0, 0.0), description="Bias per axis [deg/h]")
-    arw_deg_rth: NonNegative = Field(0.0, description="Angle random walk [deg/sqrt(h)]")
+    arw_deg_rth: NonNegFloat = Field(0.0, description="Angle random walk [deg/sqrt(h)]")
 
 
 class Imu(ScenarioSection):
     """The IMU."""
 
     gyro: Gyro = Field(default_factory=Gyro)
-    rate_hz: Positive = Field(200.0, description="Sample rate [Hz]")
+    rate_hz: PositiveFloat = Field(200.0, description="Sample rate [Hz]")
     count: int = Field(1, description="Number of units")
 
 
@@ -43,7 +43,7 @@ class Hold(ScenarioSection):
     """Stay put."""
 
     kind: Literal["hold"] = Field(description="Step kind")
-    duration_s: Positive = Field(description="Time at rest [s]")
+    duration_s: PositiveFloat = Field(description="Time at rest [s]")
 
 
 class Rotate(ScenarioSection):
@@ -51,7 +51,7 @@ class Rotate(ScenarioSection):
 
     kind: Literal["rotate"] = Field(description="Step kind")
     angle_deg: float = Field(description="Signed angle [deg]")
-    duration_s: Positive = Field(description="Time of the turn [s]")
+    duration_s: PositiveFloat = Field(description="Time of the turn [s]")
 
 
 Step = Annotated[Hold | Rotate, Field(discriminator="kind")]
@@ -94,6 +94,7 @@ def write(tmp_path):
         path = tmp_path / name
         path.write_text(text)
         return path
+
     return _write
 
 
@@ -125,33 +126,70 @@ def test_default_path_is_used(write):
 @pytest.mark.parametrize(
     ("text", "key", "line", "fragment"),
     [
-        ("imu:\n  gyro:\n    bias_dph: [1, abc, 3]\n", "imu.gyro.bias_dph[1]", 3,
-         "expected a number, got 'abc'"),
+        (
+            "imu:\n  gyro:\n    bias_dph: [1, abc, 3]\n",
+            "imu.gyro.bias_dph[1]",
+            3,
+            "expected a number, got 'abc'",
+        ),
         ("imu:\n  gyro:\n    bias_dph: [1, 2]\n", "imu.gyro.bias_dph[2]", 3, "missing list item"),
-        ("imu:\n  gyro:\n    bias_dph: [1, 2, 3, 4]\n", "imu.gyro.bias_dph", 3,
-         "at most 3 items, got 4"),
-        ("imu:\n  gyro:\n    bias_dps: [1, 2, 3]\n", "imu.gyro.bias_dps", 3,
-         "unknown key; did you mean 'bias_dph'?"),
-        ("motion:\n  - {kind: hold, duration_s: 1}\n  - kind: rotate\n    angle_deg: 9\n"
-         "    duration_s: -5\n", "motion[1].duration_s", 5, "must be > 0"),
-        ("motion:\n  - {kind: hold, duration_s: .nan}\n", "motion[0].duration_s", 2,
-         "finite number"),
-        ("motion:\n  - {kind: hold, duration_s: .inf}\n", "motion[0].duration_s", 2,
-         "finite number"),
+        (
+            "imu:\n  gyro:\n    bias_dph: [1, 2, 3, 4]\n",
+            "imu.gyro.bias_dph",
+            3,
+            "at most 3 items, got 4",
+        ),
+        (
+            "imu:\n  gyro:\n    bias_dps: [1, 2, 3]\n",
+            "imu.gyro.bias_dps",
+            3,
+            "unknown key; did you mean 'bias_dph'?",
+        ),
+        (
+            "motion:\n  - {kind: hold, duration_s: 1}\n  - kind: rotate\n    angle_deg: 9\n"
+            "    duration_s: -5\n",
+            "motion[1].duration_s",
+            5,
+            "must be > 0",
+        ),
+        (
+            "motion:\n  - {kind: hold, duration_s: .nan}\n",
+            "motion[0].duration_s",
+            2,
+            "finite number",
+        ),
+        (
+            "motion:\n  - {kind: hold, duration_s: .inf}\n",
+            "motion[0].duration_s",
+            2,
+            "finite number",
+        ),
         ("motion:\n  - {kind: hold}\n", "motion[0].duration_s", 2, "required key is missing"),
-        ("motion:\n  - {kind: spin, duration_s: 1}\n", "motion[0].kind", 2,
-         "unknown kind 'spin'; expected one of 'hold', 'rotate'"),
+        (
+            "motion:\n  - {kind: spin, duration_s: 1}\n",
+            "motion[0].kind",
+            2,
+            "unknown kind 'spin'; expected one of 'hold', 'rotate'",
+        ),
         ("motion:\n  - {duration_s: 1}\n", "motion[0].kind", 2, "required key is missing"),
         ("imu:\n  rate_hz: true\n", "imu.rate_hz", 2, "expected a number, got 'true'"),
-        ("imu:\n  gyro: {bias_dph: [1, false, 0]}\n", "imu.gyro.bias_dph[1]", 2,
-         "expected a number"),
+        (
+            "imu:\n  gyro: {bias_dph: [1, false, 0]}\n",
+            "imu.gyro.bias_dph[1]",
+            2,
+            "expected a number",
+        ),
         ("imu:\n  count: 2.5\n", "imu.count", 2, "expected an integer"),
         ("imu: 3\n", "imu", 1, "expected a mapping"),
         ("motion: {a: 1}\n", "motion", 1, "expected a list"),
         ("enabled: maybe\n", "enabled", 1, "expected true or false"),
         ("seed: -1\n", "seed", 1, "must be >= 0"),
-        ("motion:\n  - kind: rotate\n    angle_deg: 900\n    duration_s: 1\n",
-         "motion[0].angle_deg", 3, "at most two turns"),
+        (
+            "motion:\n  - kind: rotate\n    angle_deg: 900\n    duration_s: 1\n",
+            "motion[0].angle_deg",
+            3,
+            "at most two turns",
+        ),
         ("checks: [abs(x)]\n", "checks[0]", 1, "comparison or a true/false value"),
         ("checks:\n  - x < 1\n  - __import__('os')\n", "checks[1]", 3, "may be called"),
     ],

@@ -5,7 +5,7 @@ from hypothesis import given
 from hypothesis import strategies as st
 
 from inins.exceptions import InputError
-from inins.io.yaml_source import (
+from inins.scenario.yaml_source import (
     apply_override,
     dump_yaml,
     format_path,
@@ -41,10 +41,22 @@ def test_lines_of_keys_and_items():
 
 @pytest.mark.parametrize(
     ("text", "value"),
-    [("x: yes", "yes"), ("x: off", "off"), ("x: true", True), ("x: False", False),
-     ("x: 1e-3", 1e-3), ("x: 2.5E3", 2500.0), ("x: -1e2", -100.0), ("x: .5e1", 5.0),
-     ("x: 1.0e+3", 1000.0), ("x: 12", 12), ("x: 2024-05-01", "2024-05-01"),
-     ("x: .nan", "nan"), ("x: 1_000", 1000), ("x:", None)],
+    [
+        ("x: yes", "yes"),
+        ("x: off", "off"),
+        ("x: true", True),
+        ("x: False", False),
+        ("x: 1e-3", 1e-3),
+        ("x: 2.5E3", 2500.0),
+        ("x: -1e2", -100.0),
+        ("x: .5e1", 5.0),
+        ("x: 1.0e+3", 1000.0),
+        ("x: 12", 12),
+        ("x: 2024-05-01", "2024-05-01"),
+        ("x: .nan", "nan"),
+        ("x: 1_000", 1000),
+        ("x:", None),
+    ],
 )
 def test_yaml_1_2_scalars(text, value):
     got = parse_yaml(text, "s.yaml")[0]["x"]
@@ -131,10 +143,12 @@ def test_apply_override_indexes_lists():
 
 @pytest.mark.parametrize(
     ("path", "message"),
-    [(("motion", 5, "x"), "index 5 is out of range (motion has 2 items)"),
-     (("motion", "x"), "motion is a list"),
-     (("imu", "gyro", "bias_dph", 0, "x"), "imu.gyro.bias_dph[0] is a number"),
-     (("nothing", 0), "nothing is not in the scenario")],
+    [
+        (("motion", 5, "x"), "index 5 is out of range (motion has 2 items)"),
+        (("motion", "x"), "motion is a list"),
+        (("imu", "gyro", "bias_dph", 0, "x"), "imu.gyro.bias_dph[0] is a number"),
+        (("nothing", 0), "nothing is not in the scenario"),
+    ],
 )
 def test_apply_override_errors(path, message):
     data, _ = parse_yaml(TEXT, "s.yaml")

@@ -1,37 +1,24 @@
 """simulate-table against truth: exact increments, sensor errors, disturbances."""
 
-from pathlib import Path
 
 import numpy as np
 import pytest
-import yaml
 
+from inins.commands._table import table_simulation
+from inins.commands.simulate_table import stream
 from inins.core import earth, error_model, rotation, strapdown
 from inins.core.units import ARCSEC, DEG_RTH, DPH, UG
-from inins.io.scenarios.simulate_table import SimulateTableScenario
 from inins.results import MemorySink
-from inins.table.simulate import simulate_table
-
-CONFIGS = Path(__file__).parents[2] / "configs" / "simulate-table"
+from inins.scenario.simulate_table import SimulateTableScenario
+from tests.helpers import shipped
 
 
 def load(name, **updates):
-    data = yaml.safe_load((CONFIGS / name).read_text())
-    for key, value in updates.items():
-        section, field = key.split(".", 1)
-        data.setdefault(section, {})
-        node = data[section]
-        *parents, leaf = field.split(".")
-        for p in parents:
-            node = node.setdefault(p, {})
-        node[leaf] = value
-    return SimulateTableScenario.model_validate(data).to_si()
+    return table_simulation(shipped(SimulateTableScenario, f"simulate-table/{name}", **updates))
 
 
 def run(sim, seed=0):
-    sink = MemorySink()
-    simulate_table(sim, np.random.default_rng(seed), sink)
-    return sink
+    return stream(sim, np.random.default_rng(seed), MemorySink())
 
 
 def test_error_free_increments_reproduce_the_table_attitude():

@@ -12,8 +12,10 @@ from inins.core.units import ARCSEC
 
 FORMULAS = {
     "roll": ("eq. 38: (R1 + R3 - R2 - R4) / 2T", ("eq38",)),
-    "pitch": ("eq. 44: (P1 + P3 - P0 - P2) / 2T,  eq. 45: (P1 + P3 - P2 - P4) / 2T",
-              ("eq44", "eq45")),
+    "pitch": (
+        "eq. 44: (P1 + P3 - P0 - P2) / 2T,  eq. 45: (P1 + P3 - P2 - P4) / 2T",
+        ("eq44", "eq45"),
+    ),
 }
 
 
@@ -36,17 +38,24 @@ def _epoch_figure(result, kind, path):
     tilt = ds["nav/tilt"].data[:, column] / ARCSEC
     fig, ax = plt.subplots(figsize=(9, 4.5), layout="constrained")
     ax.plot(minutes, tilt, lw=0.8, color="tab:blue")
-    for k, ((start, end), value) in enumerate(zip(ds["epochs/window"].data,
-                                                  ds["epochs/tilt"].data[:, column] / ARCSEC,
-                                                  strict=True)):
+    for k, ((start, end), value) in enumerate(
+        zip(ds["epochs/window"].data, ds["epochs/tilt"].data[:, column] / ARCSEC, strict=True)
+    ):
         ax.axvspan(start / 60.0, end / 60.0, color="tab:orange", alpha=0.35, lw=0)
         below = k in (1, 4)  # epochs 3 and 4 are close in time: put them on opposite sides
-        ax.annotate(f"{letter}({k}) = {value:.2f}\"", (0.5 * (start + end) / 60.0, value),
-                    textcoords="offset points", xytext=(0, -22 if below else 14),
-                    ha="center", fontsize=8, arrowprops={"arrowstyle": "-", "lw": 0.5})
+        ax.annotate(
+            f'{letter}({k}) = {value:.2f}"',
+            (0.5 * (start + end) / 60.0, value),
+            textcoords="offset points",
+            xytext=(0, -22 if below else 14),
+            ha="center",
+            fontsize=8,
+            arrowprops={"arrowstyle": "-", "lw": 0.5},
+        )
     text, names = FORMULAS[kind]
-    values = ", ".join(f"beta_{axis} ({n}) = {_fmt(result.results.get(f'beta_{axis}_{n}_dph'))}"
-                       for n in names)
+    values = ", ".join(
+        f"beta_{axis} ({n}) = {_fmt(result.results.get(f'beta_{axis}_{n}_dph'))}" for n in names
+    )
     ax.set_title(f"{kind} (tilt about body {axis})  {text}\n{values} deg/h", fontsize=9)
     ax.set_xlabel("time (min)")
     ax.set_ylabel(f"{kind} tilt (arcsec)")

@@ -11,7 +11,7 @@ import difflib
 import typing
 
 from inins.exceptions import InputError
-from inins.io.yaml_source import format_path, line_of
+from inins.scenario.yaml_source import format_path, line_of
 
 _MAX_LISTED = 5
 _NO_INPUT_SHOWN = {"check_syntax", "value_error", "too_long", "too_short"}
@@ -31,8 +31,12 @@ _SIMPLE = {
     "model_type": "expected a mapping (key: value)",
     "model_attributes_type": "expected a mapping (key: value)",
 }
-_BOUNDS = {"greater_than": ">", "greater_than_equal": ">=", "less_than": "<",
-           "less_than_equal": "<="}
+_BOUNDS = {
+    "greater_than": ">",
+    "greater_than_equal": ">=",
+    "less_than": "<",
+    "less_than_equal": "<=",
+}
 
 
 class KeyPathError(ValueError):
@@ -76,7 +80,7 @@ def _messages(err: dict, path: tuple) -> str:
 
 
 def _unit_word(path) -> str:
-    from inins.io.labunits import unit_of
+    from inins.scenario.labunits import unit_of
 
     last = path[-1] if path else None
     found = unit_of(last) if isinstance(last, str) else None
@@ -184,7 +188,7 @@ def to_input_error(exc, *, data, lines, source, model_cls, overrides=None) -> In
     data : dict
         The scenario data that was validated (after overrides).
     lines : dict
-        Key path -> line, from :func:`inins.io.yaml_source.parse_yaml`.
+        Key path -> line, from :func:`inins.scenario.yaml_source.parse_yaml`.
     source : str
         Scenario file name.
     model_cls : type
@@ -215,7 +219,7 @@ def to_input_error(exc, *, data, lines, source, model_cls, overrides=None) -> In
     more = [
         f"  also {format_path(p) or '(top level)'}"
         f"{'' if _override_for(p, overrides) else _at_line(lines, p)}: {t}"
-        for p, t in described[1:_MAX_LISTED + 1]
+        for p, t in described[1 : _MAX_LISTED + 1]
     ]
     if len(described) > _MAX_LISTED + 1:
         more.append(f"  ... and {len(described) - _MAX_LISTED - 1} more")

@@ -108,8 +108,9 @@ def parse_yaml(text: str, source: str) -> tuple[dict, dict]:
         return {}, lines
     if not isinstance(data, dict):
         raise InputError(
-            f"expected a mapping of keys (key: value) at the top level, "
-            f"got {_kind(data)}", source=source, line=node.start_mark.line + 1,
+            f"expected a mapping of keys (key: value) at the top level, got {_kind(data)}",
+            source=source,
+            line=node.start_mark.line + 1,
         )
     return data, lines
 
@@ -143,7 +144,9 @@ def _map_lines(node, path, lines, source, active, count) -> None:
             if key in seen:
                 raise InputError(
                     f"duplicate key {key!r} (first defined at line {seen[key]})",
-                    source=source, key=format_path((*path, key)), line=line,
+                    source=source,
+                    key=format_path((*path, key)),
+                    line=line,
                 )
             seen[key] = line
             lines[(*path, key)] = line
@@ -243,9 +246,7 @@ def apply_override(data: dict, path: tuple, value, item: str) -> None:
                     )
                 node[part] = {}
         else:
-            raise InputError(
-                f"--set {item}: {where} is {_kind(node)}, not a mapping or a list"
-            )
+            raise InputError(f"--set {item}: {where} is {_kind(node)}, not a mapping or a list")
         if last:
             node[part] = value
         else:

@@ -5,9 +5,9 @@ The data come from exactly one of
 
 - ``data: table-data.h5`` -- a simulate-table or import-log output, read with
   :func:`inins.io.tabledata.read_table_data`; a relative path is relative to the
-  scenario file (:data:`inins.io.scenario.ScenarioPath`);
+  scenario file (:data:`inins.scenario.base.ScenarioPath`);
 - ``simulate: {...}`` -- a complete simulate-table scenario without ``seed`` and
-  ``checks`` (:class:`inins.io.scenarios.simulate_table.TableSetup`), simulated in
+  ``checks`` (:class:`inins.scenario.simulate_table.TableSetup`), simulated in
   memory with the run's seed, so that one align-ett scenario is one run of a sweep
   (``--set simulate.imu.accel.bias_ug=20``).
 
@@ -18,26 +18,30 @@ The nominal mounting (``imu_axes``) is design knowledge, not truth: the key, els
 import numpy as np
 from pydantic import Field, field_validator
 
-from inins.calibration.ett import EttOptions
-from inins.core.units import ARCSEC, DEG, DEG_RTH, UG, UG_RTHZ
-from inins.io.scenarios.common import NonNegFloat, PositiveFloat, Section
-from inins.io.scenarios.simulate_table import DIRECTIONS, Direction, TableSource
+from inins.scenario.base import ScenarioSection as Section
+from inins.scenario.simulate_table import DIRECTIONS, Direction, TableSource
+from inins.scenario.types import NonNegFloat, PositiveFloat
 
 
 class Positions(Section):
     """The two ETT positions (000 §3.1) and the windows averaged there."""
 
     vertical_label: str | None = Field(
-        None, description="step label of the vertical hold (table pitched 90 deg); null: "
-        "the first hold whose platform normal is horizontal")
+        None,
+        description="step label of the vertical hold (table pitched 90 deg); null: "
+        "the first hold whose platform normal is horizontal",
+    )
     level_label: str | None = Field(
-        None, description="step label of the level hold; null: the first level hold after "
-        "the vertical one, else the last before it")
+        None,
+        description="step label of the level hold; null: the first level hold after "
+        "the vertical one, else the last before it",
+    )
     settle_s: NonNegFloat = Field(
-        5.0, description="time skipped at the start of each hold, after the rotation (s)")
+        5.0, description="time skipped at the start of each hold, after the rotation (s)"
+    )
     window_s: PositiveFloat | None = Field(
-        None, description="averaging window after the settle time (s); null: the rest of "
-        "the hold")
+        None, description="averaging window after the settle time (s); null: the rest of the hold"
+    )
 
 
 class AlignEttScenario(TableSource):
@@ -45,24 +49,35 @@ class AlignEttScenario(TableSource):
     positions (equivalent linear transformation, 000 §3.1), compared with gyrocompassing."""
 
     imu_axes: list[Direction] | None = Field(
-        None, min_length=3, max_length=3,
+        None,
+        min_length=3,
+        max_length=3,
         description="nominal mounting: table directions of the IMU x, y, z axes (000: "
         "right, forward, up); null: simulate.mount.imu_axes, else the nearest axis "
-        "permutation of the estimate")
+        "permutation of the estimate",
+    )
     positions: Positions = Field(default_factory=Positions)
     table_azimuth_deg: float | None = Field(
-        None, description="azimuth of the table base from true north replacing the "
-        "data's (deg); null: the data's")
+        None,
+        description="azimuth of the table base from true north replacing the "
+        "data's (deg); null: the data's",
+    )
     table_azimuth_sigma_arcsec: NonNegFloat = Field(
-        0.0, description="1 sigma of the table base azimuth (arcsec)")
+        0.0, description="1 sigma of the table base azimuth (arcsec)"
+    )
     accel_bias_sigma_ug: NonNegFloat = Field(
-        10.0, description="1 sigma of each accelerometer bias, for the heading 1 sigma (ug)")
+        10.0, description="1 sigma of each accelerometer bias, for the heading 1 sigma (ug)"
+    )
     accel_vrw_ug_rthz: NonNegFloat | None = Field(
-        None, description="accelerometer velocity random walk (ug/sqrt(Hz)); null: from "
-        "the scatter of the data in the windows")
+        None,
+        description="accelerometer velocity random walk (ug/sqrt(Hz)); null: from "
+        "the scatter of the data in the windows",
+    )
     gyro_arw_deg_rth: NonNegFloat | None = Field(
-        None, description="gyro angle random walk for the gyrocompass 1 sigma "
-        "(deg/sqrt(h)); null: from the scatter of the data")
+        None,
+        description="gyro angle random walk for the gyrocompass 1 sigma "
+        "(deg/sqrt(h)); null: from the scatter of the data",
+    )
 
     @field_validator("imu_axes")
     @classmethod
@@ -79,19 +94,3 @@ class AlignEttScenario(TableSource):
         if axes is None and self.simulate is not None:
             axes = self.simulate.mount.imu_axes
         return None if axes is None else np.array([DIRECTIONS[v] for v in axes]).T
-
-    def options(self):
-        """The method settings in SI (:class:`inins.calibration.ett.EttOptions`)."""
-        p = self.positions
-
-        def scaled(value, unit):
-            return None if value is None else value * unit
-
-        return EttOptions(
-            vertical_label=p.vertical_label, level_label=p.level_label, settle=p.settle_s,
-            window=p.window_s, mat_tb0=self.mat_tb0(),
-            table_azimuth=scaled(self.table_azimuth_deg, DEG),
-            table_azimuth_sigma=self.table_azimuth_sigma_arcsec * ARCSEC,
-            accel_bias_sigma=self.accel_bias_sigma_ug * UG,
-            accel_vrw=scaled(self.accel_vrw_ug_rthz, UG_RTHZ),
-            gyro_arw=scaled(self.gyro_arw_deg_rth, DEG_RTH))

@@ -29,12 +29,19 @@ from inins.exceptions import InputError
 
 _FUNCS = {"abs": abs, "min": min, "max": max, "sqrt": math.sqrt}
 _BINOPS = {
-    ast.Add: operator.add, ast.Sub: operator.sub, ast.Mult: operator.mul,
-    ast.Div: operator.truediv, ast.Pow: operator.pow,
+    ast.Add: operator.add,
+    ast.Sub: operator.sub,
+    ast.Mult: operator.mul,
+    ast.Div: operator.truediv,
+    ast.Pow: operator.pow,
 }
 _CMPOPS = {
-    ast.Lt: operator.lt, ast.LtE: operator.le, ast.Gt: operator.gt,
-    ast.GtE: operator.ge, ast.Eq: operator.eq, ast.NotEq: operator.ne,
+    ast.Lt: operator.lt,
+    ast.LtE: operator.le,
+    ast.Gt: operator.gt,
+    ast.GtE: operator.ge,
+    ast.Eq: operator.eq,
+    ast.NotEq: operator.ne,
 }
 _NAMESPACES = ("err", "truth")
 _MAX_LENGTH = 1000
@@ -120,9 +127,7 @@ def _children(node, expr) -> list:
         return [node.left, *node.comparators]
     if isinstance(node, ast.Call):
         if not (isinstance(node.func, ast.Name) and node.func.id in _FUNCS):
-            raise CheckSyntaxError(
-                f"only abs, min, max and sqrt may be called, in {expr!r}"
-            )
+            raise CheckSyntaxError(f"only abs, min, max and sqrt may be called, in {expr!r}")
         name, nargs = node.func.id, len(node.args)
         wrong = nargs != 1 if name in ("abs", "sqrt") else nargs < 2
         if node.keywords or any(isinstance(a, ast.Starred) for a in node.args) or wrong:

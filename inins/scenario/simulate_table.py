@@ -6,23 +6,20 @@ import numpy as np
 from pydantic import Field, field_validator, model_validator
 
 from inins.core import rotation
-from inins.core.units import ARCSEC, DEG, UG
-from inins.io.scenario import ScenarioModel, ScenarioPath
-from inins.io.scenarios.common import (
-    Imu,
-    NonNegFloat,
-    PositiveFloat,
-    Section,
-    Site,
-    Vec3,
-)
-from inins.io.validation import KeyPathError
-from inins.table import kinematics, program, simulate
+from inins.core.units import ARCSEC
+from inins.scenario.base import ScenarioModel, ScenarioPath
+from inins.scenario.base import ScenarioSection as Section
+from inins.scenario.common import Imu, Site
+from inins.scenario.types import NonNegFloat, PositiveFloat, Vec3
+from inins.scenario.validation import KeyPathError
 
 DIRECTIONS = {
-    "forward": (1.0, 0.0, 0.0), "back": (-1.0, 0.0, 0.0),
-    "right": (0.0, 1.0, 0.0), "left": (0.0, -1.0, 0.0),
-    "down": (0.0, 0.0, 1.0), "up": (0.0, 0.0, -1.0),
+    "forward": (1.0, 0.0, 0.0),
+    "back": (-1.0, 0.0, 0.0),
+    "right": (0.0, 1.0, 0.0),
+    "left": (0.0, -1.0, 0.0),
+    "down": (0.0, 0.0, 1.0),
+    "up": (0.0, 0.0, -1.0),
 }
 Direction = Literal["forward", "back", "right", "left", "down", "up"]
 GimbalName = Literal["yaw", "pitch", "roll"]
@@ -32,22 +29,34 @@ class Table(Section):
     """The rate table. Its platform frame t is forward-right-down at zero gimbal angles."""
 
     gimbals: list[GimbalName] = Field(
-        ["yaw", "pitch"], min_length=2, max_length=3,
-        description="gimbal axes, outer first: 2 or 3 of yaw (table z), pitch (y), roll (x)")
+        ["yaw", "pitch"],
+        min_length=2,
+        max_length=3,
+        description="gimbal axes, outer first: 2 or 3 of yaw (table z), pitch (y), roll (x)",
+    )
     initial_angles_deg: list[float] | None = Field(
-        None, description="gimbal angles at the start (deg), outer first; default all 0")
+        None, description="gimbal angles at the start (deg), outer first; default all 0"
+    )
     base_azimuth_deg: float = Field(
-        0.0, description="azimuth of the table x axis at zero yaw, clockwise from north (deg)")
+        0.0, description="azimuth of the table x axis at zero yaw, clockwise from north (deg)"
+    )
     base_tilt_arcsec: list[float] = Field(
-        [0.0, 0.0], min_length=2, max_length=2,
-        description="roll and pitch of the table base from level (arcsec)")
+        [0.0, 0.0],
+        min_length=2,
+        max_length=2,
+        description="roll and pitch of the table base from level (arcsec)",
+    )
     axis_nonorthogonality_arcsec: list[list[float]] | None = Field(
-        None, description="per gimbal, outer first: small tilts of the axis toward the two "
-        "other table axes in cyclic order (arcsec); default none")
+        None,
+        description="per gimbal, outer first: small tilts of the axis toward the two "
+        "other table axes in cyclic order (arcsec); default none",
+    )
     encoder_noise_arcsec: NonNegFloat = Field(
-        0.0, description="white noise of the encoder readings, 1 sigma (arcsec)")
+        0.0, description="white noise of the encoder readings, 1 sigma (arcsec)"
+    )
     accel_dps2: PositiveFloat = Field(
-        20.0, description="angular acceleration of rotate and spin steps (deg/s^2)")
+        20.0, description="angular acceleration of rotate and spin steps (deg/s^2)"
+    )
 
     @field_validator("gimbals")
     @classmethod
@@ -67,29 +76,36 @@ class Table(Section):
         return self
 
 
-class MountRotation(Section):
+class MountDisturbance(Section):
     """A slow rotation of the IMU on its anti-vibration mount (000 §3.2)."""
 
     axis: Literal["x", "y", "z"] = Field(
         description="IMU body axis of the rotation (000's roll axis is the forward axis, "
-        "its pitch axis the right axis)")
+        "its pitch axis the right axis)"
+    )
     angle_deg: float = Field(description="total rotation (deg), e.g. 0.005")
     start_s: NonNegFloat = Field(0.0, description="start time (s)")
     duration_s: PositiveFloat = Field(description="time over which it happens (s), e.g. 2T")
     shape: Literal["linear", "smooth"] = Field(
-        "linear", description="linear: constant rate; smooth: (1 - cos) ramp")
+        "linear", description="linear: constant rate; smooth: (1 - cos) ramp"
+    )
 
 
 class Mount(Section):
     """How the IMU sits on the table platform."""
 
     imu_axes: list[Direction] = Field(
-        ["forward", "right", "down"], min_length=3, max_length=3,
-        description="table directions of the IMU x, y, z axes; 000 uses right, forward, up")
+        ["forward", "right", "down"],
+        min_length=3,
+        max_length=3,
+        description="table directions of the IMU x, y, z axes; 000 uses right, forward, up",
+    )
     misalignment_arcsec: Vec3 = Field(
-        0.0, description="constant small rotation of the IMU about its x, y, z axes (arcsec)")
-    rotations: list[MountRotation] = Field(
-        [], description="time-varying mount rotations (disturbance of 000 §3.2)")
+        0.0, description="constant small rotation of the IMU about its x, y, z axes (arcsec)"
+    )
+    rotations: list[MountDisturbance] = Field(
+        [], description="time-varying mount rotations (disturbance of 000 §3.2)"
+    )
 
     @field_validator("imu_axes")
     @classmethod
@@ -106,7 +122,8 @@ class Mount(Section):
     def mat_tb0(self):
         """IMU body -> table platform with the mount at rest."""
         return self.nominal() @ rotation.mat_from_rotvec(
-            np.array(self.misalignment_arcsec) * ARCSEC)
+            np.array(self.misalignment_arcsec) * ARCSEC
+        )
 
 
 class AfterRotation(Section):
@@ -114,7 +131,8 @@ class AfterRotation(Section):
 
     step_ug: Vec3 = Field(description="bias change added by each rotation (ug), x y z")
     settle_time_s: NonNegFloat = Field(
-        0.0, description="exponential time constant of the change (s); 0 = a step")
+        0.0, description="exponential time constant of the change (s); 0 = a step"
+    )
 
 
 class ChamberProfile(Section):
@@ -152,8 +170,10 @@ class RotateStep(Section):
 
     kind: Literal["rotate"] = Field(description="step type")
     axis: GimbalName = Field(description="gimbal to turn")
-    angle_deg: float = Field(description="signed angle (deg); positive is right-handed "
-                             "about the gimbal axis (yaw: clockwise seen from above)")
+    angle_deg: float = Field(
+        description="signed angle (deg); positive is right-handed "
+        "about the gimbal axis (yaw: clockwise seen from above)"
+    )
     rate_dps: PositiveFloat = Field(10.0, description="cruise rate (deg/s)")
     label: str = Field("", description="name shown in reports")
 
@@ -175,8 +195,8 @@ class Output(Section):
     """What is kept besides the IMU increments."""
 
     truth_rate_hz: PositiveFloat = Field(
-        10.0, description="rate of the truth and encoder series (Hz); must divide "
-        "the IMU rate")
+        10.0, description="rate of the truth and encoder series (Hz); must divide the IMU rate"
+    )
 
 
 class TableSetup(Section):
@@ -195,56 +215,17 @@ class TableSetup(Section):
     def _cross_checks(self):
         ratio = self.imu.sample_rate_hz / self.output.truth_rate_hz
         if abs(ratio - round(ratio)) > 1e-9 or round(ratio) < 1:
-            raise KeyPathError(("output", "truth_rate_hz"),
-                               f"must divide imu.sample_rate_hz ({self.imu.sample_rate_hz} Hz)")
+            raise KeyPathError(
+                ("output", "truth_rate_hz"),
+                f"must divide imu.sample_rate_hz ({self.imu.sample_rate_hz} Hz)",
+            )
         for i, step in enumerate(self.motion):
             if getattr(step, "axis", None) is not None and step.axis not in self.table.gimbals:
-                raise KeyPathError(("motion", i, "axis"), f"the table has no {step.axis} gimbal "
-                                   f"(table.gimbals = {self.table.gimbals})")
+                raise KeyPathError(
+                    ("motion", i, "axis"),
+                    f"the table has no {step.axis} gimbal (table.gimbals = {self.table.gimbals})",
+                )
         return self
-
-    def to_si(self):
-        """The simulation in SI: :class:`inins.table.simulate.TableSimulation`."""
-        t = self.table
-        names = tuple(t.gimbals)
-        index = {name: g for g, name in enumerate(names)}
-        accel = t.accel_dps2 * DEG
-        steps = []
-        for s in self.motion:
-            if s.kind == "hold":
-                steps.append(program.Hold(s.duration_s, s.label))
-            elif s.kind == "rotate":
-                steps.append(program.Rotate(index[s.axis], s.angle_deg * DEG,
-                                            s.rate_dps * DEG, accel, s.label))
-            else:
-                steps.append(program.Spin(index[s.axis], s.rate_dps * DEG, s.duration_s,
-                                          accel, s.label))
-        initial = np.array(t.initial_angles_deg or [0.0] * len(names)) * DEG
-        nonorth = (None if t.axis_nonorthogonality_arcsec is None
-                   else np.array(t.axis_nonorthogonality_arcsec) * ARCSEC)
-        axes_b = {"x": (1.0, 0, 0), "y": (0, 1.0, 0), "z": (0, 0, 1.0)}
-        mounts = tuple(
-            kinematics.MountRotation(np.array(axes_b[r.axis]), r.angle_deg * DEG, r.start_s,
-                                     r.duration_s, r.shape == "smooth")
-            for r in self.mount.rotations)
-        traj = kinematics.TableTrajectory(
-            program=program.compile_program(steps, initial),
-            axes=kinematics.gimbal_axes(names, nonorth),
-            mat_n_base=kinematics.base_matrix(t.base_azimuth_deg * DEG,
-                                              t.base_tilt_arcsec[0] * ARCSEC,
-                                              t.base_tilt_arcsec[1] * ARCSEC),
-            mat_tb0=self.mount.mat_tb0(), mounts=mounts, lla=self.site.lla())
-        d = self.disturbances
-        after = (None if d.accel_bias_after_rotation is None else simulate.AfterRotationBias(
-            np.array(d.accel_bias_after_rotation.step_ug) * UG,
-            d.accel_bias_after_rotation.settle_time_s))
-        chamber = (None if d.chamber is None else
-                   simulate.Chamber(np.array(d.chamber.time_s), np.array(d.chamber.delta_degc)))
-        return simulate.TableSimulation(
-            trajectory=traj, sensor=self.imu.to_si(), sample_rate=self.imu.sample_rate_hz,
-            gimbal_names=names, encoder_noise=t.encoder_noise_arcsec * ARCSEC,
-            truth_decimation=round(self.imu.sample_rate_hz / self.output.truth_rate_hz),
-            after_rotation=after, chamber=chamber)
 
 
 class SimulateTableScenario(TableSetup, ScenarioModel):
@@ -255,15 +236,22 @@ class TableSource(ScenarioModel):
     """Top level of a scenario that reads a table record: a file, or a simulation."""
 
     data: ScenarioPath | None = Field(
-        None, description="table-data HDF5 (simulate-table or import-log output), relative "
-        "to this scenario file; give this or simulate")
+        None,
+        description="table-data HDF5 (simulate-table or import-log output), relative "
+        "to this scenario file; give this or simulate",
+    )
     simulate: TableSetup | None = Field(
-        None, description="a simulate-table scenario run in memory instead of reading data "
-        "(so one scenario is one run of a sweep); give this or data")
+        None,
+        description="a simulate-table scenario run in memory instead of reading data "
+        "(so one scenario is one run of a sweep); give this or data",
+    )
 
     @model_validator(mode="after")
     def _one_source(self):
         if (self.data is None) == (self.simulate is None):
-            raise KeyPathError(("data",), "give either data (a table-data file) or a "
-                               "simulate: section, not both and not neither")
+            raise KeyPathError(
+                ("data",),
+                "give either data (a table-data file) or a "
+                "simulate: section, not both and not neither",
+            )
         return self

@@ -7,23 +7,23 @@ Subclass :class:`ScenarioModel` for the top level of a command's scenario and
 :class:`ScenarioSection` for nested sections. Both are frozen, forbid unknown
 keys and reject NaN and infinity. Every field needs a ``description`` (a field
 typed as a documented section may rely on the section's docstring); a field
-whose name ends in a lab-unit suffix (see :data:`inins.io.labunits.UNIT_SUFFIXES`) names that
+whose name ends in a lab-unit suffix (see :data:`inins.scenario.labunits.UNIT_SUFFIXES`) names that
 unit in its description as ``[unit]`` or ``(unit)``. :func:`field_doc_problems`
 lists what is missing; the CLI tests run it on every registered command::
 
     class Gyro(ScenarioSection):
         bias_dph: Vec3 = Field((0.0, 0.0, 0.0), description="Bias per axis [deg/h]")
-        arw_deg_rth: NonNegative = Field(0.0, description="Angle random walk [deg/sqrt(h)]")
+        arw_deg_rth: NonNegFloat = Field(0.0, description="Angle random walk [deg/sqrt(h)]")
 
     class Hold(ScenarioSection):
-        duration_s: Positive = Field(description="Time at rest [s]")
+        duration_s: PositiveFloat = Field(description="Time at rest [s]")
 
 The JSON Schema (``inins schema CMD``) carries the description and a ``unit``
 entry for every suffixed key. Convert to SI at the edge with :func:`to_si`
 (``to_si(gyro.bias_dph, "bias_dph")`` -> rad/s), never in the model.
 
-Types: ``Positive`` (> 0: durations, rates, sample rates), ``NonNegative``
-(>= 0: noise densities), ``Vec3`` (three numbers). Numbers given as text
+Types: the aliases of :mod:`inins.scenario.types` (``PositiveFloat``,
+``NonNegFloat``, ``Vec3``, ``NonNegVec3``). Numbers given as text
 (``"5"``) are accepted, text that is not a number (``"abc"``) and booleans
 given for numbers (``true``) are errors.
 """
@@ -35,7 +35,7 @@ from pydantic import AfterValidator, BaseModel, ConfigDict, Field, model_validat
 from pydantic_core import PydanticCustomError
 
 from inins.exceptions import InputError
-from inins.io.labunits import (  # noqa: F401 (re-exported: the scenario author's toolbox)
+from inins.scenario.labunits import (  # noqa: F401 (re-exported: the scenario author's toolbox)
     UNIT_SUFFIXES,
     field_doc_problems,
     to_si,
@@ -45,13 +45,6 @@ from inins.io.labunits import (  # noqa: F401 (re-exported: the scenario author'
 
 DEFAULT_SEED = 0
 """Seed used when neither ``--seed`` nor the scenario's ``seed`` is given."""
-
-Positive = Annotated[float, Field(gt=0)]
-"""A number > 0 (durations, rates)."""
-NonNegative = Annotated[float, Field(ge=0)]
-"""A number >= 0 (noise densities, magnitudes)."""
-Vec3 = tuple[float, float, float]
-"""Three numbers, one per axis x, y, z."""
 
 
 def _add_units(schema: dict, model: type) -> None:
@@ -78,7 +71,10 @@ class ScenarioSection(BaseModel):
     """Base of every scenario mapping: frozen, no unknown keys, finite numbers."""
 
     model_config = ConfigDict(
-        extra="forbid", frozen=True, allow_inf_nan=False, json_schema_extra=_add_units,
+        extra="forbid",
+        frozen=True,
+        allow_inf_nan=False,
+        json_schema_extra=_add_units,
         validate_default=True,
     )
 
@@ -101,9 +97,9 @@ class ScenarioSection(BaseModel):
         fields = _NUMERIC_FIELDS.get(cls)
         if fields is None:
             fields = frozenset(
-                name for name, info in cls.model_fields.items()
-                if (types := types_in(info.annotation)) & {int, float}
-                and not types & {bool, str}
+                name
+                for name, info in cls.model_fields.items()
+                if (types := types_in(info.annotation)) & {int, float} and not types & {bool, str}
             )
             _NUMERIC_FIELDS[cls] = fields
         return fields
@@ -111,7 +107,7 @@ class ScenarioSection(BaseModel):
 
 def _check_syntax(expr: str) -> str:
     """Validate one check expression when the scenario is loaded (names come later)."""
-    from inins.io.checks import CheckSyntaxError, parse_check
+    from inins.scenario.checks import CheckSyntaxError, parse_check
 
     try:
         parse_check(expr)
@@ -121,7 +117,7 @@ def _check_syntax(expr: str) -> str:
 
 
 CheckExpr = Annotated[str, AfterValidator(_check_syntax)]
-"""A pass/fail expression (see :mod:`inins.io.checks`), syntax-checked on load."""
+"""A pass/fail expression (see :mod:`inins.scenario.checks`), syntax-checked on load."""
 
 
 def _relative_to_scenario(value, info):
@@ -192,9 +188,9 @@ def load_scenario(model_cls, path, overrides, default_path):
     """
     from pydantic import ValidationError
 
-    from inins.io import yaml_source
     from inins.io.resources import display_name
-    from inins.io.validation import to_input_error
+    from inins.scenario import yaml_source
+    from inins.scenario.validation import to_input_error
 
     source = display_name(default_path) if path is None else str(path)
     text = _read_text(default_path if path is None else path, source)
@@ -229,7 +225,8 @@ def _read_text(path, source: str) -> str:
     except IsADirectoryError:
         raise InputError("is a directory, expected a YAML scenario file", source=source) from None
     except UnicodeDecodeError as exc:
-        raise InputError(f"not UTF-8 text ({exc.reason} at byte {exc.start})",
-                         source=source) from None
+        raise InputError(
+            f"not UTF-8 text ({exc.reason} at byte {exc.start})", source=source
+        ) from None
     except OSError as exc:
         raise InputError(f"cannot read scenario: {exc.strerror}", source=source) from None

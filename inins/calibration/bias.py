@@ -6,13 +6,26 @@ through the 000 Table 1 sequence, then evaluate the methods side by side
 the valid return-sequence formula automatically.
 """
 
-from dataclasses import dataclass, field, replace
+import enum
+from dataclasses import dataclass, replace
 
 import numpy as np
 
 from inins.calibration import methods, navigate, sequence
+from inins.calibration.alignment import StationaryAlignment
+from inins.calibration.ett import EttResult
+from inins.calibration.methods import Estimator, Formula
+from inins.calibration.tilt_model import Track
 from inins.core import error_model, rotation
 from inins.exceptions import InputError
+
+
+class HeadingMethod(enum.StrEnum):
+    """Where the heading at the first position comes from."""
+
+    GYROCOMPASS = "gyrocompass"
+    KNOWN = "known"
+    ETT = "ett"
 
 
 @dataclass(frozen=True)
@@ -25,8 +38,7 @@ class Settings:
         Alignment time at the start of position A (s).
     heading : float or None
         Known heading (rad) at A (``known`` or ETT alignment), None to gyrocompass.
-    heading_method : str
-        ``"gyrocompass"``, ``"known"`` or ``"ett"``.
+    heading_method : HeadingMethod
     heading_sigma : float
         1-sigma of a given heading (rad).
     epoch_window, settle : float
@@ -53,20 +65,33 @@ class Settings:
 
     align_duration: float = 300.0
     heading: float | None = None
-    heading_method: str = "gyrocompass"
+    heading_method: HeadingMethod = HeadingMethod.GYROCOMPASS
     heading_sigma: float = 0.0
     epoch_window: float = 5.0
     settle: float = 2.0
     labels: tuple | None = None
     output_rate: float = 10.0
     free: bool = False
-    arw: object = None
-    vrw: object = None
+    arw: np.ndarray | None = None
+    vrw: np.ndarray | float | None = None
     accel_quantum: float = 0.0
     bias_z: float = 0.0
     k_sigma: float = 4.0
     floor: float = 0.5 * np.pi / 180 / 3600
-    ett: object = None
+    ett: EttResult | None = None
+
+
+@dataclass(frozen=True)
+class CalibrationTruth:
+    """Simulation truth of a calibration: the mean gyro bias over the navigation (rad/s,
+    b frame), the true initial attitude error ``phi0`` (rad, NED), the error each
+    estimate should carry by the linear model (``predicted``, by :class:`Estimator`)
+    and the mount rotation on the output grid (rad, (m, 3))."""
+
+    bias: np.ndarray
+    phi0: np.ndarray
+    predicted: dict
+    mount: np.ndarray
 
 
 @dataclass(frozen=True)
@@ -75,8 +100,8 @@ class Outcome:
 
     seq: sequence.Sequence
     geometry: methods.Geometry
-    align: object
-    track: object
+    align: StationaryAlignment
+    track: Track
     eps: np.ndarray
     epoch_tilts: np.ndarray
     estimates: dict
@@ -85,7 +110,7 @@ class Outcome:
     choice: methods.Choice
     chosen: dict
     noise: tuple = ()
-    truth: dict = field(default_factory=dict)
+    truth: CalibrationTruth | None = None
 
 
 def _hold_windows(seq):
@@ -93,12 +118,12 @@ def _hold_windows(seq):
     return (e[0, 0], e[1, 1]), (e[2, 0], e[3, 1])
 
 
-def calibrate(record, settings, progress=None):
+def calibrate_bias(record, settings, progress=None):
     """Run calibrate-bias on a table record.
 
     Parameters
     ----------
-    record : inins.table.record.TableRecord
+    record : inins.core.records.TableRecord
     settings : Settings
     progress : callable, optional
 
@@ -106,35 +131,51 @@ def calibrate(record, settings, progress=None):
     -------
     Outcome
     """
-    seq = sequence.build_sequence(record, settings.align_duration, settings.epoch_window,
-                                  settings.settle, settings.labels)
+    seq = sequence.build_sequence(
+        record, settings.align_duration, settings.epoch_window, settings.settle, settings.labels
+    )
     lat = float(record.lla[0])
     if settings.ett is not None:
-        settings = replace(settings, heading=_ett_heading(record, settings.ett, seq.align),
-                           heading_sigma=settings.ett.heading_sigma)
-    align, arw, vrw = navigate.align(record, seq.align, lat, settings.heading,
-                                     settings.arw, settings.vrw)
+        settings = replace(
+            settings,
+            heading=_ett_heading(record, settings.ett, seq.align),
+            heading_sigma=settings.ett.heading_sigma,
+        )
+    align, arw, vrw = navigate.align(
+        record, seq.align, lat, settings.heading, settings.arw, settings.vrw
+    )
     estimated = settings.arw is None, settings.vrw is None
     settings = replace(settings, arw=arw, vrw=vrw)
-    track = navigate.navigate(record, align.mat_nb, seq.nav_start, seq.nav_end,
-                              settings.output_rate, settings.free, progress)
-    gyrocompass = settings.heading_method == "gyrocompass"
-    ctx = methods.Context.build(track, seq.epochs, seq.hold_times, settings.arw,
-                                settings.bias_z, gyrocompass)
+    track = navigate.navigate(
+        record,
+        align.mat_nb,
+        seq.nav_start,
+        seq.nav_end,
+        settings.output_rate,
+        settings.free,
+        progress,
+    )
+    gyrocompass = settings.heading_method == HeadingMethod.GYROCOMPASS
+    ctx = methods.Context.build(
+        track, seq.epochs, seq.hold_times, settings.arw, settings.bias_z, gyrocompass
+    )
     geometry = methods.Geometry.at_start(track)
     e, n = geometry.east, geometry.north
     est = {
-        "attitude": methods.solve(ctx, dict.fromkeys(track.horizontal, "attitude")),
-        "velocity": methods.solve_velocity(ctx, _hold_windows(seq), float(np.mean(vrw)),
-                                           settings.accel_quantum),
+        Estimator.ATTITUDE: methods.solve(ctx, dict.fromkeys(track.horizontal, Formula.ATTITUDE)),
+        Estimator.VELOCITY: methods.solve_velocity(
+            ctx, _hold_windows(seq), float(np.mean(vrw)), settings.accel_quantum
+        ),
     }
     if seq.has_return:
-        est["eq44"] = methods.solve(ctx, {e: "attitude", n: "return"})
-        est["eq45"] = methods.solve(ctx, {e: "return", n: "return"}, heading_known=True)
+        est[Estimator.EQ44] = methods.solve(ctx, {e: Formula.ATTITUDE, n: Formula.RETURN})
+        est[Estimator.EQ45] = methods.solve(
+            ctx, {e: Formula.RETURN, n: Formula.RETURN}, heading_known=True
+        )
     heading_sigma = align.heading_sigma if gyrocompass else settings.heading_sigma
     est = {k: _with_alignment_noise(v, align.tilt_sigma, heading_sigma) for k, v in est.items()}
     if seq.has_return:
-        reference = est["eq44"] if gyrocompass else est["eq45"]
+        reference = est[Estimator.EQ44] if gyrocompass else est[Estimator.EQ45]
         check = methods.mount_check(ctx, reference, heading_sigma)
         threshold = np.maximum(settings.k_sigma * check.sigma, settings.floor)
         choice = methods.choose(geometry, check, not gyrocompass, threshold)
@@ -142,8 +183,20 @@ def calibrate(record, settings, progress=None):
         check = methods.MountCheck(np.full(2, np.nan), np.full(2, np.nan))
         threshold, choice = np.full(2, np.nan), methods.NO_RETURN
     chosen = _chosen(est, geometry, choice)
-    outcome = Outcome(seq, geometry, align, track, ctx.eps, _epoch_tilts(ctx), est, check,
-                      threshold, choice, chosen, noise=(arw, vrw, estimated))
+    outcome = Outcome(
+        seq,
+        geometry,
+        align,
+        track,
+        ctx.eps,
+        _epoch_tilts(ctx),
+        est,
+        check,
+        threshold,
+        choice,
+        chosen,
+        noise=(arw, vrw, estimated),
+    )
     if record.truth is not None:
         outcome = _with_truth(outcome, record, ctx)
     return outcome
@@ -153,9 +206,12 @@ def _ett_heading(record, ett, window):
     """IMU heading (rad) at the alignment window from the ETT mounting and the encoders."""
     inside = (record.encoder_time >= window[0]) & (record.encoder_time <= window[1])
     if not np.any(inside):
-        raise InputError("alignment method ett needs encoder readings in the alignment "
-                         f"window {window[0]:g}-{window[1]:g} s", source=record.source,
-                         key="table/encoder")
+        raise InputError(
+            "alignment method ett needs encoder readings in the alignment "
+            f"window {window[0]:g}-{window[1]:g} s",
+            source=record.source,
+            key="table/encoder",
+        )
     return float(ett.heading_at(record.encoder[inside].mean(axis=0)))
 
 
@@ -169,19 +225,23 @@ def _with_alignment_noise(est, tilt_sigma, heading_sigma):
 
 def _epoch_tilts(ctx):
     """Mean tilt of each epoch window (rad), shape (5, 3)."""
-    return np.array([ctx.eps[(ctx.track.time >= a - 1e-9) & (ctx.track.time <= b + 1e-9)]
-                     .mean(axis=0) for a, b in ctx.windows])
+    return np.array(
+        [
+            ctx.eps[(ctx.track.time >= a - 1e-9) & (ctx.track.time <= b + 1e-9)].mean(axis=0)
+            for a, b in ctx.windows
+        ]
+    )
 
 
 def _chosen(est, geometry, choice):
     """Automatic choice per body axis: (value, sigma, formula name) or None."""
-    if "eq44" not in est:
+    if Estimator.EQ44 not in est:
         return dict.fromkeys(geometry.horizontal)
     h = geometry.horizontal
-    pair = est[choice.east_formula or "eq44"]
+    pair = est[choice.east_formula or Estimator.EQ44]
     north = h.index(geometry.north)
     east = h.index(geometry.east)
-    out = {geometry.north: (pair.value[north], pair.sigma[north], "eq38")}
+    out = {geometry.north: (pair.value[north], pair.sigma[north], methods.EQ38)}
     if choice.east_formula is None:
         out[geometry.east] = None
     else:
@@ -191,7 +251,7 @@ def _chosen(est, geometry, choice):
 
 def _with_truth(outcome, record, ctx):
     """True mean biases over the navigation, true initial attitude error, and the
-    biases each formula should carry by eqs. (1)-(2) of :mod:`.model` (000 eqs. 26-45)."""
+    biases each formula should carry by eqs. (1)-(2) of :mod:`.tilt_model` (000 eqs. 26-45)."""
     truth = record.truth
     track = ctx.track
     t0, t1 = outcome.seq.nav_start, outcome.seq.nav_end
@@ -199,14 +259,14 @@ def _with_truth(outcome, record, ctx):
     bias = truth.gyro_bias[inside].mean(axis=0)
     quat0 = _interp_quat(truth.time, truth.quat_nb, t0)
     phi0 = error_model.attitude_error(outcome.align.mat_nb, rotation.mat_from_quat(quat0))
-    mount = np.stack([np.interp(track.time, truth.time, truth.mount_rotvec[:, i])
-                      for i in range(3)], axis=1)
+    mount = np.stack(
+        [np.interp(track.time, truth.time, truth.mount_rotvec[:, i]) for i in range(3)], axis=1
+    )
     predicted = {}
     for name, est in outcome.estimates.items():
         mount_term = 0.0 if est.weights is None else np.einsum("ami,mi->a", est.weights, mount)
         predicted[name] = est.error_from(bias, phi0, mount_term)
-    return _replace(outcome, truth={"bias": bias, "phi0": phi0, "predicted": predicted,
-                                    "mount": mount})
+    return replace(outcome, truth=CalibrationTruth(bias, phi0, predicted, mount))
 
 
 def _interp_quat(time, quat, t):
@@ -214,7 +274,3 @@ def _interp_quat(time, quat, t):
     w = (t - time[k - 1]) / (time[k] - time[k - 1])
     q = (1 - w) * quat[k - 1] + w * quat[k]
     return q / np.linalg.norm(q)
-
-
-def _replace(outcome, **changes):
-    return replace(outcome, **changes)

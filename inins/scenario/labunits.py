@@ -39,6 +39,7 @@ compose with ``_per_``: ``temp_sens_ug_per_degc`` is ug/degC (SI factor of ug,
 a temperature difference being the same in degC and K).
 """
 
+
 def unit_of(name: str) -> tuple[str, float | None] | None:
     """Unit label and SI factor of a key from its suffix, or None.
 

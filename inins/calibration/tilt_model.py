@@ -110,7 +110,8 @@ def bias_response(track):
     inner = np.swapaxes(phi_t, 1, 2) @ track.mat_nb
     dt = np.diff(track.time)[:, None, None]
     integral = np.concatenate(
-        [np.zeros((1, 3, 3)), np.cumsum(0.5 * (inner[1:] + inner[:-1]) * dt, axis=0)])
+        [np.zeros((1, 3, 3)), np.cumsum(0.5 * (inner[1:] + inner[:-1]) * dt, axis=0)]
+    )
     return phi_t @ integral
 
 
@@ -141,8 +142,9 @@ class Response:
     def of(cls, track):
         phi_t = earth_transition(track)
         mat_bn = np.swapaxes(track.mat_nb, 1, 2)
-        return cls(mat_bn @ bias_response(track), mat_bn @ phi_t,
-                   np.swapaxes(phi_t, 1, 2) @ track.mat_nb)
+        return cls(
+            mat_bn @ bias_response(track), mat_bn @ phi_t, np.swapaxes(phi_t, 1, 2) @ track.mat_nb
+        )
 
 
 def formula_gain(weights, response):
@@ -163,8 +165,9 @@ def formula_gain(weights, response):
     Gain
     """
     axes = ([1, 2], [0, 1])
-    return Gain(np.tensordot(weights, response.bn_g, axes),
-                -np.tensordot(weights, response.bn_phi, axes))
+    return Gain(
+        np.tensordot(weights, response.bn_g, axes), -np.tensordot(weights, response.bn_phi, axes)
+    )
 
 
 def arw_sigma(track, weights, arw, response=None):
@@ -212,8 +215,11 @@ def window_weights(track, windows, coefficients):
         inside = (track.time >= start - 1e-9) & (track.time <= end + 1e-9)
         count = np.count_nonzero(inside)
         if count == 0:
-            raise InputError(f"no navigation output in the epoch window {start:g}-{end:g} s: "
-                             "lengthen sequence.epoch_window_s or raise "
-                             "navigation.output_rate_hz", key="sequence.epoch_window_s")
+            raise InputError(
+                f"no navigation output in the epoch window {start:g}-{end:g} s: "
+                "lengthen sequence.epoch_window_s or raise "
+                "navigation.output_rate_hz",
+                key="sequence.epoch_window_s",
+            )
         weights[inside] += coef / count
     return weights

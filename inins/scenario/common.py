@@ -4,40 +4,18 @@ Lab units live here and only here: every key carries its unit as a suffix and
 each section converts itself to the SI objects of the core (``to_si``).
 """
 
-from typing import Annotated
-
 import numpy as np
-from pydantic import AfterValidator, Field, model_validator
+from pydantic import Field, model_validator
 
 from inins.core import imu
 from inins.core.units import ARCSEC, DEG, DEG_RTH, DPH, PPM, UG, UG_RTHZ, UG_S
-from inins.io.scenario import ScenarioSection as Section
-
-
-def _three(value):
-    if isinstance(value, int | float):
-        return (float(value),) * 3
-    if len(value) != 3:
-        raise ValueError(f"expected one number or a list of 3, got {len(value)} numbers")
-    return tuple(float(v) for v in value)
-
-
-def _non_negative(value):
-    if any(v < 0 for v in value):
-        raise ValueError("must not be negative")
-    return value
+from inins.scenario.base import ScenarioSection as Section
+from inins.scenario.types import NonNegVec3, PositiveFloat, Vec3
 
 
 def _all_or_none(weights, name):
     if 0.0 in weights and any(w > 0.0 for w in weights):
         raise ValueError(f"{name}: quantize all three axes or none (got {list(weights)})")
-
-
-Vec3 = Annotated[float | list[float], AfterValidator(_three)]
-"""One number (used for all three axes) or three numbers, x y z."""
-NonNegVec3 = Annotated[Vec3, AfterValidator(_non_negative)]
-PositiveFloat = Annotated[float, Field(gt=0)]
-NonNegFloat = Annotated[float, Field(ge=0)]
 
 
 class Site(Section):
@@ -80,13 +58,17 @@ class Gyro(Section):
     misalignment_arcsec: GyroMisalignment = Field(default_factory=GyroMisalignment)
     arw_deg_rth: NonNegVec3 = Field(0.0, description="angle random walk (deg/sqrt(h))")
     bias_instability_dph: NonNegVec3 = Field(
-        0.0, description="Gauss-Markov bias instability, 1 sigma (deg/h)")
+        0.0, description="Gauss-Markov bias instability, 1 sigma (deg/h)"
+    )
     bias_corr_time_s: PositiveFloat = Field(
-        3600.0, description="correlation time of the bias instability (s)")
+        3600.0, description="correlation time of the bias instability (s)"
+    )
     temp_sensitivity_dph_per_degc: Vec3 = Field(
-        0.0, description="bias change per degree of temperature offset (deg/h/degC)")
+        0.0, description="bias change per degree of temperature offset (deg/h/degC)"
+    )
     pulse_weight_arcsec: NonNegVec3 = Field(
-        0.0, description="angle per output pulse (arcsec); 0 = no quantization")
+        0.0, description="angle per output pulse (arcsec); 0 = no quantization"
+    )
 
     @model_validator(mode="after")
     def _pulse_weights(self):
@@ -102,14 +84,19 @@ class Accel(Section):
     misalignment_arcsec: AccelMisalignment = Field(default_factory=AccelMisalignment)
     vrw_ug_rthz: NonNegVec3 = Field(0.0, description="velocity random walk (ug/sqrt(Hz))")
     bias_instability_ug: NonNegVec3 = Field(
-        0.0, description="Gauss-Markov bias instability, 1 sigma (ug)")
+        0.0, description="Gauss-Markov bias instability, 1 sigma (ug)"
+    )
     bias_corr_time_s: PositiveFloat = Field(
-        3600.0, description="correlation time of the bias instability (s)")
+        3600.0, description="correlation time of the bias instability (s)"
+    )
     temp_sensitivity_ug_per_degc: Vec3 = Field(
-        0.0, description="bias change per degree of temperature offset (ug/degC); "
-        "000 §2 quotes ~10 ug/degC for a QA-2000")
+        0.0,
+        description="bias change per degree of temperature offset (ug/degC); "
+        "000 §2 quotes ~10 ug/degC for a QA-2000",
+    )
     pulse_weight_ug_s: NonNegVec3 = Field(
-        0.0, description="velocity per output pulse (ug*s); 0 = no quantization")
+        0.0, description="velocity per output pulse (ug*s); 0 = no quantization"
+    )
 
     @model_validator(mode="after")
     def _pulse_weights(self):

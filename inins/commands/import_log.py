@@ -1,0 +1,486 @@
+"""``inins import-log``: a lab IMU log into the table-data layout, with a stationary
+check of every hold (spec §3).
+
+:class:`inins.io.logimport.LogReader` reads the log as typed chunks; they stream
+into the table-data layout (:mod:`inins.io.tabledata`) while block statistics are
+kept (:class:`inins.calibration.stationary.BlockStats`); the holds come from the
+scenario, from the table angles, or the whole log is one; each is checked by
+:func:`inins.calibration.stationary.check_holds`. Scenario keys:
+:mod:`inins.scenario.import_log`.
+"""
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from inins.calibration import stationary
+from inins.core import earth
+from inins.core.records import Step, StepKind
+from inins.core.units import ARCSEC, DEG, DEG_RTH, DPH, UG, UG_RTHZ
+from inins.exceptions import InputError
+from inins.io import tabledata
+from inins.io.logimport import (
+    CsvFormat,
+    LogExtent,
+    LogImport,
+    LogReader,
+    Resolved,
+    ScreeningOptions,
+    Sensor,
+    StepSpec,
+)
+from inins.results import CommandResult, NullSink, Series, format_table
+from inins.scenario.import_log import (
+    ACCEL_UNITS,
+    ANGLE_UNITS,
+    G_MULTIPLE,
+    GYRO_UNITS,
+    TIME_UNITS,
+    ImportLogScenario,
+)
+from inins.table import kinematics
+
+SCENARIO_MODEL = ImportLogScenario
+
+
+@dataclass(frozen=True)
+class LogRun:
+    """What reading the log gave: the resolved settings, the extent and the block
+    statistics."""
+
+    resolved: Resolved
+    extent: LogExtent
+    stats: stationary.BlockStats
+
+
+def run(scenario, seed, *, sink=None, progress=None):
+    """Import the scenario's log, streaming the table-data layout into ``sink``.
+
+    ``seed`` is unused (nothing is random).
+    """
+    cfg = import_settings(scenario)
+    sink = NullSink() if sink is None else sink
+    reader = LogReader(cfg)
+    res, g = reader.resolved, len(cfg.gimbals)
+    weights = tuple(
+        None if not sensor.counts else np.abs(cfg.mat_bl) @ pw
+        for sensor, pw in ((cfg.gyro, res.gyro_pw), (cfg.accel, res.accel_pw))
+    )
+    tabledata.declare(sink, g, weights, encoder=reader.n_angles > 0)
+    stats = None
+    for part in reader.chunks(progress):
+        if stats is None:
+            stats = stationary.BlockStats.start(reader.dt, cfg.check.block_s, reader.n_angles)
+        tabledata.append_chunk(
+            sink,
+            part.table,
+            stored=(part.stored_dtheta, part.stored_dv),
+            encoder=reader.n_angles > 0,
+        )
+        stats.add(part.table.dtheta, part.table.dv, part.table.encoder)
+    log = LogRun(res, reader.extent, stats.finish())
+    return _result(cfg, log)
+
+
+def _result(cfg, log):
+    n, t0, dt = log.extent.n, log.extent.t0, log.extent.dt
+    g = len(cfg.gimbals)
+    warnings = []
+    if cfg.steps:
+        steps, warnings = scenario_steps(cfg, t0, dt, n)
+    elif cfg.angle_cols is not None:
+        steps = stationary.encoder_steps(log.stats, t0, dt, n, cfg.hold_tolerance, cfg.hold_margin)
+    else:
+        steps = [Step(StepKind.HOLD, "log", -1, t0, t0 + n * dt, 0, n, np.zeros(g), np.zeros(g))]
+    lla = log.resolved.lla
+    checks = stationary.check_holds(log.stats, steps, lla, cfg.check)
+    datasets = {**tabledata.encode_steps(steps, g), **block_datasets(log.stats, t0, dt)}
+    if cfg.angle_cols is None:
+        datasets["table/time"] = tabledata.series("table/time", np.zeros(0))
+        datasets["table/encoder"] = tabledata.series(
+            "table/encoder", np.zeros((0, g)), g, "encoder readings (none in this log)"
+        )
+    attrs = {
+        "site": {"lat_rad": lla[0], "lon_rad": lla[1], "height_m": lla[2]},
+        "imu": {"t0_s": t0, "dt_s": dt, "sample_rate_hz": 1.0 / dt},
+        "table": {
+            "gimbals": list(cfg.gimbals),
+            "axes": kinematics.gimbal_axes(cfg.gimbals),
+            "mat_n_base": kinematics.base_matrix(cfg.base_azimuth),
+        },
+        "import": {
+            "file": cfg.path.name,
+            "format": cfg.format,
+            "mat_bl": cfg.mat_bl,
+            "g_unit_mps2": log.resolved.g,
+        },
+    }
+    if not any(c is not None for c in checks):
+        warnings.append(f"no hold of at least {cfg.check.min_hold_s:g} s: nothing checked")
+    results = {
+        "samples": n,
+        "duration_s": n * dt,
+        "sample_rate_hz": 1.0 / dt,
+        "steps": len(steps),
+        "holds_checked": sum(c is not None for c in checks),
+        **first_results(checks, lla),
+    }
+    return CommandResult(
+        command="import-log",
+        results=results,
+        datasets=datasets,
+        attrs=attrs,
+        report=report(cfg, log, steps, checks),
+        warnings=tuple(warnings),
+    )
+
+
+def import_settings(scenario):
+    """The import in SI (:class:`inins.io.logimport.LogImport`)."""
+    g, a, t, log = scenario.gyro, scenario.accel, scenario.table, scenario.log
+    cols = log.columns
+    index = {name: k for k, name in enumerate(t.gimbals)}
+    steps = None
+    if scenario.steps:
+        steps, before = [], None
+        for s in scenario.steps:
+            end = np.array(s.angles_deg) * DEG
+            start = end if s.kind == "hold" or before is None else before
+            axis = index[s.axis] if s.axis is not None else _moved(start, end)
+            steps.append(
+                StepSpec(
+                    StepKind(s.kind),
+                    s.label,
+                    -1 if s.kind == "hold" else axis,
+                    s.start_s,
+                    s.end_s,
+                    start,
+                    end,
+                )
+            )
+            before = end
+    c, chk = log.csv, scenario.check
+    return LogImport(
+        path=log.file,
+        format=log.format,
+        csv=CsvFormat(
+            None if c.delimiter == "whitespace" else c.delimiter, c.comment, c.skip_lines, c.header
+        ),
+        time=None if cols is None else cols.time,
+        gyro_cols=None if cols is None else cols.gyro,
+        accel_cols=None if cols is None else cols.accel,
+        angle_cols=None if cols is None else cols.table_angles,
+        time_scale=TIME_UNITS[log.time_unit],
+        time_marks=log.time_marks,
+        dt=log.sample_interval(),
+        gyro=Sensor(
+            g.quantity,
+            GYRO_UNITS[g.unit][1],
+            g.unit == "count",
+            None if g.pulse_weight_arcsec is None else np.array(g.pulse_weight_arcsec) * ARCSEC,
+        ),
+        accel=Sensor(
+            a.quantity,
+            ACCEL_UNITS[a.unit][1] or G_MULTIPLE[a.unit],
+            a.unit == "count",
+            None if a.pulse_weight_ug_s is None else np.array(a.pulse_weight_ug_s) * 1e-6,
+            per_g=a.unit in ("count", "g", "mg", "ug"),
+        ),
+        g_unit=a.g_mps2,
+        mat_bl=scenario.mat_bl(),
+        site=tuple(
+            None if v is None else v * f
+            for v, f in (
+                (scenario.site.lat_deg, DEG),
+                (scenario.site.lon_deg, DEG),
+                (scenario.site.height_m, 1.0),
+            )
+        ),
+        gimbals=tuple(t.gimbals),
+        base_azimuth=t.base_azimuth_deg * DEG,
+        angle_scale=ANGLE_UNITS[t.angle_unit],
+        hold_tolerance=t.hold_tolerance_deg * DEG,
+        hold_margin=t.hold_margin_s,
+        steps=None if steps is None else tuple(steps),
+        check=ScreeningOptions(
+            chk.block_s, chk.min_hold_s, chk.screen, chk.std_ratio, chk.rate_sigma, chk.guard_s
+        ),
+    )
+
+
+def _moved(start, end):
+    """Index of the gimbal whose angle changes most (-1 without gimbals)."""
+    return int(np.argmax(np.abs(end - start))) if len(end) else -1
+
+
+def scenario_steps(cfg, t0, dt, n):
+    """Steps of the scenario as sample ranges; warnings for steps cut at the end."""
+    steps, warnings = [], []
+    for i, s in enumerate(cfg.steps):
+        first = max(0, int(np.ceil((s.start - t0) / dt - 1e-9)))
+        stop = min(n, int(np.floor((s.end - t0) / dt + 1e-9)))
+        if stop <= first:
+            end = t0 + n * dt
+            raise InputError(
+                f"step {i} ({s.start:g} s to {s.end:g} s) holds no whole sample "
+                f"of the log ({t0:.6g} s to {end:.6g} s)",
+                key=f"steps[{i}]",
+            )
+        if s.end > t0 + n * dt + 1e-9:
+            warnings.append(
+                f"step {i} ({s.label or s.kind}) ends after the log; cut at {t0 + n * dt:.6g} s"
+            )
+        steps.append(
+            Step(s.kind, s.label, s.axis, s.start, s.end, first, stop, s.angles_start, s.angles_end)
+        )
+    return steps, warnings
+
+
+def hold_numbers(c, lla):
+    """A check in lab units: dict of flat, unit-suffixed numbers."""
+    w_h = earth.RATE * np.cos(lla[0])
+    roll, pitch, heading = c.align.euler
+    rate, lat, hor = c.earth_rate
+    _, lat_all, hor_all = c.earth_rate_all
+    out = {
+        "roll_deg": roll / DEG,
+        "pitch_deg": pitch / DEG,
+        "heading_deg": np.mod(heading, 2 * np.pi) / DEG,
+        "heading_sigma_deg": c.align.heading_sigma / DEG,
+        "earth_rate_dph": rate / DPH,
+        "earth_rate_err_pct": 100 * (rate / earth.RATE - 1),
+        "earth_rate_horizontal_dph": hor / DPH,
+        "earth_rate_horizontal_err_pct": 100 * (hor / w_h - 1),
+        "implied_lat_deg": lat / DEG,
+        "implied_lat_err_deg": (lat - lla[0]) / DEG,
+        "gravity_err_ug": c.gravity_err / UG,
+        "hold_s": c.used,
+        "quiet_s": c.quiet,
+        "heading_unscreened_deg": np.mod(c.align_all.euler[2], 2 * np.pi) / DEG,
+        "earth_rate_horizontal_unscreened_dph": hor_all / DPH,
+        "implied_lat_unscreened_deg": lat_all / DEG,
+    }
+    for i, axis in enumerate("xyz"):
+        out[f"arw_{axis}_deg_rth"] = c.arw[i] / DEG_RTH
+        out[f"vrw_{axis}_ug_rthz"] = c.vrw[i] / UG_RTHZ
+    return {k: (None if not np.isfinite(v) else float(v)) for k, v in out.items()}
+
+
+def first_results(checks, lla):
+    """Flat results of the first checked hold (in time order), or {}."""
+    first = next((c for c in checks if c is not None), None)
+    return {} if first is None else hold_numbers(first, lla)
+
+
+def block_datasets(stats, t0, dt):
+    """Block means of the log (what the check works on), under ``check/``."""
+    tau = stats.duration
+    n = stats.dtheta.shape[0]
+    return {
+        "check/time": Series(t0 + tau * np.arange(1, n + 1), "s", "", "end of each block"),
+        "check/omega_b": Series(stats.dtheta / tau, "rad/s", "b", "block mean angular rate"),
+        "check/f_b": Series(stats.dv / tau, "m/s^2", "b", "block mean specific force"),
+        "check/gyro_spread": Series(
+            stats.spread / dt, "rad/s", "b", "standard deviation of the gyro samples in each block"
+        ),
+    }
+
+
+def _sensor_line(name, sensor, pw, unit, scale, scale_name):
+    if sensor.counts:
+        return (
+            f"{name}: pulse counts, stored as int32; pulse weight per body axis x y z "
+            f"{np.array2string(pw / scale, precision=6)} {scale_name}"
+        )
+    how = "rates, stored as increments rate x dt" if sensor.quantity == "rate" else "increments"
+    return f"{name}: {how} in {unit} (float64)"
+
+
+def _input_lines(cfg, run):
+    n, dt, t0, lla = run.extent.n, run.extent.dt, run.extent.t0, run.resolved.lla
+    lines = [
+        f"log: {cfg.path.name} ({cfg.format}), {n} samples at {1 / dt:.6g} Hz "
+        f"({n * dt:.2f} s) from t0 = {t0:.6g} s; imported at {run.extent.rows_per_s:.3g} rows/s"
+    ]
+    if run.extent.time_span is not None:
+        first, last = run.extent.time_span
+        mean = (last - first) / (n - 1)
+        lines.append(
+            f"time column: {first:.6f} s to {last:.6f} s, mean step {mean:.9g} s "
+            f"({(mean / dt - 1) * 1e6:+.1f} ppm from the nominal {dt:.6g} s)"
+        )
+    h = run.resolved.header
+    if h is not None:
+        att = ", ".join(f"{v:g}" for v in h.attitude_deg)
+        lines += [
+            f"PSINS header: lat {h.lat_deg:.8f} deg, lon {h.lon_deg:.8f} deg, height "
+            f"{h.height_m:g} m, t0 {h.t0_s:g} s, interval {h.dt_s * 1e3:g} ms, "
+            f"g {h.g_mps2:g} m/s^2 (the g of its ug); pulse weights gyro "
+            f"{h.gyro_pulse_arcsec} arcsec, accel {h.accel_pulse_ug_s} ug*s (log axes)",
+            f"  attitude (pitch, roll, yaw; PSINS yaw is counter-clockwise from north, of the "
+            f"log y axis, 'maybe inaccurate'): {att} deg",
+            "  scenario values used instead of the header: "
+            + (", ".join(run.resolved.overrides) or "none"),
+        ]
+    sign = {1.0: "+", -1.0: "-"}
+    mapping = ", ".join(
+        f"body {b} = {sign[cfg.mat_bl[i][j]]}log {'xyz'[j]}"
+        for i, b in enumerate("xyz")
+        for j in range(3)
+        if cfg.mat_bl[i][j]
+    )
+    lines += [
+        _sensor_line("gyro", cfg.gyro, run.resolved.gyro_pw, "rad", ARCSEC, "arcsec"),
+        _sensor_line(
+            "accel",
+            cfg.accel,
+            run.resolved.accel_pw,
+            "m/s",
+            1e-6 * run.resolved.g,
+            f"ug*s (ug = 1e-6 x {run.resolved.g:.7g} m/s^2)",
+        ),
+        f"axes: {mapping}",
+        f"site: lat {lla[0] / DEG:.8f} deg, lon {lla[1] / DEG:.8f} deg, height {lla[2]:g} m; "
+        f"normal gravity {earth.gravity(lla[0], lla[2]):.6f} m/s^2, Earth rate "
+        f"{earth.RATE / DPH:.4f} deg/h, horizontal {earth.RATE * np.cos(lla[0]) / DPH:.4f} "
+        "deg/h",
+    ]
+    return lines
+
+
+def _step_rows(cfg, steps):
+    rows = []
+    for i, s in enumerate(steps):
+        axis = cfg.gimbals[s.axis] if s.axis >= 0 and cfg.gimbals else ""
+        rows.append(
+            [
+                i,
+                s.kind,
+                s.label,
+                axis,
+                s.start_time,
+                s.end_time,
+                s.stop_index - s.start_index,
+                *np.degrees(s.angles_end),
+            ]
+        )
+    heads = [
+        "#",
+        "kind",
+        "label",
+        "axis",
+        "start",
+        "end",
+        "samples",
+        *[f"{g} end" for g in cfg.gimbals],
+    ]
+    units = ["", "", "", "", "s", "s", "", *["deg"] * len(cfg.gimbals)]
+    return format_table(rows, heads, units, fmt=".8g")
+
+
+def report(cfg, run, steps, checks):
+    """Report body: the input as read, the steps, the stationary check of each hold."""
+    lla = run.resolved.lla
+    lines = [*_input_lines(cfg, run), "", "steps", _step_rows(cfg, steps)]
+    done = [c for c in checks if c is not None]
+    if not done:
+        return "\n".join([*lines, "", "no hold long enough to check"])
+    rows, raw, noise = [], [], []
+    for c in done:
+        v = hold_numbers(c, lla)
+        rows.append(
+            [
+                c.label,
+                v["hold_s"],
+                v["quiet_s"],
+                v["roll_deg"],
+                v["pitch_deg"],
+                v["heading_deg"],
+                v["heading_sigma_deg"],
+                v["gravity_err_ug"],
+                v["earth_rate_dph"],
+                v["earth_rate_horizontal_dph"],
+                v["earth_rate_horizontal_err_pct"],
+                v["implied_lat_deg"],
+                v["implied_lat_err_deg"],
+            ]
+        )
+        raw.append(
+            [
+                c.label,
+                v["heading_unscreened_deg"],
+                v["earth_rate_horizontal_unscreened_dph"],
+                100 * (c.earth_rate_all[2] / (earth.RATE * np.cos(lla[0])) - 1),
+                v["implied_lat_unscreened_deg"],
+            ]
+        )
+        noise.append(
+            [
+                c.label,
+                *(v[f"arw_{a}_deg_rth"] for a in "xyz"),
+                *(v[f"vrw_{a}_ug_rthz"] for a in "xyz"),
+            ]
+        )
+    opts = cfg.check
+    lines += [
+        "",
+        "stationary check of each hold (quiet blocks; first hold -> summary.json)",
+        format_table(
+            rows,
+            [
+                "hold",
+                "used",
+                "quiet",
+                "roll",
+                "pitch",
+                "heading",
+                "1 sigma",
+                "|f|-gamma",
+                "|omega|",
+                "horizontal",
+                "vs W cos L",
+                "latitude",
+                "vs site",
+            ],
+            ["", "s", "s", "deg", "deg", "deg", "deg", "ug", "deg/h", "deg/h", "%", "deg", "deg"],
+            fmt=".5g",
+        ),
+        "",
+        "the same without screening",
+        format_table(
+            raw,
+            ["hold", "heading", "horizontal", "vs W cos L", "latitude"],
+            ["", "deg", "deg/h", "%", "deg"],
+            fmt=".5g",
+        ),
+        "",
+        "white noise (min over tau of Allan deviation x sqrt(tau), quiet blocks)",
+        format_table(
+            noise,
+            ["hold", "ARW x", "ARW y", "ARW z", "VRW x", "VRW y", "VRW z"],
+            ["", *["deg/sqrt(h)"] * 3, *["ug/sqrt(Hz)"] * 3],
+            fmt=".4g",
+        ),
+        "",
+        (
+            f"screening: {'on' if opts.screen else 'off'}; blocks of {opts.block_s:g} s; a "
+            f"block is disturbed when a gyro's sample spread exceeds {opts.std_ratio:g} x the "
+            f"hold's median or its mean rate is more than {opts.rate_sigma:g} robust sigma "
+            f"from the hold's median; widened by {opts.guard_s:g} s"
+        ),
+    ]
+    lines += [
+        f"  {c.label}: too few quiet blocks, all blocks used"
+        for c in done
+        if opts.screen and not c.screened
+    ]
+    h = run.resolved.header
+    if h is not None:
+        azimuth = stationary.log_y_azimuth(done[0].align.mat_nb, cfg.mat_bl) / DEG
+        lines.append(
+            f"log y axis azimuth from the gyrocompass ({done[0].label}): "
+            f"{azimuth:.3f} deg; header yaw {h.attitude_deg[2]:g} deg "
+            f"(counter-clockwise) = azimuth {np.mod(-h.attitude_deg[2], 360):.3f} "
+            "deg"
+        )
+    return "\n".join(lines)

@@ -1,0 +1,35 @@
+"""The scenario type aliases, declared once (every scenario model uses these).
+
+``PositiveFloat``
+    A number > 0 (durations, rates, sample rates).
+``NonNegFloat``
+    A number >= 0 (noise densities, magnitudes).
+``Vec3``
+    One number (used for all three axes) or three numbers, x y z; becomes a tuple of 3.
+``NonNegVec3``
+    A :data:`Vec3` of numbers >= 0.
+"""
+
+from typing import Annotated
+
+from pydantic import AfterValidator, Field
+
+
+def _three(value):
+    if isinstance(value, int | float):
+        return (float(value),) * 3
+    if len(value) != 3:
+        raise ValueError(f"expected one number or a list of 3, got {len(value)} numbers")
+    return tuple(float(v) for v in value)
+
+
+def _non_negative(value):
+    if any(v < 0 for v in value):
+        raise ValueError("must not be negative")
+    return value
+
+
+PositiveFloat = Annotated[float, Field(gt=0)]
+NonNegFloat = Annotated[float, Field(ge=0)]
+Vec3 = Annotated[float | list[float], AfterValidator(_three)]
+NonNegVec3 = Annotated[Vec3, AfterValidator(_non_negative)]
