@@ -192,7 +192,8 @@ class EttEstimate:
     000 eq. 48 angles ``alpha`` (azimuth offset), ``beta``, ``gamma`` (tilts about 000's
     x and y) in rad, the heading 1-sigma contributions ``sigma``, ``time_used`` (s:
     settle + window at both positions + the steps between), the gyrocompass over the
-    level hold and its time (s), whether the noise figures were stated (else taken from the data), truth and warnings."""
+    level hold and its time (s), whether the noise figures were stated (else taken from
+    the data), truth and warnings."""
 
     result: EttResult
     vertical: EttPosition
