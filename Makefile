@@ -21,13 +21,15 @@ demo: $(STAMP)
 
 lint: $(STAMP)
 	$(BIN)/ruff check inins tests benchmarks
+	$(BIN)/ruff format --check inins tests benchmarks
+	$(BIN)/lint-imports
 
 test: lint
-	$(BIN)/python -m pytest
+	$(BIN)/python -m pytest -n auto --dist loadscope
 
 bench: $(STAMP)
 	$(BIN)/python -m benchmarks
 
 clean:
-	rm -rf $(VENV) $(OUT) .pytest_cache .ruff_cache
+	rm -rf $(VENV) $(OUT) .pytest_cache .ruff_cache .import_linter_cache
 	find . -name __pycache__ -type d -prune -exec rm -rf {} +

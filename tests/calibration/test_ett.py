@@ -16,6 +16,7 @@ from inins.core.units import ARCSEC, DEG, DPH, UG
 from inins.exceptions import InputError
 from inins.scenario.align_ett import AlignEttScenario
 from inins.scenario.simulate_table import TableSetup
+from tests.helpers import shipped
 
 DEFAULT = Path(__file__).parents[2] / "configs" / "align-ett" / "default.yaml"
 PAPER_AXES = ["right", "forward", "up"]  # 000's IMU: x right, y forward, z up
@@ -64,7 +65,7 @@ def wrap_arcsec(angle):
 def test_paper_claim_ett_error_is_a_tenth_of_the_gyrocompass_error():
     """000 §3.1: accelerometer bias 10 ug, noise as shipped; 0.01 deg/h east gyro bias at
     45 deg gives a 0.054 deg gyrocompass error, and ETT errs by at most a tenth of it."""
-    scenario = AlignEttScenario.model_validate(yaml.safe_load(DEFAULT.read_text()))
+    scenario = shipped(AlignEttScenario, "align-ett/default.yaml")
     rec = record(scenario.simulate, seed=3)
     est = ett.align_ett(rec, align_ett.options(scenario))
     # the east gyro at the level position carries 0.01 deg/h
