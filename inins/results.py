@@ -96,24 +96,14 @@ class SeriesSink(Protocol):
 class NullSink:
     """A :class:`SeriesSink` that keeps nothing (a run whose series nobody reads)."""
 
-    def create(
-        self,
-        path,
-        row_shape,
-        dtype,
-        units,
-        frame="",
-        description="",
-        expected_rows=None,
-        attrs=None,
-    ):
-        pass
+    def create(self, path, *args, **kwargs):
+        """Declare nothing."""
 
     def append(self, path, rows):
-        pass
+        """Keep nothing."""
 
     def set_attrs(self, path, attrs):
-        pass
+        """Keep nothing."""
 
 
 class MemorySink:

@@ -9,7 +9,7 @@ scenario, from the table angles, or the whole log is one; each is checked by
 :mod:`inins.scenario.import_log`.
 """
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -27,7 +27,6 @@ from inins.io.logimport import (
     Resolved,
     ScreeningOptions,
     Sensor,
-    StepSpec,
 )
 from inins.results import CommandResult, NullSink, Series, format_table
 from inins.scenario.import_log import (
@@ -147,17 +146,10 @@ def import_settings(scenario):
             end = np.array(s.angles_deg) * DEG
             start = end if s.kind == "hold" or before is None else before
             axis = index[s.axis] if s.axis is not None else _moved(start, end)
-            steps.append(
-                StepSpec(
-                    StepKind(s.kind),
-                    s.label,
-                    -1 if s.kind == "hold" else axis,
-                    s.start_s,
-                    s.end_s,
-                    start,
-                    end,
-                )
-            )
+            kind = StepKind(s.kind)
+            axis = -1 if kind == StepKind.HOLD else axis
+            # sample indices are resolved once the log is read (scenario_steps)
+            steps.append(Step(kind, s.label, axis, s.start_s, s.end_s, 0, 0, start, end))
             before = end
     c, chk = log.csv, scenario.check
     return LogImport(
@@ -217,22 +209,20 @@ def scenario_steps(cfg, t0, dt, n):
     """Steps of the scenario as sample ranges; warnings for steps cut at the end."""
     steps, warnings = [], []
     for i, s in enumerate(cfg.steps):
-        first = max(0, int(np.ceil((s.start - t0) / dt - 1e-9)))
-        stop = min(n, int(np.floor((s.end - t0) / dt + 1e-9)))
+        first = max(0, int(np.ceil((s.start_time - t0) / dt - 1e-9)))
+        stop = min(n, int(np.floor((s.end_time - t0) / dt + 1e-9)))
         if stop <= first:
             end = t0 + n * dt
             raise InputError(
-                f"step {i} ({s.start:g} s to {s.end:g} s) holds no whole sample "
+                f"step {i} ({s.start_time:g} s to {s.end_time:g} s) holds no whole sample "
                 f"of the log ({t0:.6g} s to {end:.6g} s)",
                 key=f"steps[{i}]",
             )
-        if s.end > t0 + n * dt + 1e-9:
+        if s.end_time > t0 + n * dt + 1e-9:
             warnings.append(
                 f"step {i} ({s.label or s.kind}) ends after the log; cut at {t0 + n * dt:.6g} s"
             )
-        steps.append(
-            Step(s.kind, s.label, s.axis, s.start, s.end, first, stop, s.angles_start, s.angles_end)
-        )
+        steps.append(replace(s, start_index=first, stop_index=stop))
     return steps, warnings
 
 

@@ -27,7 +27,7 @@ from pathlib import Path
 
 import numpy as np
 
-from inins.core.records import StepKind, TableChunk
+from inins.core.records import Step, TableChunk
 from inins.core.units import ARCSEC, DEG, G0
 from inins.exceptions import InputError
 from inins.io.logformats import Hdf5Log, PsinsHeader, TextLog, open_psins
@@ -52,19 +52,6 @@ class Sensor:
     counts: bool
     pulse_weight: np.ndarray | None
     per_g: bool = False
-
-
-@dataclass(frozen=True)
-class StepSpec:
-    """A step of the motion given in the scenario (times s, angles rad)."""
-
-    kind: StepKind
-    label: str
-    axis: int
-    start: float
-    end: float
-    angles_start: np.ndarray
-    angles_end: np.ndarray
 
 
 @dataclass(frozen=True)
@@ -117,7 +104,7 @@ class LogImport:
     angle_scale: float
     hold_tolerance: float
     hold_margin: float
-    steps: tuple | None
+    steps: tuple[Step, ...] | None
     check: ScreeningOptions
 
 
