@@ -110,5 +110,7 @@ def analyse(model, segments, measurements, *, sigma_0=None, noise=None, dt=1.0, 
             s0, s1, ratio, strict=True,
         )
     )  # fmt: skip
-    return ObservabilityReport(model.name, structure.rank, structure.n_states,
-                               structure.n_unobservable, w_rank, structure, cov, states)  # fmt: skip
+    return ObservabilityReport(
+        model.name, structure.rank, structure.n_states, structure.n_unobservable, w_rank,
+        structure, cov, states,
+    )  # fmt: skip

@@ -90,7 +90,8 @@ class Measurement:
             object.__setattr__(self, "baseline_b", tuple(b))
         if self.los_n is not None:
             los = np.array(self.los_n, dtype=float)
-            if los.ndim != 2 or los.shape[1] != 3 or np.abs(np.linalg.norm(los, axis=1) - 1).max() > 1e-6:
+            unit = los.ndim == 2 and los.shape[1] == 3 and len(los) > 0
+            if not unit or np.abs(np.linalg.norm(los, axis=1) - 1.0).max() > 1e-6:
                 raise InputError("lines of sight must be unit 3-vectors, shape (k, 3)",
                                  key=f"{self.key}.los_n")  # fmt: skip
             los.setflags(write=False)

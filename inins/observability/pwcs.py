@@ -79,7 +79,7 @@ def _null(R, rows):
 def _condition_holds(Q, F):
     """``null(Q) ⊂ null(F)``: F maps the (scaled) null basis of Q to ~0."""
     R = linalg.qr(Q, mode="r")[0][: Q.shape[1]]
-    s, rank, N, tol = _null(R, len(Q))
+    N = _null(R, len(Q))[2]
     if N.shape[1] == 0:
         return True
     scale = max(np.linalg.norm(F, 2), 1e-300)

@@ -25,7 +25,8 @@ _ORTHO_TOL = 1e-6
 def _vector(value, key, shape=(3,)):
     arr = np.array(value, dtype=float)
     if arr.shape != shape or not np.all(np.isfinite(arr)):
-        raise InputError(f"expected finite numbers of shape {shape}, got {np.shape(value)}", key=key)
+        raise InputError(f"expected finite numbers of shape {shape}, got {np.shape(value)}",
+                         key=key)  # fmt: skip
     arr.setflags(write=False)
     return arr
 
@@ -144,7 +145,7 @@ def make_segment(duration, lla, *, heading=None, mat_nb=None, vel_n=(0.0, 0.0, 0
     mat = np.asarray(mat_nb, float) if mat_nb is not None else rotation.mat_from_euler(
         0.0, 0.0, 0.0 if heading is None else heading)  # fmt: skip
     if f_n is None:
-        f_n = mat @ np.asarray(f_b, float) if f_b is not None else flight_specific_force(lla_arr, vel)
+        f_n = flight_specific_force(lla_arr, vel) if f_b is None else mat @ np.asarray(f_b, float)
     if omega_ib_b is None:
         w_in = earth.rate_ie_n(lla_arr[0]) + earth.rate_en_n(lla_arr[0], lla_arr[2], vel)
         omega_ib_b = mat.T @ w_in
@@ -238,9 +239,9 @@ def cut_segments(time, mat_nb, f_b, omega_ib_b, vel_n, lla, *, attitude_threshol
         mid = (s + e) // 2
         mat = data["mat_nb"][mid]
         stop = max(e, s + 1)
-        segments.append(
-            Segment(time[e] - time[s], mat, mat @ data["f_b"][s:stop].mean(axis=0),
-                    data["omega_ib_b"][s:stop].mean(axis=0), data["vel_n"][mid], data["lla"][mid],
-                    los_n, key=f"segments.{j}")  # fmt: skip
-        )
+        f_n = mat @ data["f_b"][s:stop].mean(axis=0)
+        omega = data["omega_ib_b"][s:stop].mean(axis=0)
+        seg = Segment(time[e] - time[s], mat, f_n, omega, data["vel_n"][mid], data["lla"][mid],
+                      los_n, key=f"segments.{j}")  # fmt: skip
+        segments.append(seg)
     return tuple(segments)
