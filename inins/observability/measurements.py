@@ -19,9 +19,10 @@ pseudorange ``rho = |r_sat - r_ant| + c dt``; antenna ``r_ant = r + C_nb l_b``,
             ``dr_ant = dr + [(C_nb l_b) x] phi``; row ``-e_k^T`` on dr,
             ``-e_k^T [(C_nb l_b) x]`` on phi, ``+1`` on clock_bias.
 range rate  ``rho' = (v_sat - v_ant) . e_k + c dt'`` (positive when the range
-            grows); ``v_ant = v + C_nb (w_nb_b x l_b)``, so ``dv_ant = dv +
-            [(C_nb (w_nb_b x l_b)) x] phi - C_nb [l_b x] bg``; row ``-e_k^T``
-            on that, ``+1`` on clock_drift.
+            grows); ``v_ant = v + C_nb (w_nb_b x l_b)`` with the INS forming
+            ``w_nb_b = w_ib_b - C_nb^T w_in``, so ``dv_ant = dv + ([(C_nb u) x]
+            - C_nb [l_b x] C_nb^T [w_in x]) phi - C_nb [l_b x] bg``,
+            ``u = w_nb_b x l_b``; row ``-e_k^T`` on that, ``+1`` on clock_drift.
 """
 
 import enum
@@ -172,10 +173,12 @@ def _range_rows(layout, segment, measurement, los):
         w_in = earth.rate_ie_n(segment.lla[0]) + earth.rate_en_n(
             segment.lla[0], segment.lla[2], segment.vel_n)  # fmt: skip
         w_nb_b = segment.omega_ib_b - segment.mat_nb.T @ w_in
-        phi_term = rotation.skew(segment.mat_nb @ np.cross(w_nb_b, measurement.lever_arm_b))
+        lever_x = rotation.skew(measurement.lever_arm_b)
+        phi_term = rotation.skew(segment.mat_nb @ np.cross(w_nb_b, measurement.lever_arm_b)) - (
+            segment.mat_nb @ lever_x @ segment.mat_nb.T @ rotation.skew(w_in))  # fmt: skip
         if "bg_x" in layout.names:
             bg = _columns(layout, ("bg_x", "bg_y", "bg_z"), kind, key)
-            H[:, bg] = los @ segment.mat_nb @ rotation.skew(measurement.lever_arm_b)
+            H[:, bg] = los @ segment.mat_nb @ lever_x
         clock = "clock_drift"
     if "phi_N" in layout.names:
         H[:, _columns(layout, ("phi_N", "phi_E", "phi_D"), kind, key)] = -los @ phi_term
