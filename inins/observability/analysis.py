@@ -96,7 +96,7 @@ def analyse(model, segments, measurements, *, sigma_0=None, noise=None, dt=1.0, 
     ObservabilityReport
     """
     structure = pwcs.analyse(model, segments, measurements, scales=scales, method=method)
-    w_rank = pwcs.gramian_rank(pwcs.gramian(model, segments, measurements, scales=scales))
+    w_rank = pwcs.gramian_rank(model, segments, measurements, scales=scales)
     cov = None
     if sigma_0 is not None:
         cov = covariance.analyse(model, segments, measurements, sigma_0, noise=noise, dt=dt)
