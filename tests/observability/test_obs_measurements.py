@@ -40,8 +40,9 @@ def test_dd_phase_row_is_the_derivative_of_the_nonlinear_double_difference():
     for i in range(3):
         dphi = np.zeros(3)
         dphi[i] = step
-        fd = (meas.dd_phase(_perturbed(MAT_NB, dphi), baseline_b, LOS, pairs)
-              - meas.dd_phase(_perturbed(MAT_NB, -dphi), baseline_b, LOS, pairs)) / (2 * step)  # fmt: skip
+        plus = meas.dd_phase(_perturbed(MAT_NB, dphi), baseline_b, LOS, pairs)
+        minus = meas.dd_phase(_perturbed(MAT_NB, -dphi), baseline_b, LOS, pairs)
+        fd = (plus - minus) / (2 * step)
         np.testing.assert_allclose(H[:, phi_cols][:, i], fd, rtol=0, atol=1e-9)
     # closed form of spec §6a: -(e_i - e_j)^T [b_n x]
     b_n = MAT_NB @ baseline_b
@@ -57,7 +58,8 @@ def test_dd_phase_row_is_the_derivative_of_the_nonlinear_double_difference():
 def _range_change(r_ant, sat):
     """``|sat - r| - |sat|`` without cancellation: ``(r.r - 2 sat.r) / (|sat - r| + |sat|)``."""
     return (r_ant @ r_ant - 2.0 * sat @ r_ant) / (
-        np.linalg.norm(sat - r_ant, axis=-1) + np.linalg.norm(sat, axis=-1))
+        np.linalg.norm(sat - r_ant, axis=-1) + np.linalg.norm(sat, axis=-1)
+    )
 
 
 def test_pseudorange_row_is_the_derivative_of_the_range_with_lever_arm():
@@ -133,7 +135,9 @@ def test_bad_measurements_raise_input_errors_naming_the_key():
         meas.Measurement("dd_phase", 0.01, baseline_b=(0, 0, 0), key="measurements.1")
     assert err.value.key == "measurements.1.baseline_b"
     with pytest.raises(InputError, match="lines of sight") as err:
-        meas.rows(error_model.ALIGN12, seg, meas.Measurement("dd_phase", 0.01, baseline_b=(0, 1, 0)))
+        meas.rows(
+            error_model.ALIGN12, seg, meas.Measurement("dd_phase", 0.01, baseline_b=(0, 1, 0))
+        )
     assert err.value.key == "measurement.los_n"
     with pytest.raises(InputError, match="needs states"):
         meas.rows(error_model.ALIGN12, seg, meas.Measurement("pseudorange", 3.0, los_n=LOS))
@@ -141,5 +145,7 @@ def test_bad_measurements_raise_input_errors_naming_the_key():
         meas.Measurement("velocity", 0.0)
     # geometry from the segment when the measurement has none
     seg = _segment(los_n=LOS[:3])
-    H, _ = meas.rows(error_model.ALIGN12, seg, meas.Measurement("dd_phase", 0.01, baseline_b=(0, 1, 0)))
+    H, _ = meas.rows(
+        error_model.ALIGN12, seg, meas.Measurement("dd_phase", 0.01, baseline_b=(0, 1, 0))
+    )
     assert H.shape == (2, 12)
