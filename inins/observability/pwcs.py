@@ -76,20 +76,27 @@ def _null(R, rows):
     return s, rank, vt[rank:].T, tol
 
 
-def _condition_holds(Q, F):
-    """``null(Q) ⊂ null(F)``: F maps the (scaled) null basis of Q to ~0."""
-    R = linalg.qr(Q, mode="r")[0][: Q.shape[1]]
-    N = _null(R, len(Q))[2]
+def _condition_holds(R, rows, F):
+    """``null(Q) ⊂ null(F)`` with ``R`` the triangular factor of ``Q``: F maps the
+    (scaled) null basis of Q to ~0: ``|F N|_F <= 1e-12 |F|_F``."""
+    N = _null(R, rows)[2]
     if N.shape[1] == 0:
         return True
-    scale = max(np.linalg.norm(F, 2), 1e-300)
-    return bool(np.linalg.norm(F @ N, 2) <= max(1e3 * _EPS * scale, 1e-12 * scale))
+    return bool(np.linalg.norm(F @ N) <= 1e-12 * max(np.linalg.norm(F), 1e-300))
+
+
+def _r_factor(A):
+    """Upper-triangular ``R`` (n, n) of ``A = Q R`` (LAPACK dgeqrf; same singular values)."""
+    n = A.shape[1]
+    qr = linalg.lapack.dgeqrf(A)[0]
+    R = np.zeros((n, n))
+    k = min(A.shape)
+    R[:k] = np.triu(qr[:k, :n])
+    return R
 
 
 def _compress(R, block):
-    n = block.shape[1]
-    stacked = block if R is None else np.vstack([R, block])
-    return linalg.qr(stacked, mode="r", check_finite=False)[0][:n]
+    return _r_factor(block if R is None else np.vstack([R, block]))
 
 
 @dataclass(frozen=True)
@@ -176,17 +183,17 @@ def analyse(model, segments, measurements, *, scales=None, method="auto"):
     scales = np.ones(n) if scales is None else np.asarray(scales, dtype=float)
     F, Hs = _scaled(model, segments, measurements, scales)
     Qs = [segment_matrix(F[j], Hs[j]) for j in range(len(segments))]
-    holds = tuple(_condition_holds(Q, F[j]) for j, Q in enumerate(Qs))
+    Rs = [_r_factor(Q) for Q in Qs]  # Q_j = U_j R_j: R_j stands for Q_j below
+    holds = tuple(_condition_holds(Rs[j], len(Q), F[j]) for j, Q in enumerate(Qs))
     use_total = method == "total" or (method == "auto" and not all(holds))
     R, rows, transition = None, 0, np.eye(n)
     sv, ranks = [], []
     for j, Q in enumerate(Qs):
-        block = Q @ transition if use_total else Q
-        R = _compress(R, block)
+        R = _compress(R, Rs[j] @ transition if use_total else Rs[j])
         rows += len(Q)
-        s, rank, N, tol = _null(R, rows)
+        s = np.linalg.svd(R, compute_uv=False)
         sv.append(s)
-        ranks.append(rank)
+        ranks.append(int(np.sum(s > _rank_tol(s, rows))))
         if use_total:
             transition = linalg.expm(F[j] * segments[j].duration) @ transition
     s, rank, N, tol = _null(R, rows)
