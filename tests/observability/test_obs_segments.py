@@ -1,5 +1,7 @@
 """Segments: the physics make_segment fills in, validation, and cutting a trajectory."""
 
+import itertools
+
 import numpy as np
 import pytest
 
@@ -86,9 +88,9 @@ def test_cut_segments_of_the_turn_make_002_observable_like_the_two_legs():
     los = np.array([[0.0, 0.0, -1.0], [0.5, 0.3, -0.8], [-0.4, 0.6, -0.6]])
     los = los / np.linalg.norm(los, axis=1)[:, None]
     segs = cut_segments(t, mat, f_b, omega, vel, lla, attitude_threshold=5 * DEG, los_n=los)
-    found = analysis.analyse(models.MODELS["align12"], segs,
-                             [meas.Measurement("velocity", 0.05),
-                              meas.Measurement("dd_phase", 0.005, baseline_b=(0, 1.5, 0))])  # fmt: skip
+    aiding = [meas.Measurement("velocity", 0.05),
+              meas.Measurement("dd_phase", 0.005, baseline_b=(0, 1.5, 0))]  # fmt: skip
+    found = analysis.analyse(models.MODELS["align12"], segs, aiding)
     assert found.rank == 12 == found.gramian_rank
     assert found.pwcs.segment_rank[0] == 11 and all(s.observable for s in found.states)
 
@@ -116,7 +118,7 @@ def test_aircraft_flight_cut_into_segments_keeps_each_within_the_threshold():
                         force_threshold=0.5)  # fmt: skip
     starts = np.concatenate([[0.0], np.cumsum([s.duration for s in segs])])
     assert starts[-1] == pytest.approx(240.0) and len(segs) > 10
-    for a, b in zip(starts[:-1], starts[1:], strict=True):
+    for a, b in itertools.pairwise(starts):
         inside = (t >= a - 1e-9) & (t < b - 1e-9)
         first = np.argmax(inside)
         rel = np.swapaxes(mat[first], 0, 1) @ mat[inside]
