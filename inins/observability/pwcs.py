@@ -37,6 +37,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy import linalg
 
+from inins.exceptions import InputError
 from inins.observability import measurements as meas
 
 _EPS = np.finfo(float).eps
@@ -176,9 +177,9 @@ def analyse(model, segments, measurements, *, scales=None, method="auto"):
     PwcsResult
     """
     if not segments:
-        from inins.exceptions import InputError
-
         raise InputError("at least one segment is needed", key="segments")
+    if method not in ("auto", "stripped", "total"):
+        raise InputError(f"method must be auto, stripped or total, got {method!r}", key="method")
     n = len(model.layout)
     scales = np.ones(n) if scales is None else np.asarray(scales, dtype=float)
     F, Hs = _scaled(model, segments, measurements, scales)
