@@ -49,6 +49,9 @@ class ObservabilityReport:
     pwcs : PwcsResult
     covariance : CovarianceResult or None
     states : tuple of StateSummary
+    warnings : tuple of str
+        The total matrix was needed (stripping condition failed on some
+        segments), or the Gramian rank disagrees with the PWCS rank.
     """
 
     model: str
@@ -59,6 +62,7 @@ class ObservabilityReport:
     pwcs: pwcs.PwcsResult
     covariance: covariance.CovarianceResult | None
     states: tuple
+    warnings: tuple = ()
 
     @property
     def combinations(self):
@@ -110,7 +114,15 @@ def analyse(model, segments, measurements, *, sigma_0=None, noise=None, dt=1.0, 
             s0, s1, ratio, strict=True,
         )
     )  # fmt: skip
+    warnings = []
+    failed = [j for j, ok in enumerate(structure.condition_holds) if not ok]
+    if failed and structure.method == "total":
+        warnings.append(f"null(Q_j) is not inside null(F_j) on segments {failed}: the total "
+                        "observability matrix was used")  # fmt: skip
+    if w_rank != structure.rank:
+        warnings.append(f"the Gramian rank {w_rank} differs from the PWCS rank {structure.rank}: "
+                        "the weakest directions are near the numerical tolerance")  # fmt: skip
     return ObservabilityReport(
         model.name, structure.rank, structure.n_states, structure.n_unobservable, w_rank,
-        structure, cov, states,
+        structure, cov, states, tuple(warnings),
     )  # fmt: skip

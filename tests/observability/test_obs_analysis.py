@@ -8,6 +8,7 @@ import pytest
 
 from inins.core import earth
 from inins.core.units import DEG, DPH, MG
+from inins.exceptions import InputError
 from inins.observability import analysis, models
 from inins.observability import measurements as meas
 from inins.observability.segments import make_segment
@@ -55,3 +56,24 @@ def test_report_joins_rank_gramian_and_covariance_per_state():
     assert bare.covariance is None and np.isnan(bare.state("phi_D").sigma_ratio)
     with pytest.raises(KeyError):
         bare.state("psi_D")
+
+
+def test_warnings_and_bad_names():
+    lla = (37 * DEG, 127 * DEG, 0.0)
+    seg = make_segment(60.0, lla, heading=0.0)
+    los = np.array([[0.0, 0.0, -1.0], [0.6, 0.0, -0.8], [0.0, 0.6, -0.8]])
+    dd = meas.Measurement("dd_phase", 0.005, baseline_b=(0, 1.5, 0), los_n=los)
+    found = analysis.analyse(models.MODELS["align12"], [seg], [dd])
+    assert found.pwcs.method == "total" and "total observability matrix" in found.warnings[0]
+    assert analysis.analyse(models.MODELS["align12"], [seg], [meas.Measurement("velocity", 0.1)]
+                            ).warnings == ()  # fmt: skip
+    with pytest.raises(InputError, match="unknown model") as err:
+        models.model_by_name("ekf18", key="model.name")
+    assert err.value.key == "model.name"
+    with pytest.raises(InputError, match="unknown state names") as err:
+        models.custom_model(["dv_N", "psi_D"], key="model.states")
+    assert err.value.key == "model.states"
+    custom = models.custom_model(["dv_N", "dv_E", "phi_N", "phi_E", "phi_D"])
+    assert len(custom.layout) == 5 and custom.transport_from_estimate
+    with pytest.raises(InputError, match="segment"):
+        analysis.analyse(custom, [], [meas.Measurement("velocity", 0.1)])
