@@ -200,7 +200,11 @@ def analyse(model, segments, measurements, *, scales=None, method="auto"):
     s, rank, N, tol = _null(R, rows)
     weight = np.linalg.norm(N, axis=1)
     threshold = max(10.0 * tol / s[rank - 1], 1e-12) if rank else 1.0
-    V = rref(N.T * scales[None, :]).T if N.shape[1] else np.zeros((n, 0))
+    V = np.zeros((n, 0))
+    if N.shape[1]:  # echelon form in the scaled state, then back to SI with pivot 1
+        Vs = rref(N.T) * scales[None, :]
+        pivots = np.argmax(Vs != 0.0, axis=1)
+        V = (Vs / Vs[np.arange(len(Vs)), pivots][:, None]).T
     units = tuple(model.layout.unit(name) for name in model.names)
     return PwcsResult(
         names=model.names, units=units, scales=scales, method="total" if use_total else "stripped",

@@ -22,7 +22,7 @@ import pytest
 
 from inins.core import earth
 from inins.core import rotation as rot
-from inins.core.units import DEG
+from inins.core.units import DEG, DPH, MG
 from inins.observability import measurements as meas
 from inins.observability import models, pwcs
 from inins.observability.segments import make_segment
@@ -222,3 +222,18 @@ def test_rotation_of_the_body_does_not_change_velocity_only_rank_but_turns_the_p
         np.testing.assert_allclose(res.null_space[:, c], _closed_form(ALIGN12, seg, u),
                                    rtol=1e-9, atol=1e-11)  # fmt: skip
     assert not res.observable[res.names.index("ba_z")]
+
+
+def test_state_scales_change_the_weights_not_the_answer():
+    seg = _level_flight(0.0)
+    si = pwcs.analyse(ALIGN12, [seg], [VEL, BASELINE_Y])
+    typical = np.r_[[0.1] * 3, [1e-3] * 3, [0.1 * MG] * 3, [0.01 * DPH] * 3]  # nav grade
+    scaled = pwcs.analyse(ALIGN12, [seg], [VEL, BASELINE_Y], scales=typical)
+    assert scaled.rank == si.rank == 11 and scaled.observable == si.observable
+    np.testing.assert_allclose(scaled.null_space, si.null_space, rtol=1e-7, atol=1e-12)
+    assert scaled.combinations == si.combinations
+    # in nav-grade units the gyro part of 002's direction is not small: 5.8e-5 rad/s
+    # per rad of pitch is 0.012 deg/h per mrad against a 0.01 deg/h scale, as large as
+    # the pitch part itself (measured weights 0.118 and 0.099; in SI 5.9e-6 and 0.10)
+    i, k = si.names.index("bg_z"), si.names.index("phi_E")
+    assert si.null_weight[i] < 1e-5 and scaled.null_weight[i] > scaled.null_weight[k] > 0.05
