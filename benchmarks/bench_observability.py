@@ -32,8 +32,16 @@ from inins.observability import measurements as meas  # noqa: E402
 from inins.observability.segments import make_segment  # noqa: E402
 
 REPEAT = 3
-LOS = np.array([[0.0, 0.0, -1.0], [0.5, 0.3, -0.8], [-0.4, 0.6, -0.6], [0.2, -0.7, -0.5],
-                [-0.6, -0.5, -0.3], [0.7, -0.2, -0.4]])  # fmt: skip
+LOS = np.array(
+    [
+        [0.0, 0.0, -1.0],
+        [0.5, 0.3, -0.8],
+        [-0.4, 0.6, -0.6],
+        [0.2, -0.7, -0.5],
+        [-0.6, -0.5, -0.3],
+        [0.7, -0.2, -0.4],
+    ]
+)
 LOS = LOS / np.linalg.norm(LOS, axis=1)[:, None]
 LEVER_B = (1.0, 0.0, -1.5)
 MEASUREMENTS = (
@@ -53,8 +61,16 @@ def manoeuvre(count, duration):
         mat = rotation.mat_from_euler(roll, pitch, heading)
         f_b = np.array([rng.uniform(-1, 1), rng.uniform(-0.5, 0.5), -9.8 / np.cos(roll)])
         omega = rng.uniform(-0.05, 0.05, 3)
-        segments.append(make_segment(duration, (37 * DEG, 127 * DEG, 2000.0), mat_nb=mat,
-                                     vel_n=vel, f_b=f_b, omega_ib_b=omega))  # fmt: skip
+        segments.append(
+            make_segment(
+                duration,
+                (37 * DEG, 127 * DEG, 2000.0),
+                mat_nb=mat,
+                vel_n=vel,
+                f_b=f_b,
+                omega_ib_b=omega,
+            )
+        )
     return segments
 
 
@@ -82,10 +98,12 @@ def run():
     segments = manoeuvre(100, 36.0)
     result = pwcs.analyse(model, segments, MEASUREMENTS)
     som = _best(lambda: pwcs.analyse(model, segments, MEASUREMENTS))
-    sigma_0 = np.r_[[10.0] * 3, [0.5] * 3, [1 * DEG] * 3, [1 * MG] * 3, [1 * DPH] * 3, 100.0,
-                    1.0, [1e-4] * 9]  # fmt: skip
-    noise = models.ProcessNoise(arw=0.002 * DEG / 60, vrw=1e-4, clock_bias_psd=0.1,
-                                clock_drift_psd=0.01)  # fmt: skip
+    sigma_0 = np.r_[
+        [10.0] * 3, [0.5] * 3, [1 * DEG] * 3, [1 * MG] * 3, [1 * DPH] * 3, 100.0, 1.0, [1e-4] * 9
+    ]
+    noise = models.ProcessNoise(
+        arw=0.002 * DEG / 60, vrw=1e-4, clock_bias_psd=0.1, clock_drift_psd=0.01
+    )
     start = time.perf_counter()
     cov = covariance.analyse(model, segments, MEASUREMENTS, sigma_0, noise=noise, dt=1.0)
     first = time.perf_counter() - start

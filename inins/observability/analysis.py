@@ -77,8 +77,9 @@ class ObservabilityReport:
         raise KeyError(name)
 
 
-def analyse(model, segments, measurements, *, sigma_0=None, noise=None, dt=1.0, scales=None,
-            method="auto"):  # fmt: skip
+def analyse(
+    model, segments, measurements, *, sigma_0=None, noise=None, dt=1.0, scales=None, method="auto"
+):
     """Observability of ``model`` along ``segments`` with ``measurements``.
 
     Parameters
@@ -105,24 +106,42 @@ def analyse(model, segments, measurements, *, sigma_0=None, noise=None, dt=1.0, 
     if sigma_0 is not None:
         cov = covariance.analyse(model, segments, measurements, sigma_0, noise=noise, dt=dt)
     nan = np.full(structure.n_states, np.nan)
-    s0, s1, ratio = (nan, nan, nan) if cov is None else (cov.sigma_0, cov.sigma_final,
-                                                         cov.sigma_ratio)  # fmt: skip
+    s0, s1, ratio = (
+        (nan, nan, nan) if cov is None else (cov.sigma_0, cov.sigma_final, cov.sigma_ratio)
+    )
     states = tuple(
         StateSummary(name, unit, obs, float(w), float(a), float(b), float(c))
         for name, unit, obs, w, a, b, c in zip(
-            structure.names, structure.units, structure.observable, structure.null_weight,
-            s0, s1, ratio, strict=True,
+            structure.names,
+            structure.units,
+            structure.observable,
+            structure.null_weight,
+            s0,
+            s1,
+            ratio,
+            strict=True,
         )
-    )  # fmt: skip
+    )
     warnings = []
     failed = [j for j, ok in enumerate(structure.condition_holds) if not ok]
     if failed and structure.method == "total":
-        warnings.append(f"null(Q_j) is not inside null(F_j) on segments {failed}: the total "
-                        "observability matrix was used")  # fmt: skip
+        warnings.append(
+            f"null(Q_j) is not inside null(F_j) on segments {failed}: the total "
+            "observability matrix was used"
+        )
     if w_rank != structure.rank:
-        warnings.append(f"the Gramian rank {w_rank} differs from the PWCS rank {structure.rank}: "
-                        "the weakest directions are near the numerical tolerance")  # fmt: skip
+        warnings.append(
+            f"the Gramian rank {w_rank} differs from the PWCS rank {structure.rank}: "
+            "the weakest directions are near the numerical tolerance"
+        )
     return ObservabilityReport(
-        model.name, structure.rank, structure.n_states, structure.n_unobservable, w_rank,
-        structure, cov, states, tuple(warnings),
-    )  # fmt: skip
+        model.name,
+        structure.rank,
+        structure.n_states,
+        structure.n_unobservable,
+        w_rank,
+        structure,
+        cov,
+        states,
+        tuple(warnings),
+    )

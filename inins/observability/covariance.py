@@ -136,8 +136,9 @@ def analyse(model, segments, measurements, sigma_0, *, noise=None, dt=1.0):
             if count == 0:
                 continue
             Phi, Qd = kalman.discretize(F[j], Qc[j], step)
-            P = _riccati(P, np.ascontiguousarray(Phi), np.ascontiguousarray(Qd), H, R, count,
-                         sigma, row)  # fmt: skip
+            P = _riccati(
+                P, np.ascontiguousarray(Phi), np.ascontiguousarray(Qd), H, R, count, sigma, row
+            )
             time[row : row + count] = t0 + step * np.arange(1, count + 1)
             row += count
             t0 += count * step
@@ -153,7 +154,14 @@ def analyse(model, segments, measurements, sigma_0, *, noise=None, dt=1.0):
         x = x / x[np.argmax(np.abs(vec[:, c]))]
         directions.append(combination(x, model.names, sigma_0, digits=3, rel_tol=1e-3))
     return CovarianceResult(
-        names=model.names, time=time, sigma=sigma, segment_end=np.array(ends),
-        sigma_0=sigma_0, sigma_final=sigma[-1].copy(), sigma_ratio=sigma[-1] / sigma_0,
-        eigenvalues=np.array(eig), eigenvectors=vec, directions=tuple(directions),
-    )  # fmt: skip
+        names=model.names,
+        time=time,
+        sigma=sigma,
+        segment_end=np.array(ends),
+        sigma_0=sigma_0,
+        sigma_final=sigma[-1].copy(),
+        sigma_ratio=sigma[-1] / sigma_0,
+        eigenvalues=np.array(eig),
+        eigenvectors=vec,
+        directions=tuple(directions),
+    )

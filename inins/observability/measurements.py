@@ -79,22 +79,26 @@ class Measurement:
                 object.__setattr__(self, "kind", Kind(self.kind))
             except ValueError:
                 known = [k.value for k in Kind]
-                raise InputError(f"unknown measurement {self.kind!r}; known: {known}",
-                                 key=f"{self.key}.kind") from None  # fmt: skip
+                raise InputError(
+                    f"unknown measurement {self.kind!r}; known: {known}", key=f"{self.key}.kind"
+                ) from None
         if not self.sigma > 0.0:
             raise InputError(f"sigma must be > 0, got {self.sigma}", key=f"{self.key}.sigma")
         if self.kind is Kind.DD_PHASE:
             b = np.asarray(self.baseline_b if self.baseline_b is not None else np.zeros(3), float)
             if b.shape != (3,) or not np.linalg.norm(b) > 0.0:
-                raise InputError(f"baseline must be a non-zero 3-vector (m), got {self.baseline_b}",
-                                 key=f"{self.key}.baseline_b")  # fmt: skip
+                raise InputError(
+                    f"baseline must be a non-zero 3-vector (m), got {self.baseline_b}",
+                    key=f"{self.key}.baseline_b",
+                )
             object.__setattr__(self, "baseline_b", tuple(b))
         if self.los_n is not None:
             los = np.array(self.los_n, dtype=float)
             unit = los.ndim == 2 and los.shape[1] == 3 and len(los) > 0
             if not unit or np.abs(np.linalg.norm(los, axis=1) - 1.0).max() > 1e-6:
-                raise InputError("lines of sight must be unit 3-vectors, shape (k, 3)",
-                                 key=f"{self.key}.los_n")  # fmt: skip
+                raise InputError(
+                    "lines of sight must be unit 3-vectors, shape (k, 3)", key=f"{self.key}.los_n"
+                )
             los.setflags(write=False)
             object.__setattr__(self, "los_n", los)
 
@@ -102,17 +106,20 @@ class Measurement:
 def _columns(layout, names, kind, key):
     missing = [n for n in names if n not in layout.names]
     if missing:
-        raise InputError(f"{kind.value} measurement needs states {missing} the model lacks",
-                         key=key)  # fmt: skip
+        raise InputError(
+            f"{kind.value} measurement needs states {missing} the model lacks", key=key
+        )
     return [layout.index(n) for n in names]
 
 
 def _los(measurement, segment, needed):
     los = measurement.los_n if measurement.los_n is not None else segment.los_n
     if los is None or len(los) < needed:
-        raise InputError(f"{measurement.kind.value} needs at least {needed} satellite lines of "
-                         "sight; none given by the measurement or the segment",
-                         key=f"{measurement.key}.los_n")  # fmt: skip
+        raise InputError(
+            f"{measurement.kind.value} needs at least {needed} satellite lines of "
+            "sight; none given by the measurement or the segment",
+            key=f"{measurement.key}.los_n",
+        )
     return los
 
 
@@ -154,7 +161,8 @@ def rows(layout, segment, measurement):
         b_n = segment.mat_nb @ np.asarray(measurement.baseline_b)
         H = np.zeros((len(pairs), len(layout)))
         H[:, _columns(layout, ("phi_N", "phi_E", "phi_D"), kind, key)] = -(
-            los[pairs[:, 0]] - los[pairs[:, 1]]) @ rotation.skew(b_n)  # fmt: skip
+            los[pairs[:, 0]] - los[pairs[:, 1]]
+        ) @ rotation.skew(b_n)
     else:
         H = _range_rows(layout, segment, measurement, _los(measurement, segment, 1))
     return H, measurement.sigma**2 * np.eye(len(H))
@@ -171,11 +179,13 @@ def _range_rows(layout, segment, measurement, los):
     else:
         H[:, _columns(layout, ("dv_N", "dv_E", "dv_D"), kind, key)] = -los
         w_in = earth.rate_ie_n(segment.lla[0]) + earth.rate_en_n(
-            segment.lla[0], segment.lla[2], segment.vel_n)  # fmt: skip
+            segment.lla[0], segment.lla[2], segment.vel_n
+        )
         w_nb_b = segment.omega_ib_b - segment.mat_nb.T @ w_in
         lever_x = rotation.skew(measurement.lever_arm_b)
         phi_term = rotation.skew(segment.mat_nb @ np.cross(w_nb_b, measurement.lever_arm_b)) - (
-            segment.mat_nb @ lever_x @ segment.mat_nb.T @ rotation.skew(w_in))  # fmt: skip
+            segment.mat_nb @ lever_x @ segment.mat_nb.T @ rotation.skew(w_in)
+        )
         if "bg_x" in layout.names:
             bg = _columns(layout, ("bg_x", "bg_y", "bg_z"), kind, key)
             H[:, bg] = los @ segment.mat_nb @ lever_x

@@ -33,8 +33,9 @@ from inins.core import error_model
 from inins.core.error_model import ALIGN12, EKF17, EKF26, NAV15, StateLayout
 from inins.exceptions import InputError
 
-ALIGN10 = StateLayout(("dv_N", "dv_E", "phi_N", "phi_E", "phi_D", "ba_x", "ba_y", "bg_x", "bg_y",
-                       "bg_z"))  # fmt: skip
+ALIGN10 = StateLayout(
+    ("dv_N", "dv_E", "phi_N", "phi_E", "phi_D", "ba_x", "ba_y", "bg_x", "bg_y", "bg_z")
+)
 """Classic stationary alignment model: horizontal velocity errors only (Bar-Itzhack & Berman)."""
 
 
@@ -63,11 +64,15 @@ class Model:
         """F of every segment, shape (J, n, n)."""
         lla = np.array([s.lla for s in segments])
         return error_model.system_matrix(
-            self.layout, lla[:, 0], lla[:, 2], np.array([s.vel_n for s in segments]),
-            np.array([s.f_n for s in segments]), np.array([s.mat_nb for s in segments]),
+            self.layout,
+            lla[:, 0],
+            lla[:, 2],
+            np.array([s.vel_n for s in segments]),
+            np.array([s.f_n for s in segments]),
+            np.array([s.mat_nb for s in segments]),
             np.array([s.omega_ib_b for s in segments]),
             transport_from_estimate=self.transport_from_estimate,
-        )  # fmt: skip
+        )
 
     def noise_densities(self, segments, noise):
         """Continuous process-noise density Qc of every segment, shape (J, n, n).
@@ -82,10 +87,15 @@ class Model:
         if noise is None:
             return np.zeros((len(segments), n, n))
         return error_model.noise_matrix(
-            self.layout, np.array([s.mat_nb for s in segments]), noise.arw, noise.vrw,
-            accel_bias_rw=noise.accel_bias_rw, gyro_bias_rw=noise.gyro_bias_rw,
-            clock_bias_psd=noise.clock_bias_psd, clock_drift_psd=noise.clock_drift_psd,
-        )  # fmt: skip
+            self.layout,
+            np.array([s.mat_nb for s in segments]),
+            noise.arw,
+            noise.vrw,
+            accel_bias_rw=noise.accel_bias_rw,
+            gyro_bias_rw=noise.gyro_bias_rw,
+            clock_bias_psd=noise.clock_bias_psd,
+            clock_drift_psd=noise.clock_drift_psd,
+        )
 
 
 @dataclass(frozen=True)

@@ -207,12 +207,22 @@ def analyse(model, segments, measurements, *, scales=None, method="auto"):
         V = (Vs / Vs[np.arange(len(Vs)), pivots][:, None]).T
     units = tuple(model.layout.unit(name) for name in model.names)
     return PwcsResult(
-        names=model.names, units=units, scales=scales, method="total" if use_total else "stripped",
-        condition_holds=holds, rank=rank, n_states=n, n_unobservable=n - rank, tolerance=tol,
-        singular_values=np.array(sv), segment_rank=tuple(ranks), null_space=V,
+        names=model.names,
+        units=units,
+        scales=scales,
+        method="total" if use_total else "stripped",
+        condition_holds=holds,
+        rank=rank,
+        n_states=n,
+        n_unobservable=n - rank,
+        tolerance=tol,
+        singular_values=np.array(sv),
+        segment_rank=tuple(ranks),
+        null_space=V,
         combinations=tuple(combination(V[:, c], model.names, scales) for c in range(V.shape[1])),
-        observable=tuple(bool(w <= threshold) for w in weight), null_weight=weight,
-    )  # fmt: skip
+        observable=tuple(bool(w <= threshold) for w in weight),
+        null_weight=weight,
+    )
 
 
 def rref(A, rel_tol=1e-9):

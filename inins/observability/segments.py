@@ -25,8 +25,9 @@ _ORTHO_TOL = 1e-6
 def _vector(value, key, shape=(3,)):
     arr = np.array(value, dtype=float)
     if arr.shape != shape or not np.all(np.isfinite(arr)):
-        raise InputError(f"expected finite numbers of shape {shape}, got {np.shape(value)}",
-                         key=key)  # fmt: skip
+        raise InputError(
+            f"expected finite numbers of shape {shape}, got {np.shape(value)}", key=key
+        )
     arr.setflags(write=False)
     return arr
 
@@ -112,8 +113,19 @@ def flight_specific_force(lla, vel_n, acc_n=(0.0, 0.0, 0.0)):
     return np.asarray(acc_n, float) + np.cross(w, vel_n) - earth.gravity_n(lla[0], lla[2])
 
 
-def make_segment(duration, lla, *, heading=None, mat_nb=None, vel_n=(0.0, 0.0, 0.0), f_n=None,
-                 f_b=None, omega_ib_b=None, los_n=None, key="segment"):  # fmt: skip
+def make_segment(
+    duration,
+    lla,
+    *,
+    heading=None,
+    mat_nb=None,
+    vel_n=(0.0, 0.0, 0.0),
+    f_n=None,
+    f_b=None,
+    omega_ib_b=None,
+    los_n=None,
+    key="segment",
+):
     """A :class:`Segment` with the physics of unaccelerated motion filled in.
 
     Parameters
@@ -142,8 +154,11 @@ def make_segment(duration, lla, *, heading=None, mat_nb=None, vel_n=(0.0, 0.0, 0
         raise InputError("give f_n or f_b, not both", key=f"{key}.f_b")
     lla_arr = _vector(lla, f"{key}.lla")
     vel = _vector(vel_n, f"{key}.vel_n")
-    mat = np.asarray(mat_nb, float) if mat_nb is not None else rotation.mat_from_euler(
-        0.0, 0.0, 0.0 if heading is None else heading)  # fmt: skip
+    mat = (
+        np.asarray(mat_nb, float)
+        if mat_nb is not None
+        else rotation.mat_from_euler(0.0, 0.0, 0.0 if heading is None else heading)
+    )
     if f_n is None:
         f_n = flight_specific_force(lla_arr, vel) if f_b is None else mat @ np.asarray(f_b, float)
     if omega_ib_b is None:
@@ -176,8 +191,18 @@ def _segment_starts(mat_nb, f_b, trace_min, force_max):
     return starts[:count]
 
 
-def cut_segments(time, mat_nb, f_b, omega_ib_b, vel_n, lla, *, attitude_threshold=2.0 * DEG,
-                 force_threshold=0.5, los_n=None):  # fmt: skip
+def cut_segments(
+    time,
+    mat_nb,
+    f_b,
+    omega_ib_b,
+    vel_n,
+    lla,
+    *,
+    attitude_threshold=2.0 * DEG,
+    force_threshold=0.5,
+    los_n=None,
+):
     """Cut a sampled trajectory into piecewise-constant segments.
 
     Rule: a segment starts at sample ``s``; the first later sample ``k`` whose
@@ -211,8 +236,13 @@ def cut_segments(time, mat_nb, f_b, omega_ib_b, vel_n, lla, *, attitude_threshol
     tuple of Segment
     """
     time = np.asarray(time, dtype=float)
-    arrays = {"mat_nb": (mat_nb, (3, 3)), "f_b": (f_b, (3,)), "omega_ib_b": (omega_ib_b, (3,)),
-              "vel_n": (vel_n, (3,)), "lla": (lla, (3,))}  # fmt: skip
+    arrays = {
+        "mat_nb": (mat_nb, (3, 3)),
+        "f_b": (f_b, (3,)),
+        "omega_ib_b": (omega_ib_b, (3,)),
+        "vel_n": (vel_n, (3,)),
+        "lla": (lla, (3,)),
+    }
     n = len(time)
     if time.ndim != 1 or n < 2 or not np.all(np.diff(time) > 0.0):
         raise InputError("time must be a strictly increasing 1-D array of >= 2 samples", key="time")
@@ -225,12 +255,15 @@ def cut_segments(time, mat_nb, f_b, omega_ib_b, vel_n, lla, *, attitude_threshol
     ortho = np.abs(data["mat_nb"] @ np.swapaxes(data["mat_nb"], 1, 2) - np.eye(3)).max(axis=(1, 2))
     if ortho.max() > _ORTHO_TOL:
         k = int(np.argmax(ortho))
-        raise InputError(f"attitude matrix at sample {k} is not orthonormal "
-                         f"(|C C^T - I| = {ortho[k]:.2e})", key="mat_nb")  # fmt: skip
+        raise InputError(
+            f"attitude matrix at sample {k} is not orthonormal (|C C^T - I| = {ortho[k]:.2e})",
+            key="mat_nb",
+        )
     if attitude_threshold <= 0.0 or force_threshold <= 0.0:
         raise InputError("thresholds must be > 0", key="attitude_threshold")
-    starts = _segment_starts(data["mat_nb"], data["f_b"], 1.0 + 2.0 * np.cos(attitude_threshold),
-                             float(force_threshold))  # fmt: skip
+    starts = _segment_starts(
+        data["mat_nb"], data["f_b"], 1.0 + 2.0 * np.cos(attitude_threshold), float(force_threshold)
+    )
     ends = np.append(starts[1:], n - 1)
     segments = []
     for j, (s, e) in enumerate(zip(starts, ends, strict=True)):
@@ -241,7 +274,15 @@ def cut_segments(time, mat_nb, f_b, omega_ib_b, vel_n, lla, *, attitude_threshol
         stop = max(e, s + 1)
         f_n = mat @ data["f_b"][s:stop].mean(axis=0)
         omega = data["omega_ib_b"][s:stop].mean(axis=0)
-        seg = Segment(time[e] - time[s], mat, f_n, omega, data["vel_n"][mid], data["lla"][mid],
-                      los_n, key=f"segments.{j}")  # fmt: skip
+        seg = Segment(
+            time[e] - time[s],
+            mat,
+            f_n,
+            omega,
+            data["vel_n"][mid],
+            data["lla"][mid],
+            los_n,
+            key=f"segments.{j}",
+        )
         segments.append(seg)
     return tuple(segments)

@@ -14,8 +14,17 @@ from inins.observability import measurements as meas
 from inins.observability.segments import make_segment
 
 PACKAGE = Path(__file__).resolve().parents[2] / "inins" / "observability"
-ALLOWED = ("numpy", "scipy", "numba", "inins.core", "inins.gnss", "inins.exceptions",
-           "inins.observability", "dataclasses", "enum")  # fmt: skip
+ALLOWED = (
+    "numpy",
+    "scipy",
+    "numba",
+    "inins.core",
+    "inins.gnss",
+    "inins.exceptions",
+    "inins.observability",
+    "dataclasses",
+    "enum",
+)
 
 
 def test_observability_imports_only_the_numeric_core():
@@ -65,8 +74,12 @@ def test_warnings_and_bad_names():
     dd = meas.Measurement("dd_phase", 0.005, baseline_b=(0, 1.5, 0), los_n=los)
     found = analysis.analyse(models.MODELS["align12"], [seg], [dd])
     assert found.pwcs.method == "total" and "total observability matrix" in found.warnings[0]
-    assert analysis.analyse(models.MODELS["align12"], [seg], [meas.Measurement("velocity", 0.1)]
-                            ).warnings == ()  # fmt: skip
+    assert (
+        analysis.analyse(
+            models.MODELS["align12"], [seg], [meas.Measurement("velocity", 0.1)]
+        ).warnings
+        == ()
+    )
     with pytest.raises(InputError, match="unknown model") as err:
         models.model_by_name("ekf18", key="model.name")
     assert err.value.key == "model.name"

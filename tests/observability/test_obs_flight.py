@@ -18,14 +18,25 @@ from inins.observability import covariance, models, pwcs
 from inins.observability import measurements as meas
 from inins.observability.segments import cut_segments
 
-LOS = np.array([[0.0, 0.0, -1.0], [0.5, 0.3, -0.8], [-0.4, 0.6, -0.6], [0.2, -0.7, -0.5],
-                [-0.6, -0.5, -0.3], [0.7, -0.2, -0.4]])  # fmt: skip
+LOS = np.array(
+    [
+        [0.0, 0.0, -1.0],
+        [0.5, 0.3, -0.8],
+        [-0.4, 0.6, -0.6],
+        [0.2, -0.7, -0.5],
+        [-0.6, -0.5, -0.3],
+        [0.7, -0.2, -0.4],
+    ]
+)
 LOS = LOS / np.linalg.norm(LOS, axis=1)[:, None]
-MEAS = [meas.Measurement("pseudorange", 3.0, los_n=LOS),
-        meas.Measurement("range_rate", 0.05, los_n=LOS)]  # fmt: skip
+MEAS = [
+    meas.Measurement("pseudorange", 3.0, los_n=LOS),
+    meas.Measurement("range_rate", 0.05, los_n=LOS),
+]
 EKF26 = models.MODELS["ekf26"]
-SIGMA_0 = np.r_[[10.0] * 3, [0.5] * 3, [1 * DEG] * 3, [1 * MG] * 3, [1 * DPH] * 3, 100.0, 1.0,
-                [60 * ARCSEC] * 9]  # fmt: skip
+SIGMA_0 = np.r_[
+    [10.0] * 3, [0.5] * 3, [1 * DEG] * 3, [1 * MG] * 3, [1 * DPH] * 3, 100.0, 1.0, [60 * ARCSEC] * 9
+]
 
 
 @pytest.fixture(scope="module")
@@ -34,8 +45,9 @@ def segments():
     t = np.arange(0.0, 600.0 + 1e-9, 1.0)
     mat, vel, lla = traj.state(t)
     omega, f_b = traj.rates(t)
-    return cut_segments(t, mat, f_b, omega, vel, lla, attitude_threshold=5 * DEG,
-                        force_threshold=0.5)  # fmt: skip
+    return cut_segments(
+        t, mat, f_b, omega, vel, lla, attitude_threshold=5 * DEG, force_threshold=0.5
+    )
 
 
 @pytest.mark.slow

@@ -12,8 +12,9 @@ from inins.observability import models
 from inins.observability.segments import make_segment
 
 LLA = (np.radians(37.5), np.radians(127.0), 800.0)
-LOS = np.array([[0.0, 0.0, -1.0], [0.5, 0.3, -0.8], [-0.4, 0.6, -0.6], [0.2, -0.7, -0.5],
-                [-0.6, -0.5, -0.3]])  # fmt: skip
+LOS = np.array(
+    [[0.0, 0.0, -1.0], [0.5, 0.3, -0.8], [-0.4, 0.6, -0.6], [0.2, -0.7, -0.5], [-0.6, -0.5, -0.3]]
+)
 LOS = LOS / np.linalg.norm(LOS, axis=1)[:, None]
 MAT_NB = rot.mat_from_euler(10 * DEG, -5 * DEG, 200 * DEG)
 
@@ -52,7 +53,8 @@ def test_dd_phase_row_is_the_derivative_of_the_nonlinear_double_difference():
     np.testing.assert_allclose(H[:, phi_cols] @ b_n, 0.0, atol=1e-14)
     # sign of the nonlinear model: the range from B is shorter by e^T b
     assert meas.dd_phase(np.eye(3), [0, 0, -1.0], LOS[[0, 1]], np.array([[0, 1]]))[0] == (
-        pytest.approx(-(LOS[0, 2] - LOS[1, 2]) * -1.0))  # fmt: skip
+        pytest.approx(-(LOS[0, 2] - LOS[1, 2]) * -1.0)
+    )
 
 
 def _range_change(r_ant, sat):
@@ -75,8 +77,15 @@ def test_pseudorange_row_is_the_derivative_of_the_range_with_lever_arm():
         return _range_change(moved, sat) + x[15]
 
     x0 = np.zeros(17)
-    for name, step in (("dr_N", 1.0), ("dr_E", 1.0), ("dr_D", 1.0), ("phi_N", 1e-5),
-                       ("phi_E", 1e-5), ("phi_D", 1e-5), ("clock_bias", 1.0)):  # fmt: skip
+    for name, step in (
+        ("dr_N", 1.0),
+        ("dr_E", 1.0),
+        ("dr_D", 1.0),
+        ("phi_N", 1e-5),
+        ("phi_E", 1e-5),
+        ("phi_D", 1e-5),
+        ("clock_bias", 1.0),
+    ):
         i = layout.index(name)
         dx = x0.copy()
         dx[i] = step
@@ -103,8 +112,18 @@ def test_range_rate_row_is_the_derivative_with_the_lever_arm_velocity():
         v_ant = x[3:6] + c_est @ np.cross(w_nb, lever_b)  # true v_n cancels: left out
         return -LOS @ v_ant + x[16]
 
-    for name in ("dv_N", "dv_E", "dv_D", "phi_N", "phi_E", "phi_D", "bg_x", "bg_y", "bg_z",
-                 "clock_drift"):  # fmt: skip
+    for name in (
+        "dv_N",
+        "dv_E",
+        "dv_D",
+        "phi_N",
+        "phi_E",
+        "phi_D",
+        "bg_x",
+        "bg_y",
+        "bg_z",
+        "clock_drift",
+    ):
         i = layout.index(name)
         dx = np.zeros(17)
         dx[i] = 1e-6
@@ -119,10 +138,14 @@ def test_velocity_and_position_rows_pick_the_states_present():
     assert R[0, 0] == 4.0
     H, _ = meas.rows(models.ALIGN10, seg, meas.Measurement("velocity", 0.1))
     np.testing.assert_array_equal(H, np.eye(10)[:2])  # the 10-state model: dv_N, dv_E only
-    H, R = meas.measurement_matrix(error_model.ALIGN12, seg, [
-        meas.Measurement("velocity", 0.1),
-        meas.Measurement("dd_phase", 0.01, baseline_b=(0, 1, 0), los_n=LOS),
-    ])  # fmt: skip
+    H, R = meas.measurement_matrix(
+        error_model.ALIGN12,
+        seg,
+        [
+            meas.Measurement("velocity", 0.1),
+            meas.Measurement("dd_phase", 0.01, baseline_b=(0, 1, 0), los_n=LOS),
+        ],
+    )
     assert H.shape == (7, 12) and np.allclose(np.diag(R), [0.01] * 3 + [1e-4] * 4)
 
 

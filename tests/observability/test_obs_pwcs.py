@@ -43,11 +43,23 @@ def _closed_form(model, segment, u):
     Compared with ``atol=1e-11`` (SI per unit of the pivot: 1e-11 rad/s of gyro
     bias per rad of tilt is 2e-6 deg/h per rad) and ``rtol=1e-9``.
     """
-    w_in = earth.rate_ie_n(segment.lla[0]) + earth.rate_en_n(segment.lla[0], segment.lla[2],
-                                                            segment.vel_n)  # fmt: skip
-    full = dict(zip(models.ALIGN12.names, np.concatenate([
-        np.zeros(3), u, -segment.mat_nb.T @ np.cross(segment.f_n, u),
-        -segment.mat_nb.T @ np.cross(w_in, u)]), strict=True))  # fmt: skip
+    w_in = earth.rate_ie_n(segment.lla[0]) + earth.rate_en_n(
+        segment.lla[0], segment.lla[2], segment.vel_n
+    )
+    full = dict(
+        zip(
+            models.ALIGN12.names,
+            np.concatenate(
+                [
+                    np.zeros(3),
+                    u,
+                    -segment.mat_nb.T @ np.cross(segment.f_n, u),
+                    -segment.mat_nb.T @ np.cross(w_in, u),
+                ]
+            ),
+            strict=True,
+        )
+    )
     return np.array([full[name] for name in model.names])
 
 
@@ -60,8 +72,9 @@ def test_stationary_12_state_alignment_with_velocity_has_rank_9(heading):
     assert pwcs.gramian_rank(ALIGN12, [seg], [VEL]) == 9
     # the three directions, pivots phi_N, phi_E, phi_D, against the closed form
     for c, u in enumerate(np.eye(3)):
-        np.testing.assert_allclose(res.null_space[:, c], _closed_form(ALIGN12, seg, u),
-                                   rtol=1e-9, atol=1e-11)  # fmt: skip
+        np.testing.assert_allclose(
+            res.null_space[:, c], _closed_form(ALIGN12, seg, u), rtol=1e-9, atol=1e-11
+        )
     # only the velocity errors and the vertical accelerometer bias are observable alone
     observable = {n for n, o in zip(res.names, res.observable, strict=True) if o}
     assert observable == {"dv_N", "dv_E", "dv_D", "ba_z"}
@@ -114,8 +127,9 @@ def test_classic_10_state_model_has_rank_7():
     assert (res.rank, res.n_unobservable) == (7, 3)
     assert pwcs.gramian_rank(ALIGN10, [seg], [VEL]) == 7
     for c, u in enumerate(np.eye(3)):
-        np.testing.assert_allclose(res.null_space[:, c], _closed_form(ALIGN10, seg, u),
-                                   rtol=1e-9, atol=1e-11)  # fmt: skip
+        np.testing.assert_allclose(
+            res.null_space[:, c], _closed_form(ALIGN10, seg, u), rtol=1e-9, atol=1e-11
+        )
     assert {n for n, o in zip(res.names, res.observable, strict=True) if o} == {"dv_N", "dv_E"}
     turn = [seg, make_segment(600.0, LLA, heading=90 * DEG)]
     assert pwcs.analyse(ALIGN10, turn, [VEL]).rank == 10
@@ -135,8 +149,9 @@ def test_002_one_baseline_along_body_y_leaves_pitch_and_x_accel_bias_unobservabl
     # the one direction: tilt about the baseline (pitch at heading 0 is phi_E) with
     # ba_x = f_D phi_E (f_D = -g + Coriolis in flight), plus Earth/transport-rate gyro terms
     b_n = seg.mat_nb @ np.array([0.0, 1.0, 0.0])
-    np.testing.assert_allclose(res.null_space[:, 0], _closed_form(ALIGN12, seg, b_n),
-                               rtol=1e-9, atol=1e-11)  # fmt: skip
+    np.testing.assert_allclose(
+        res.null_space[:, 0], _closed_form(ALIGN12, seg, b_n), rtol=1e-9, atol=1e-11
+    )
     v = dict(zip(res.names, res.null_space[:, 0], strict=True))
     assert v["phi_E"] == 1.0 and v["ba_x"] == pytest.approx(seg.f_n[2], rel=1e-9)
     assert v["ba_x"] == pytest.approx(-9.79, abs=0.01)
@@ -146,8 +161,9 @@ def test_002_one_baseline_along_body_y_leaves_pitch_and_x_accel_bias_unobservabl
     # separable either. Everything else is observable.
     unobservable = {n for n, o in zip(res.names, res.observable, strict=True) if not o}
     assert unobservable == {"phi_E", "ba_x", "bg_x", "bg_z"}
-    assert res.null_weight[res.names.index("phi_E")] == pytest.approx(1 / np.hypot(1, v["ba_x"]),
-                                                                       rel=1e-6)  # fmt: skip
+    assert res.null_weight[res.names.index("phi_E")] == pytest.approx(
+        1 / np.hypot(1, v["ba_x"]), rel=1e-6
+    )
     # a baseline along body x instead leaves roll (phi_N at heading 0) with ba_y
     along_x = meas.Measurement("dd_phase", 0.005, baseline_b=(1.5, 0.0, 0.0), los_n=LOS)
     res_x = pwcs.analyse(ALIGN12, [seg], [VEL, along_x])
@@ -156,8 +172,9 @@ def test_002_one_baseline_along_body_y_leaves_pitch_and_x_accel_bias_unobservabl
     seg45 = _level_flight(45 * DEG)
     res45 = pwcs.analyse(ALIGN12, [seg45], [VEL, BASELINE_Y])
     u = seg45.mat_nb[:, 1] / seg45.mat_nb[0, 1]  # pivot phi_N = 1
-    np.testing.assert_allclose(res45.null_space[:, 0], _closed_form(ALIGN12, seg45, u), rtol=1e-9,
-                               atol=1e-11)  # fmt: skip
+    np.testing.assert_allclose(
+        res45.null_space[:, 0], _closed_form(ALIGN12, seg45, u), rtol=1e-9, atol=1e-11
+    )
 
 
 def test_002_sequential_manoeuvre_makes_all_12_states_observable():
@@ -219,8 +236,9 @@ def test_rotation_of_the_body_does_not_change_velocity_only_rank_but_turns_the_p
     res = pwcs.analyse(ALIGN12, [seg], [VEL])
     assert res.rank == 9
     for c, u in enumerate(np.eye(3)):  # tilted body: ba_z enters the levelling pairs
-        np.testing.assert_allclose(res.null_space[:, c], _closed_form(ALIGN12, seg, u),
-                                   rtol=1e-9, atol=1e-11)  # fmt: skip
+        np.testing.assert_allclose(
+            res.null_space[:, c], _closed_form(ALIGN12, seg, u), rtol=1e-9, atol=1e-11
+        )
     assert not res.observable[res.names.index("ba_z")]
 
 

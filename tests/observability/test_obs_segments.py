@@ -88,8 +88,10 @@ def test_cut_segments_of_the_turn_make_002_observable_like_the_two_legs():
     los = np.array([[0.0, 0.0, -1.0], [0.5, 0.3, -0.8], [-0.4, 0.6, -0.6]])
     los = los / np.linalg.norm(los, axis=1)[:, None]
     segs = cut_segments(t, mat, f_b, omega, vel, lla, attitude_threshold=5 * DEG, los_n=los)
-    aiding = [meas.Measurement("velocity", 0.05),
-              meas.Measurement("dd_phase", 0.005, baseline_b=(0, 1.5, 0))]  # fmt: skip
+    aiding = [
+        meas.Measurement("velocity", 0.05),
+        meas.Measurement("dd_phase", 0.005, baseline_b=(0, 1.5, 0)),
+    ]
     found = analysis.analyse(models.MODELS["align12"], segs, aiding)
     assert found.rank == 12 == found.gramian_rank
     assert found.pwcs.segment_rank[0] == 11 and all(s.observable for s in found.states)
@@ -114,8 +116,9 @@ def test_aircraft_flight_cut_into_segments_keeps_each_within_the_threshold():
     t = np.arange(0.0, 240.0 + 1e-9, 0.5)
     mat, vel, lla = traj.state(t)
     omega, f_b = traj.rates(t)
-    segs = cut_segments(t, mat, f_b, omega, vel, lla, attitude_threshold=3 * DEG,
-                        force_threshold=0.5)  # fmt: skip
+    segs = cut_segments(
+        t, mat, f_b, omega, vel, lla, attitude_threshold=3 * DEG, force_threshold=0.5
+    )
     starts = np.concatenate([[0.0], np.cumsum([s.duration for s in segs])])
     assert starts[-1] == pytest.approx(240.0) and len(segs) > 10
     for a, b in itertools.pairwise(starts):
