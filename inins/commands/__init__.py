@@ -101,7 +101,6 @@ COMMANDS = (
         "observability",
         "Observability of an INS error model along a piecewise-constant manoeuvre: "
         "ranks, unobservable combinations, degree of observability.",
-        available=False,
     ),
 )
 """The five commands of spec §1 and import-log, in the order ``inins --help`` lists them."""

@@ -77,3 +77,48 @@ def calibrate_bias_roll(result, path):
 def calibrate_bias_pitch(result, path):
     """000 Figs. 5, 8, 9, 12: pitch through the sequence, P(0)..P(4) marked."""
     _epoch_figure(result, "pitch", path)
+
+
+def observability_sigma(result, path):
+    """observability: 1-sigma of each state over time, relative to its prior."""
+    if "covariance/sigma" not in result.datasets:
+        return _note_figure(path, "no covariance analysis (covariance: false)")
+    plt = _pyplot()
+    time = result.datasets["covariance/time"].data
+    sigma = result.datasets["covariance/sigma"].data
+    names = result.attrs["observability"]["states"]
+    fig, ax = plt.subplots(figsize=(9, 5), layout="constrained")
+    for i, name in enumerate(names):
+        ax.semilogy(time, sigma[:, i] / sigma[0, i], label=name, lw=1.2, color=plt.cm.tab20(i % 20))
+    for t in result.datasets["observability/segment_end"].data[:-1]:
+        ax.axvline(t, color="0.7", lw=0.8, ls=":")
+    ax.set_xlabel("time (s)")
+    ax.set_ylabel("1-sigma / prior")
+    ax.set_title(f"covariance analysis, model {result.attrs['observability']['model']}")
+    ax.legend(ncol=4, fontsize=7)
+    fig.savefig(path, dpi=120, format="png")
+    plt.close(fig)
+
+
+def observability_singular_values(result, path):
+    """observability: singular values of the stacked matrix after each segment."""
+    plt = _pyplot()
+    sv = result.datasets["observability/singular_values"].data
+    fig, ax = plt.subplots(figsize=(7, 4.5), layout="constrained")
+    segments = np.arange(1, sv.shape[0] + 1)
+    for k in range(sv.shape[1]):
+        ax.semilogy(segments, np.maximum(sv[:, k], 1e-300), "o-", ms=3, lw=0.8)
+    ax.set_xlabel("segments stacked")
+    ax.set_ylabel("singular value (scaled, SI)")
+    ax.set_title("observability matrix: singular values per segment")
+    fig.savefig(path, dpi=120, format="png")
+    plt.close(fig)
+
+
+def _note_figure(path, text):
+    plt = _pyplot()
+    fig, ax = plt.subplots(figsize=(6, 2))
+    ax.axis("off")
+    ax.text(0.5, 0.5, text, ha="center", va="center")
+    fig.savefig(path, dpi=100, format="png")
+    plt.close(fig)

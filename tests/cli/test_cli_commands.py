@@ -13,7 +13,7 @@ from inins.cli import app as real_app
 from inins.commands import COMMANDS, CommandUnavailable, load_command
 from inins.scenario.base import field_doc_problems
 
-PLACEHOLDERS = ("run-ekf", "observability")
+PLACEHOLDERS = tuple(s.name for s in COMMANDS if not s.available)
 HEAVY = ("numpy", "scipy", "numba", "h5py", "pydantic", "yaml")
 
 
