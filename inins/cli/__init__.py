@@ -73,7 +73,11 @@ app = make_app()
 
 def main() -> None:
     """Console-script entry point: SIGTERM is handled like Ctrl-C (no partial files)."""
+    import os
     import signal
+
+    # small matrices only: a threaded BLAS adds hand-over cost (set before numpy loads)
+    os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 
     def _terminate(signum, frame):
         raise KeyboardInterrupt
