@@ -1,0 +1,160 @@
+"""GPS broadcast ephemerides: one container, one row per ephemeris set, and the
+choice of the set valid at a time.
+
+The fields are those of the GPS LNAV message (IS-GPS-200 Tables 20-I, 20-III),
+in SI units and radians (RINEX carries angles in semicircles only in the raw
+message; the RINEX navigation file is already in radians). :data:`FIELDS`
+declares them once; :mod:`inins.io` readers and the recorded-flight layout
+use it for names, units and descriptions.
+"""
+
+from dataclasses import dataclass, fields
+
+import numpy as np
+
+from inins.gnss import gpstime
+
+FIELDS = (
+    ("prn", "int64", "", "satellite PRN number"),
+    ("week", "int64", "week", "GPS week of toe (continuous, not mod 1024)"),
+    ("toc", "float64", "s", "clock reference time, seconds of week"),
+    ("af0", "float64", "s", "clock bias"),
+    ("af1", "float64", "s/s", "clock drift"),
+    ("af2", "float64", "s/s^2", "clock drift rate"),
+    ("iode", "int64", "", "issue of data, ephemeris"),
+    ("crs", "float64", "m", "sine harmonic correction to the orbit radius"),
+    ("delta_n", "float64", "rad/s", "mean motion difference from the computed value"),
+    ("m0", "float64", "rad", "mean anomaly at toe"),
+    ("cuc", "float64", "rad", "cosine harmonic correction to the argument of latitude"),
+    ("e", "float64", "", "eccentricity"),
+    ("cus", "float64", "rad", "sine harmonic correction to the argument of latitude"),
+    ("sqrt_a", "float64", "m^0.5", "square root of the semi-major axis"),
+    ("toe", "float64", "s", "ephemeris reference time, seconds of week"),
+    ("cic", "float64", "rad", "cosine harmonic correction to the inclination"),
+    ("omega0", "float64", "rad", "longitude of ascending node at the week start"),
+    ("cis", "float64", "rad", "sine harmonic correction to the inclination"),
+    ("i0", "float64", "rad", "inclination at toe"),
+    ("crc", "float64", "m", "cosine harmonic correction to the orbit radius"),
+    ("omega", "float64", "rad", "argument of perigee"),
+    ("omega_dot", "float64", "rad/s", "rate of right ascension"),
+    ("idot", "float64", "rad/s", "rate of inclination"),
+    ("health", "int64", "", "SV health (0 = healthy)"),
+    ("tgd", "float64", "s", "group delay differential L1-L2 (P(Y))"),
+    ("ura", "float64", "m", "user range accuracy"),
+    ("fit_interval", "float64", "h", "curve fit interval (4 h nominal)"),
+)
+"""(name, dtype, unit, description) of every :class:`Ephemeris` field, in order."""
+
+
+@dataclass(frozen=True)
+class Ephemeris:
+    """Broadcast ephemeris sets; every field is an array of shape (n_sets,).
+
+    Units and meaning per :data:`FIELDS` (SI, radians, seconds of week).
+    Build it with :func:`from_columns`, which checks shapes and dtypes.
+    """
+
+    prn: np.ndarray
+    week: np.ndarray
+    toc: np.ndarray
+    af0: np.ndarray
+    af1: np.ndarray
+    af2: np.ndarray
+    iode: np.ndarray
+    crs: np.ndarray
+    delta_n: np.ndarray
+    m0: np.ndarray
+    cuc: np.ndarray
+    e: np.ndarray
+    cus: np.ndarray
+    sqrt_a: np.ndarray
+    toe: np.ndarray
+    cic: np.ndarray
+    omega0: np.ndarray
+    cis: np.ndarray
+    i0: np.ndarray
+    crc: np.ndarray
+    omega: np.ndarray
+    omega_dot: np.ndarray
+    idot: np.ndarray
+    health: np.ndarray
+    tgd: np.ndarray
+    ura: np.ndarray
+    fit_interval: np.ndarray
+
+    def __len__(self):
+        return len(self.prn)
+
+    def take(self, index):
+        """The sets at ``index`` (int array or boolean mask) as a new Ephemeris."""
+        return Ephemeris(**{f.name: getattr(self, f.name)[index] for f in fields(self)})
+
+
+def from_columns(columns):
+    """An :class:`Ephemeris` from a mapping name -> array (every name of :data:`FIELDS`).
+
+    ``ura`` and ``fit_interval`` may be absent (NaN and 4 h). Rows are sorted by
+    PRN and then by time of ephemeris.
+    """
+    n = len(np.atleast_1d(columns["prn"]))
+    defaults = {"ura": np.full(n, np.nan), "fit_interval": np.full(n, 4.0)}
+    arrays = {}
+    for name, dtype, _, _ in FIELDS:
+        value = columns[name] if name in columns else defaults[name]
+        arrays[name] = np.atleast_1d(np.asarray(value)).astype(dtype, copy=True)
+        if arrays[name].shape != (n,):
+            raise ValueError(f"ephemeris field {name}: shape {arrays[name].shape}, expected ({n},)")
+    order = np.lexsort((arrays["toe"] + gpstime.WEEK * arrays["week"], arrays["prn"]))
+    return Ephemeris(**{k: v[order] for k, v in arrays.items()})
+
+
+def concatenate(parts):
+    """One :class:`Ephemeris` holding the rows of all ``parts`` (sorted again)."""
+    return from_columns({
+        name: np.concatenate([getattr(p, name) for p in parts]) for name, *_ in FIELDS
+    })
+
+
+def select(eph, prn, week, sow, *, max_age_s=7200.0, healthy_only=True):
+    """Index of the ephemeris set to use for each (satellite, time).
+
+    The set of that PRN with the nearest toe, within ``max_age_s`` of the time
+    (half the 4 h fit interval, IS-GPS-200 §20.3.4.4), healthy unless
+    ``healthy_only`` is False. Ties go to the later set (a fresh upload).
+
+    Parameters
+    ----------
+    eph : Ephemeris
+    prn : array_like of int, shape (n,)
+    week : array_like of int, shape (n,) or scalar
+        GPS week of the times.
+    sow : array_like of float, shape (n,), s
+        GPS seconds of week.
+    max_age_s : float, s
+    healthy_only : bool
+
+    Returns
+    -------
+    ndarray of int64, shape (n,)
+        Row of ``eph``, or -1 where no set qualifies.
+    """
+    prn = np.asarray(prn, dtype=np.int64)
+    sow = np.asarray(sow, dtype=float)
+    prn, week, sow = np.broadcast_arrays(prn, np.asarray(week, dtype=np.int64), sow)
+    out = np.full(prn.shape, -1, dtype=np.int64)
+    usable = np.ones(len(eph), bool) if not healthy_only else eph.health == 0
+    for p in np.unique(prn):
+        rows = np.flatnonzero(usable & (eph.prn == p))
+        if rows.size == 0:
+            continue
+        toe = gpstime.time_diff(eph.week[rows], eph.toe[rows], week.flat[0], 0.0)
+        queries = np.flatnonzero((prn == p).ravel())
+        t = gpstime.time_diff(week.ravel()[queries], sow.ravel()[queries], week.flat[0], 0.0)
+        # rows are sorted by toe; nearest neighbour by searchsorted, later set on ties
+        k = np.clip(np.searchsorted(toe, t, side="right"), 1, max(len(rows) - 1, 1))
+        k_lo = np.where(len(rows) > 1, k - 1, 0)
+        k_hi = np.minimum(k, len(rows) - 1)
+        best = np.where(np.abs(t - toe[k_lo]) < np.abs(t - toe[k_hi]), k_lo, k_hi)
+        ok = np.abs(t - toe[best]) <= max_age_s
+        out.ravel()[queries] = np.where(ok, rows[best], -1)
+    return out

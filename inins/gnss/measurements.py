@@ -1,0 +1,187 @@
+"""Per-epoch GNSS measurements, with and without satellite states.
+
+Rows of all epochs are stacked on one axis, those of epoch ``k`` being
+``start[k]:start[k + 1]`` (compressed rows: epochs may have any number of
+satellites, including none). :class:`Observations` is what a receiver
+reports; :func:`attach_satellites` adds the satellite states the models
+need and gives :class:`GnssEpochs`, the structure SPP and the EKF consume.
+"""
+
+import enum
+from dataclasses import dataclass, fields, replace
+
+import numpy as np
+
+from inins.exceptions import InputError
+from inins.gnss import ephemeris, orbit
+from inins.gnss.orbit import C
+from inins.gnss.propagation import ionosphere_free
+
+
+class Signal(enum.IntEnum):
+    """What a pseudorange row is: decides TGD and the ionosphere model."""
+
+    L1 = 1
+    """Single-frequency L1 (C/A or P1): satellite clock with TGD, ionosphere modelled."""
+    IONO_FREE = 2
+    """Ionosphere-free P1/P2 combination: no TGD, no ionosphere model."""
+
+
+@dataclass(frozen=True)
+class Observations:
+    """Receiver measurements per epoch (no satellite states).
+
+    Attributes
+    ----------
+    week : ndarray of int64, shape (n_epochs,)
+        GPS week of each epoch.
+    time : ndarray, shape (n_epochs,), s
+        Receive time tag, GPS seconds of week as the receiver clock reads it.
+    start : ndarray of int64, shape (n_epochs + 1,)
+        Rows of epoch ``k`` are ``start[k]:start[k + 1]``.
+    prn : ndarray of int64, shape (m,)
+    pseudorange : ndarray, shape (m,), m
+    range_rate : ndarray, shape (m,), m/s
+        Positive when the range grows (Doppler Hz = -range_rate / LAMBDA_L1); NaN if absent.
+    sigma : ndarray, shape (m,), m
+        Pseudorange 1-sigma as the source states it (NaN if it does not).
+    snr : ndarray, shape (m,), dB-Hz (NaN if absent)
+    signal : ndarray of int8, shape (m,)
+        :class:`Signal` of the pseudorange.
+    """
+
+    week: np.ndarray
+    time: np.ndarray
+    start: np.ndarray
+    prn: np.ndarray
+    pseudorange: np.ndarray
+    range_rate: np.ndarray
+    sigma: np.ndarray
+    snr: np.ndarray
+    signal: np.ndarray
+
+    @property
+    def n_epochs(self):
+        return len(self.time)
+
+    @property
+    def epoch(self):
+        """Epoch index of every row, shape (m,)."""
+        return np.repeat(np.arange(self.n_epochs), np.diff(self.start))
+
+    def take_rows(self, keep):
+        """The same epochs with only the rows where ``keep`` (bool, shape (m,)) is True."""
+        counts = np.bincount(self.epoch[keep], minlength=self.n_epochs)
+        start = np.concatenate([[0], np.cumsum(counts)])
+        row = {f.name: getattr(self, f.name)[keep] for f in fields(Observations)
+               if f.name not in ("week", "time", "start")}
+        return replace(self, start=start, **row)
+
+
+def make_observations(week, time, start, prn, pseudorange, *, range_rate=None, sigma=None,
+                      snr=None, signal=Signal.L1):
+    """:class:`Observations` from arrays, with dtypes checked and absent columns NaN."""
+    m = len(prn)
+    nan = np.full(m, np.nan)
+    return Observations(
+        week=np.broadcast_to(np.asarray(week, np.int64), np.shape(time)).copy(),
+        time=np.asarray(time, float), start=np.asarray(start, np.int64),
+        prn=np.asarray(prn, np.int64), pseudorange=np.asarray(pseudorange, float),
+        range_rate=nan if range_rate is None else np.asarray(range_rate, float),
+        sigma=nan if sigma is None else np.asarray(sigma, float),
+        snr=nan if snr is None else np.asarray(snr, float),
+        signal=np.broadcast_to(np.asarray(signal, np.int8), (m,)).copy())
+
+
+def code_pseudorange(p1, p2, c1):
+    """Pseudorange and its :class:`Signal` per row from RINEX code observables.
+
+    Ionosphere-free ``(f1^2 P1 - f2^2 P2) / (f1^2 - f2^2)`` where P1 and P2 both
+    exist, else P1, else C1 (single-frequency L1). NaN where none exists.
+
+    Parameters
+    ----------
+    p1, p2, c1 : ndarray, shape (m,), m (NaN where absent)
+
+    Returns
+    -------
+    pseudorange : ndarray, shape (m,), m
+    signal : ndarray of int8, shape (m,)
+    """
+    p1, p2, c1 = (np.asarray(v, float) for v in (p1, p2, c1))
+    dual = np.isfinite(p1) & np.isfinite(p2)
+    single = np.where(np.isfinite(p1), p1, c1)
+    pr = np.where(dual, ionosphere_free(p1, p2), single)
+    return pr, np.where(dual, Signal.IONO_FREE, Signal.L1).astype(np.int8)
+
+
+@dataclass(frozen=True)
+class GnssEpochs:
+    """Measurements with the satellite states that go with them (what SPP and the EKF use).
+
+    Attributes
+    ----------
+    obs : Observations
+        The measurements (rows as below).
+    eph_index : ndarray of int64, shape (m,)
+        Ephemeris row used for each measurement.
+    sat_pos : ndarray, shape (m, 3), m
+        Satellite position at transmit time, ECEF frame of transmit time
+        (rotate with :func:`inins.gnss.propagation.geometry` / ``sagnac_rotate``).
+    sat_vel : ndarray, shape (m, 3), m/s
+    sat_clock : ndarray, shape (m,), m
+        ``c dt_sv`` with the relativistic term, minus ``c TGD`` on L1 rows.
+    sat_drift : ndarray, shape (m,), m/s
+    """
+
+    obs: Observations
+    eph_index: np.ndarray
+    sat_pos: np.ndarray
+    sat_vel: np.ndarray
+    sat_clock: np.ndarray
+    sat_drift: np.ndarray
+
+
+def attach_satellites(obs, eph, *, max_age_s=7200.0, source=None):
+    """Satellite states at the transmit time of every measurement.
+
+    Transmit time (GPS) ``t_tx = t_rx - P / c - dt_sv(t_tx)`` (two steps; the
+    receiver clock cancels: ``P`` carries it). Rows whose satellite has no
+    healthy ephemeris within ``max_age_s`` are dropped.
+
+    Parameters
+    ----------
+    obs : Observations
+    eph : Ephemeris
+    max_age_s : float, s
+    source : str, optional
+        File name for the error message.
+
+    Returns
+    -------
+    GnssEpochs
+
+    Raises
+    ------
+    InputError
+        If no measurement has an ephemeris (navigation data missing).
+    """
+    week = obs.week[obs.epoch]
+    t_sv = obs.time[obs.epoch] - obs.pseudorange / C
+    index = ephemeris.select(eph, obs.prn, week, t_sv, max_age_s=max_age_s)
+    keep = (index >= 0) & np.isfinite(obs.pseudorange)
+    if obs.prn.size and not keep.any():
+        raise InputError(
+            f"no usable navigation data for the satellites observed "
+            f"(PRNs {sorted(set(obs.prn.tolist()))[:12]}): no healthy ephemeris within "
+            f"{max_age_s:.0f} s of the observation times", source=source)
+    obs = obs.take_rows(keep)
+    index, week, t_sv = index[keep], week[keep], t_sv[keep]
+    single = obs.signal == Signal.L1
+    t_tx = t_sv
+    for _ in range(2):
+        states = orbit.satellite_states(eph, index, week, t_tx)
+        clock = states.clock - np.where(single, C * eph.tgd[index], 0.0)
+        t_tx = t_sv - clock / C
+    return GnssEpochs(obs=obs, eph_index=index, sat_pos=states.pos, sat_vel=states.vel,
+                      sat_clock=clock, sat_drift=states.drift)
