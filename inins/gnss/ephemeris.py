@@ -91,16 +91,19 @@ class Ephemeris:
 
 
 def from_columns(columns):
-    """An :class:`Ephemeris` from a mapping name -> array (every name of :data:`FIELDS`).
+    """An :class:`Ephemeris` from named columns: a mapping name -> array, or a
+    structured array (as the :mod:`inins.io` readers return) with those fields.
 
-    ``ura`` and ``fit_interval`` may be absent (NaN and 4 h). Rows are sorted by
-    PRN and then by time of ephemeris.
+    Every name of :data:`FIELDS` is needed except ``ura`` and ``fit_interval``
+    (NaN and 4 h when absent); other names are ignored. Rows are sorted by PRN
+    and then by time of ephemeris.
     """
+    names = columns.dtype.names if isinstance(columns, np.ndarray) else tuple(columns)
     n = len(np.atleast_1d(columns["prn"]))
     defaults = {"ura": np.full(n, np.nan), "fit_interval": np.full(n, 4.0)}
     arrays = {}
     for name, dtype, _, _ in FIELDS:
-        value = columns[name] if name in columns else defaults[name]
+        value = columns[name] if name in names else defaults[name]
         arrays[name] = np.atleast_1d(np.asarray(value)).astype(dtype, copy=True)
         if arrays[name].shape != (n,):
             raise ValueError(f"ephemeris field {name}: shape {arrays[name].shape}, expected ({n},)")

@@ -69,6 +69,24 @@ class Observations:
         """Epoch index of every row, shape (m,)."""
         return np.repeat(np.arange(self.n_epochs), np.diff(self.start))
 
+    def epoch_rows(self, index):
+        """Row numbers of the epochs ``index`` (int array), in order."""
+        index = np.asarray(index, dtype=np.int64)
+        counts = self.start[index + 1] - self.start[index]
+        offsets = np.repeat(self.start[index] - np.concatenate([[0], np.cumsum(counts)[:-1]]),
+                            counts)
+        return np.arange(counts.sum()) + offsets
+
+    def take_epochs(self, index):
+        """The epochs ``index`` (int array) with their rows, as new Observations."""
+        index = np.asarray(index, dtype=np.int64)
+        rows = self.epoch_rows(index)
+        counts = self.start[index + 1] - self.start[index]
+        per_row = {f.name: getattr(self, f.name)[rows] for f in fields(Observations)
+                   if f.name not in ("week", "time", "start")}
+        return Observations(week=self.week[index], time=self.time[index],
+                            start=np.concatenate([[0], np.cumsum(counts)]), **per_row)
+
     def take_rows(self, keep):
         """The same epochs with only the rows where ``keep`` (bool, shape (m,)) is True."""
         counts = np.bincount(self.epoch[keep], minlength=self.n_epochs)
@@ -140,6 +158,13 @@ class GnssEpochs:
     sat_vel: np.ndarray
     sat_clock: np.ndarray
     sat_drift: np.ndarray
+
+    def take_epochs(self, index):
+        """The epochs ``index`` (int array) with their rows and satellite states."""
+        rows = self.obs.epoch_rows(index)
+        return GnssEpochs(obs=self.obs.take_epochs(index), eph_index=self.eph_index[rows],
+                          sat_pos=self.sat_pos[rows], sat_vel=self.sat_vel[rows],
+                          sat_clock=self.sat_clock[rows], sat_drift=self.sat_drift[rows])
 
 
 def attach_satellites(obs, eph, *, max_age_s=7200.0, source=None):

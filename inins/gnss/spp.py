@@ -301,3 +301,25 @@ def _velocity(epochs, rows, x, ok, el, options):
     sol = np.linalg.solve(nmat, rhs[..., None])[..., 0]
     sol[~good] = np.nan
     return sol[:, :3], sol[:, 3]
+
+
+@dataclass(frozen=True)
+class Track:
+    """Track of a solution: ``distance`` (n,) m cumulative horizontal+vertical path length
+    along the fixes (no-fix epochs add nothing), ``speed`` (n,) m/s horizontal speed from
+    the range-rate velocity, ``vel_n`` (n, 3) m/s NED velocity."""
+
+    distance: np.ndarray
+    speed: np.ndarray
+    vel_n: np.ndarray
+
+
+def track(solution):
+    """Path length and speed profile of an SPP solution (for reports)."""
+    pos = solution.pos
+    fixed = np.flatnonzero(np.isfinite(pos[:, 0]))
+    step = np.zeros(len(pos))
+    step[fixed[1:]] = np.linalg.norm(np.diff(pos[fixed], axis=0), axis=1)
+    lla = earth.llh_from_ecef(np.nan_to_num(pos))
+    vel_n = np.einsum("nji,nj->ni", earth.mat_en(lla[:, 0], lla[:, 1]), solution.vel)
+    return Track(distance=np.cumsum(step), speed=np.hypot(vel_n[:, 0], vel_n[:, 1]), vel_n=vel_n)

@@ -22,9 +22,11 @@ per IMU sample (absent without IMU).
 from dataclasses import dataclass
 from pathlib import Path
 
+import h5py
 import numpy as np
 
 from inins.exceptions import InputError
+from inins.io.atomic import AtomicFile
 
 LAYOUT = "inins-recorded-flight"
 LAYOUT_VERSION = 1
@@ -179,3 +181,95 @@ def ephemeris_array(eph):
     for name, *_ in EPHEMERIS_FIELDS:
         out[name] = get(name)
     return out
+
+
+def write_flight(path, flight):
+    """Write a :class:`RecordedFlight` to ``path`` (HDF5), atomically.
+
+    The file appears under its name only when complete (:class:`~inins.io.atomic.AtomicFile`).
+    """
+    with AtomicFile(path) as out, h5py.File(out.tmp, "w") as f:
+        f.attrs["layout"] = LAYOUT
+        f.attrs["layout_version"] = LAYOUT_VERSION
+        f.attrs["source"] = flight.source
+        f.attrs["imu_t0_week"] = int(flight.imu_t0_week)
+        f.attrs["imu_t0_sow"] = float(flight.imu_t0_sow)
+        f.attrs["reference_pos_e"] = np.asarray(flight.reference_pos_e, float)
+        for name in ("iono_alpha", "iono_beta"):
+            if getattr(flight, name) is not None:
+                f.attrs[name] = np.asarray(getattr(flight, name), float)
+        for d in DATASETS:
+            group, name = d.path.split("/", 1)
+            record = flight.gnss if group == "gnss" else flight.imu
+            if record is None:
+                continue
+            value = np.asarray(getattr(record, name.rsplit("/", 1)[-1]), dtype=d.dtype)
+            _dataset(f, d.path, value, d.unit, d.description)
+        eph = ephemeris_array(flight.ephemeris)
+        for name, dtype, unit, desc in EPHEMERIS_FIELDS:
+            _dataset(f, f"gnss/ephemeris/{name}", eph[name].astype(dtype), unit, desc)
+
+
+def _dataset(f, path, value, unit, description):
+    dset = f.create_dataset(path, data=value, compression="gzip" if value.size > 4096 else None)
+    dset.attrs["unit"] = unit
+    dset.attrs["description"] = description
+
+
+def read_flight(path):
+    """Read a file of the recorded-flight layout.
+
+    Raises
+    ------
+    InputError
+        Not an HDF5 file of this layout, or a required dataset missing (named),
+        or rows that do not match (the ``start`` offsets against the rows).
+    """
+    path = Path(path)
+    try:
+        f = h5py.File(path, "r")
+    except OSError as exc:
+        raise InputError(f"not a readable HDF5 file: {exc}", source=str(path)) from exc
+    with f:
+        if f.attrs.get("layout") != LAYOUT:
+            raise InputError(f"not a recorded-flight file (layout attribute "
+                             f"{f.attrs.get('layout')!r}, expected {LAYOUT!r})",
+                             source=str(path), key="/")
+        values = {}
+        for d in DATASETS:
+            if d.path in f:
+                values[d.path] = np.asarray(f[d.path][()], dtype=d.dtype)
+            elif d.required:
+                raise InputError("dataset missing", source=str(path), key=d.path)
+        eph = np.zeros(0, dtype=[(n, dt) for n, dt, _, _ in EPHEMERIS_FIELDS])
+        for name, dtype, _, _ in EPHEMERIS_FIELDS:
+            key = f"gnss/ephemeris/{name}"
+            if key not in f:
+                raise InputError("dataset missing", source=str(path), key=key)
+            column = np.asarray(f[key][()], dtype=dtype)
+            if len(eph) != len(column):
+                eph = np.zeros(len(column), dtype=eph.dtype)
+            eph[name] = column
+        attrs = {k: f.attrs[k] for k in f.attrs}
+    return _assemble(values, eph, attrs, path)
+
+
+def _assemble(values, eph, attrs, path):
+    m = len(values["gnss/obs/prn"])
+    start = values["gnss/epoch/start"]
+    if len(start) != len(values["gnss/epoch/time"]) + 1 or start[-1] != m:
+        raise InputError(f"epoch offsets do not match the {m} measurement rows",
+                         source=str(path), key="gnss/epoch/start")
+    carrier = values.get("gnss/obs/carrier", np.full(m, np.nan))
+    gnss = GnssRecord(carrier=carrier, **{
+        d.path.rsplit("/", 1)[-1]: values[d.path] for d in DATASETS
+        if d.path.startswith("gnss/") and d.path != "gnss/obs/carrier"})
+    imu = None
+    if "imu/time" in values:
+        imu = ImuRecord(time=values["imu/time"], dtheta=values["imu/dtheta"], dv=values["imu/dv"])
+    return RecordedFlight(
+        gnss=gnss, ephemeris=eph, imu=imu, source=str(attrs.get("source", "")),
+        imu_t0_week=int(attrs.get("imu_t0_week", -1)),
+        imu_t0_sow=float(attrs.get("imu_t0_sow", np.nan)),
+        reference_pos_e=np.asarray(attrs.get("reference_pos_e", np.full(3, np.nan)), float),
+        iono_alpha=attrs.get("iono_alpha"), iono_beta=attrs.get("iono_beta"))
