@@ -16,10 +16,23 @@ from inins.gnss.orbit import MU, OMEGA_E
 
 SEMI_MAJOR_AXIS = 26_559_700.0
 """GPS nominal semi-major axis (m)."""
+SQRT_A = float(np.sqrt(SEMI_MAJOR_AXIS))
+"""Its square root (m^0.5), the broadcast parameter."""
 
 
-def walker(week, start_sow, duration_s, *, planes=6, per_plane=4, phasing=1,
-           inclination=55.0 * DEG, sqrt_a=np.sqrt(SEMI_MAJOR_AXIS), raan0=0.0, step_s=7200.0):
+def walker(
+    week,
+    start_sow,
+    duration_s,
+    *,
+    planes=6,
+    per_plane=4,
+    phasing=1,
+    inclination=55.0 * DEG,
+    sqrt_a=SQRT_A,
+    raan0=0.0,
+    step_s=7200.0,
+):
     """Ephemeris sets of a Walker delta constellation i: t/p/f.
 
     Satellite ``j`` of plane ``k`` (PRN ``k * per_plane + j + 1``) has right
@@ -55,9 +68,16 @@ def walker(week, start_sow, duration_s, *, planes=6, per_plane=4, phasing=1,
     zero = np.zeros(len(prn))
     cols = {name: zero for name, *_ in ephemeris.FIELDS}
     cols.update(
-        prn=prn, week=np.full(len(prn), week), toc=t, toe=t, sqrt_a=np.full(len(prn), sqrt_a),
+        prn=prn,
+        week=np.full(len(prn), week),
+        toc=t,
+        toe=t,
+        sqrt_a=np.full(len(prn), sqrt_a),
         m0=np.mod(np.repeat(u0, len(toe)) + n_motion * dt, 2.0 * np.pi),
-        i0=np.full(len(prn), inclination), omega0=omega0 - OMEGA_E * start_sow,
-        ura=np.full(len(prn), 2.0), fit_interval=np.full(len(prn), 4.0),
-        iode=np.tile(np.arange(len(toe)), n_sat))
+        i0=np.full(len(prn), inclination),
+        omega0=omega0 - OMEGA_E * start_sow,
+        ura=np.full(len(prn), 2.0),
+        fit_interval=np.full(len(prn), 4.0),
+        iode=np.tile(np.arange(len(toe)), n_sat),
+    )
     return ephemeris.from_columns(cols)

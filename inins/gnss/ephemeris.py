@@ -113,9 +113,9 @@ def from_columns(columns):
 
 def concatenate(parts):
     """One :class:`Ephemeris` holding the rows of all ``parts`` (sorted again)."""
-    return from_columns({
-        name: np.concatenate([getattr(p, name) for p in parts]) for name, *_ in FIELDS
-    })
+    return from_columns(
+        {name: np.concatenate([getattr(p, name) for p in parts]) for name, *_ in FIELDS}
+    )
 
 
 def select(eph, prn, week, sow, *, max_age_s=7200.0, healthy_only=True):

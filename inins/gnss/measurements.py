@@ -73,8 +73,9 @@ class Observations:
         """Row numbers of the epochs ``index`` (int array), in order."""
         index = np.asarray(index, dtype=np.int64)
         counts = self.start[index + 1] - self.start[index]
-        offsets = np.repeat(self.start[index] - np.concatenate([[0], np.cumsum(counts)[:-1]]),
-                            counts)
+        offsets = np.repeat(
+            self.start[index] - np.concatenate([[0], np.cumsum(counts)[:-1]]), counts
+        )
         return np.arange(counts.sum()) + offsets
 
     def take_epochs(self, index):
@@ -82,33 +83,47 @@ class Observations:
         index = np.asarray(index, dtype=np.int64)
         rows = self.epoch_rows(index)
         counts = self.start[index + 1] - self.start[index]
-        per_row = {f.name: getattr(self, f.name)[rows] for f in fields(Observations)
-                   if f.name not in ("week", "time", "start")}
-        return Observations(week=self.week[index], time=self.time[index],
-                            start=np.concatenate([[0], np.cumsum(counts)]), **per_row)
+        per_row = {
+            f.name: getattr(self, f.name)[rows]
+            for f in fields(Observations)
+            if f.name not in ("week", "time", "start")
+        }
+        return Observations(
+            week=self.week[index],
+            time=self.time[index],
+            start=np.concatenate([[0], np.cumsum(counts)]),
+            **per_row,
+        )
 
     def take_rows(self, keep):
         """The same epochs with only the rows where ``keep`` (bool, shape (m,)) is True."""
         counts = np.bincount(self.epoch[keep], minlength=self.n_epochs)
         start = np.concatenate([[0], np.cumsum(counts)])
-        row = {f.name: getattr(self, f.name)[keep] for f in fields(Observations)
-               if f.name not in ("week", "time", "start")}
+        row = {
+            f.name: getattr(self, f.name)[keep]
+            for f in fields(Observations)
+            if f.name not in ("week", "time", "start")
+        }
         return replace(self, start=start, **row)
 
 
-def make_observations(week, time, start, prn, pseudorange, *, range_rate=None, sigma=None,
-                      snr=None, signal=Signal.L1):
+def make_observations(
+    week, time, start, prn, pseudorange, *, range_rate=None, sigma=None, snr=None, signal=Signal.L1
+):
     """:class:`Observations` from arrays, with dtypes checked and absent columns NaN."""
     m = len(prn)
     nan = np.full(m, np.nan)
     return Observations(
         week=np.broadcast_to(np.asarray(week, np.int64), np.shape(time)).copy(),
-        time=np.asarray(time, float), start=np.asarray(start, np.int64),
-        prn=np.asarray(prn, np.int64), pseudorange=np.asarray(pseudorange, float),
+        time=np.asarray(time, float),
+        start=np.asarray(start, np.int64),
+        prn=np.asarray(prn, np.int64),
+        pseudorange=np.asarray(pseudorange, float),
         range_rate=nan if range_rate is None else np.asarray(range_rate, float),
         sigma=nan if sigma is None else np.asarray(sigma, float),
         snr=nan if snr is None else np.asarray(snr, float),
-        signal=np.broadcast_to(np.asarray(signal, np.int8), (m,)).copy())
+        signal=np.broadcast_to(np.asarray(signal, np.int8), (m,)).copy(),
+    )
 
 
 def code_pseudorange(p1, p2, c1):
@@ -162,9 +177,14 @@ class GnssEpochs:
     def take_epochs(self, index):
         """The epochs ``index`` (int array) with their rows and satellite states."""
         rows = self.obs.epoch_rows(index)
-        return GnssEpochs(obs=self.obs.take_epochs(index), eph_index=self.eph_index[rows],
-                          sat_pos=self.sat_pos[rows], sat_vel=self.sat_vel[rows],
-                          sat_clock=self.sat_clock[rows], sat_drift=self.sat_drift[rows])
+        return GnssEpochs(
+            obs=self.obs.take_epochs(index),
+            eph_index=self.eph_index[rows],
+            sat_pos=self.sat_pos[rows],
+            sat_vel=self.sat_vel[rows],
+            sat_clock=self.sat_clock[rows],
+            sat_drift=self.sat_drift[rows],
+        )
 
 
 def attach_satellites(obs, eph, *, max_age_s=7200.0, source=None):
@@ -199,7 +219,9 @@ def attach_satellites(obs, eph, *, max_age_s=7200.0, source=None):
         raise InputError(
             f"no usable navigation data for the satellites observed "
             f"(PRNs {sorted(set(obs.prn.tolist()))[:12]}): no healthy ephemeris within "
-            f"{max_age_s:.0f} s of the observation times", source=source)
+            f"{max_age_s:.0f} s of the observation times",
+            source=source,
+        )
     obs = obs.take_rows(keep)
     index, week, t_sv = index[keep], week[keep], t_sv[keep]
     single = obs.signal == Signal.L1
@@ -208,5 +230,11 @@ def attach_satellites(obs, eph, *, max_age_s=7200.0, source=None):
         states = orbit.satellite_states(eph, index, week, t_tx)
         clock = states.clock - np.where(single, C * eph.tgd[index], 0.0)
         t_tx = t_sv - clock / C
-    return GnssEpochs(obs=obs, eph_index=index, sat_pos=states.pos, sat_vel=states.vel,
-                      sat_clock=clock, sat_drift=states.drift)
+    return GnssEpochs(
+        obs=obs,
+        eph_index=index,
+        sat_pos=states.pos,
+        sat_vel=states.vel,
+        sat_clock=clock,
+        sat_drift=states.drift,
+    )

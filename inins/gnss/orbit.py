@@ -81,9 +81,32 @@ def satellite_states(eph, index, week, sow, *, tgd=False):
     """
     index = np.asarray(index, dtype=np.int64)
     index, week, sow = np.broadcast_arrays(index, np.asarray(week), np.asarray(sow, float))
-    g = {k: getattr(eph, k)[index] for k in (
-        "sqrt_a", "delta_n", "m0", "e", "omega", "cuc", "cus", "crc", "crs", "cic", "cis",
-        "i0", "idot", "omega0", "omega_dot", "toe", "toc", "af0", "af1", "af2", "tgd")}
+    g = {
+        k: getattr(eph, k)[index]
+        for k in (
+            "sqrt_a",
+            "delta_n",
+            "m0",
+            "e",
+            "omega",
+            "cuc",
+            "cus",
+            "crc",
+            "crs",
+            "cic",
+            "cis",
+            "i0",
+            "idot",
+            "omega0",
+            "omega_dot",
+            "toe",
+            "toc",
+            "af0",
+            "af1",
+            "af2",
+            "tgd",
+        )
+    }
     tk = gpstime.wrap_week_seconds(gpstime.time_diff(week, sow, eph.week[index], g["toe"]))
     a = g["sqrt_a"] ** 2
     n = np.sqrt(MU / a**3) + g["delta_n"]

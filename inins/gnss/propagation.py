@@ -15,7 +15,7 @@ elevation and azimuth, troposphere, ionosphere.
 import numpy as np
 
 from inins.core import earth
-from inins.gnss.orbit import C, OMEGA_E
+from inins.gnss.orbit import OMEGA_E, C
 
 F_L1 = 1575.42e6
 """GPS L1 frequency (Hz)."""

@@ -144,8 +144,9 @@ def _delays(los, pos_e, sow, options):
         delay += propagation.troposphere_saastamoinen(lla[..., 2], lla[..., 0], el)
     if options.klobuchar is not None and options.signal == Signal.L1:
         alpha, beta = options.klobuchar
-        delay += propagation.ionosphere_klobuchar(sow, lla[..., 0], lla[..., 1], el, az,
-                                                  alpha, beta)
+        delay += propagation.ionosphere_klobuchar(
+            sow, lla[..., 0], lla[..., 1], el, az, alpha, beta
+        )
     return el, delay
 
 
@@ -196,10 +197,22 @@ def simulate(eph, week, time, pos_e, vel_e, clock, drift, rng, options=Simulatio
     rr = rate + drift[:, None] - sat.drift + sigma_rate * rng.standard_normal(shape)
     counts = seen.sum(axis=1)
     obs = make_observations(
-        week, time + np.asarray(clock) / C, np.concatenate([[0], np.cumsum(counts)]),
-        prn[seen], pr[seen], range_rate=rr[seen], sigma=sigma[seen], signal=options.signal)
-    truth = ReceiverTruth(time=time, pos=np.asarray(pos_e, float), vel=np.asarray(vel_e, float),
-                          clock=np.asarray(clock, float), drift=np.asarray(drift, float))
+        week,
+        time + np.asarray(clock) / C,
+        np.concatenate([[0], np.cumsum(counts)]),
+        prn[seen],
+        pr[seen],
+        range_rate=rr[seen],
+        sigma=sigma[seen],
+        signal=options.signal,
+    )
+    truth = ReceiverTruth(
+        time=time,
+        pos=np.asarray(pos_e, float),
+        vel=np.asarray(vel_e, float),
+        clock=np.asarray(clock, float),
+        drift=np.asarray(drift, float),
+    )
     return obs, truth
 
 
@@ -207,6 +220,3 @@ def static_receiver(lat, lon, height, n):
     """(pos_e, vel_e), shape (n, 3): a receiver at rest at one place (rad, rad, m)."""
     pos = earth.ecef_from_llh(np.float64(lat), np.float64(lon), np.float64(height))
     return np.tile(pos, (n, 1)), np.zeros((n, 3))
-
-
-

@@ -138,14 +138,16 @@ def _model_terms(los, rx_pos, sow, signal, options):
     if options.klobuchar is not None:
         alpha, beta = options.klobuchar
         iono = propagation.ionosphere_klobuchar(
-            sow[:, None], lla[:, 0:1], lla[:, 1:2], el, az, alpha, beta)
+            sow[:, None], lla[:, 0:1], lla[:, 1:2], el, az, alpha, beta
+        )
         delay += np.where(signal == Signal.L1, iono, 0.0)
     return el, az, delay
 
 
 def _weights(el, near, use, options):
-    sin_el = np.where(near[:, None] & options.elevation_weights, np.sin(np.clip(el, 1e-3, None)),
-                      1.0)
+    sin_el = np.where(
+        near[:, None] & options.elevation_weights, np.sin(np.clip(el, 1e-3, None)), 1.0
+    )
     ok = use & (~near[:, None] | (el >= options.mask_rad))
     return np.where(ok, sin_el**2 / options.sigma_zenith_m**2, 0.0), ok
 
@@ -230,8 +232,18 @@ def solve(epochs, options=SppOptions(), initial=None):
     fail = _chi2_fail(w, v, ok, options.false_alarm)
     if options.exclude_faults and fail.any():
         x, v, w, ok, el, az, status, excluded = _exclude(
-            fail, (x, v, w, ok, el, az, h), sat_pos, pr, clk, use, obs, signal, rows, options,
-            status)
+            fail,
+            (x, v, w, ok, el, az, h),
+            sat_pos,
+            pr,
+            clk,
+            use,
+            obs,
+            signal,
+            rows,
+            options,
+            status,
+        )
     n_used = ok.sum(axis=1)
     no_fix = n_used < 4
     status[no_fix] = FixStatus.NO_FIX
@@ -242,14 +254,28 @@ def solve(epochs, options=SppOptions(), initial=None):
     m = len(obs.prn)
     flat = rows[have]
     out = {name: np.full(m, np.nan) for name in ("residual", "elevation", "azimuth")}
-    out["residual"][flat], out["elevation"][flat], out["azimuth"][flat] = v[have], el[have], \
-        az[have]
+    out["residual"][flat], out["elevation"][flat], out["azimuth"][flat] = (
+        v[have],
+        el[have],
+        az[have],
+    )
     used = np.zeros(m, bool)
     used[flat] = ok[have]
     return SppSolution(
-        week=obs.week, time=obs.time, pos=x[:, :3], clock=x[:, 3], vel=vel, drift=drift,
-        status=status, n_used=n_used, pdop=np.where(no_fix, np.nan, pdop),
-        residual_rms=np.where(no_fix, np.nan, rms), excluded_prn=excluded, used=used, **out)
+        week=obs.week,
+        time=obs.time,
+        pos=x[:, :3],
+        clock=x[:, 3],
+        vel=vel,
+        drift=drift,
+        status=status,
+        n_used=n_used,
+        pdop=np.where(no_fix, np.nan, pdop),
+        residual_rms=np.where(no_fix, np.nan, rms),
+        excluded_prn=excluded,
+        used=used,
+        **out,
+    )
 
 
 def _exclude(fail, state, sat_pos, pr, clk, use, obs, signal, rows, options, status):
@@ -264,13 +290,22 @@ def _exclude(fail, state, sat_pos, pr, clk, use, obs, signal, rows, options, sta
     worst = np.argmax(wstat, axis=1)
     use2 = use[try_it].copy()
     use2[np.arange(len(try_it)), worst] = False
-    sub = (x[try_it], sat_pos[try_it], pr[try_it], clk[try_it], use2, obs.time[try_it],
-           signal[try_it], options)
+    sub = (
+        x[try_it],
+        sat_pos[try_it],
+        pr[try_it],
+        clk[try_it],
+        use2,
+        obs.time[try_it],
+        signal[try_it],
+        options,
+    )
     x2, v2, w2, ok2, el2, az2, h2, done2 = _iterate(*sub)
     passed = ~_chi2_fail(w2, v2, ok2, options.false_alarm) & done2
     k = try_it[passed]
     x[k], v[k], w[k], ok[k], el[k], az[k], h[k] = (
-        a[passed] for a in (x2, v2, w2, ok2, el2, az2, h2))
+        a[passed] for a in (x2, v2, w2, ok2, el2, az2, h2)
+    )
     status[k] = FixStatus.FAULT_EXCLUDED
     excluded[k] = obs.prn[rows[k, worst[passed]]]
     return x, v, w, ok, el, az, status, excluded

@@ -78,23 +78,60 @@ class Dataset:
 
 DATASETS = (
     Dataset("gnss/epoch/week", "int64", "(n_epochs,)", "week", "GPS week of the epoch"),
-    Dataset("gnss/epoch/time", "float64", "(n_epochs,)", "s",
-            "receive time tag, GPS seconds of week (receiver clock)"),
-    Dataset("gnss/epoch/start", "int64", "(n_epochs + 1,)", "",
-            "rows of epoch k in gnss/obs are start[k]:start[k+1]"),
+    Dataset(
+        "gnss/epoch/time",
+        "float64",
+        "(n_epochs,)",
+        "s",
+        "receive time tag, GPS seconds of week (receiver clock)",
+    ),
+    Dataset(
+        "gnss/epoch/start",
+        "int64",
+        "(n_epochs + 1,)",
+        "",
+        "rows of epoch k in gnss/obs are start[k]:start[k+1]",
+    ),
     Dataset("gnss/obs/prn", "int64", "(m,)", "", "satellite PRN"),
-    Dataset("gnss/obs/pseudorange", "float64", "(m,)", "m",
-            "pseudorange (signal says which: 1 L1 C/A or P1, 2 ionosphere-free P1/P2)"),
+    Dataset(
+        "gnss/obs/pseudorange",
+        "float64",
+        "(m,)",
+        "m",
+        "pseudorange (signal says which: 1 L1 C/A or P1, 2 ionosphere-free P1/P2)",
+    ),
     Dataset("gnss/obs/signal", "int8", "(m,)", "", "1 = L1 (TGD applies), 2 = ionosphere-free"),
-    Dataset("gnss/obs/range_rate", "float64", "(m,)", "m/s",
-            "range rate, positive when the range grows (= -Doppler * lambda_L1); NaN absent"),
-    Dataset("gnss/obs/sigma", "float64", "(m,)", "m",
-            "pseudorange 1-sigma stated by the source; NaN absent"),
+    Dataset(
+        "gnss/obs/range_rate",
+        "float64",
+        "(m,)",
+        "m/s",
+        "range rate, positive when the range grows (= -Doppler * lambda_L1); NaN absent",
+    ),
+    Dataset(
+        "gnss/obs/sigma",
+        "float64",
+        "(m,)",
+        "m",
+        "pseudorange 1-sigma stated by the source; NaN absent",
+    ),
     Dataset("gnss/obs/snr", "float64", "(m,)", "dB-Hz", "signal strength; NaN absent"),
-    Dataset("gnss/obs/carrier", "float64", "(m,)", "m",
-            "L1 carrier phase in metres (arbitrary offset); NaN absent", required=False),
-    Dataset("imu/time", "float64", "(n,)", "s",
-            "IMU time of the end of each increment; GPS sow = imu_t0_sow + time", False),
+    Dataset(
+        "gnss/obs/carrier",
+        "float64",
+        "(m,)",
+        "m",
+        "L1 carrier phase in metres (arbitrary offset); NaN absent",
+        required=False,
+    ),
+    Dataset(
+        "imu/time",
+        "float64",
+        "(n,)",
+        "s",
+        "IMU time of the end of each increment; GPS sow = imu_t0_sow + time",
+        False,
+    ),
     Dataset("imu/dtheta", "float64", "(n, 3)", "rad", "angle increments, body frame", False),
     Dataset("imu/dv", "float64", "(n, 3)", "m/s", "velocity increments, body frame", False),
 )
@@ -162,10 +199,13 @@ class RecordedFlight:
 
 def layout_text():
     """The layout as text lines (path, dtype, shape, unit, description)."""
-    rows = [f"/{d.path:24s} {d.dtype:8s} {d.shape:16s} {d.unit:6s} {d.description}"
-            for d in DATASETS]
-    rows += [f"/gnss/ephemeris/{n:9s} {dt:8s} {'(n_sets,)':16s} {u:6s} {desc}"
-             for n, dt, u, desc in EPHEMERIS_FIELDS]
+    rows = [
+        f"/{d.path:24s} {d.dtype:8s} {d.shape:16s} {d.unit:6s} {d.description}" for d in DATASETS
+    ]
+    rows += [
+        f"/gnss/ephemeris/{n:9s} {dt:8s} {'(n_sets,)':16s} {u:6s} {desc}"
+        for n, dt, u, desc in EPHEMERIS_FIELDS
+    ]
     rows += [f"@{n:24s} {dt:25s} {u:6s} {desc}" for n, dt, u, desc in ROOT_ATTRS]
     return rows
 
@@ -173,6 +213,7 @@ def layout_text():
 def ephemeris_array(eph):
     """Structured array of :data:`EPHEMERIS_FIELDS` from anything with those attributes
     or fields (an :class:`inins.gnss.ephemeris.Ephemeris`, a structured array)."""
+
     def get(name):
         return eph[name] if isinstance(eph, np.ndarray) else getattr(eph, name)
 
@@ -232,9 +273,12 @@ def read_flight(path):
         raise InputError(f"not a readable HDF5 file: {exc}", source=str(path)) from exc
     with f:
         if f.attrs.get("layout") != LAYOUT:
-            raise InputError(f"not a recorded-flight file (layout attribute "
-                             f"{f.attrs.get('layout')!r}, expected {LAYOUT!r})",
-                             source=str(path), key="/")
+            raise InputError(
+                f"not a recorded-flight file (layout attribute "
+                f"{f.attrs.get('layout')!r}, expected {LAYOUT!r})",
+                source=str(path),
+                key="/",
+            )
         values = {}
         for d in DATASETS:
             if d.path in f:
@@ -258,18 +302,31 @@ def _assemble(values, eph, attrs, path):
     m = len(values["gnss/obs/prn"])
     start = values["gnss/epoch/start"]
     if len(start) != len(values["gnss/epoch/time"]) + 1 or start[-1] != m:
-        raise InputError(f"epoch offsets do not match the {m} measurement rows",
-                         source=str(path), key="gnss/epoch/start")
+        raise InputError(
+            f"epoch offsets do not match the {m} measurement rows",
+            source=str(path),
+            key="gnss/epoch/start",
+        )
     carrier = values.get("gnss/obs/carrier", np.full(m, np.nan))
-    gnss = GnssRecord(carrier=carrier, **{
-        d.path.rsplit("/", 1)[-1]: values[d.path] for d in DATASETS
-        if d.path.startswith("gnss/") and d.path != "gnss/obs/carrier"})
+    gnss = GnssRecord(
+        carrier=carrier,
+        **{
+            d.path.rsplit("/", 1)[-1]: values[d.path]
+            for d in DATASETS
+            if d.path.startswith("gnss/") and d.path != "gnss/obs/carrier"
+        },
+    )
     imu = None
     if "imu/time" in values:
         imu = ImuRecord(time=values["imu/time"], dtheta=values["imu/dtheta"], dv=values["imu/dv"])
     return RecordedFlight(
-        gnss=gnss, ephemeris=eph, imu=imu, source=str(attrs.get("source", "")),
+        gnss=gnss,
+        ephemeris=eph,
+        imu=imu,
+        source=str(attrs.get("source", "")),
         imu_t0_week=int(attrs.get("imu_t0_week", -1)),
         imu_t0_sow=float(attrs.get("imu_t0_sow", np.nan)),
         reference_pos_e=np.asarray(attrs.get("reference_pos_e", np.full(3, np.nan)), float),
-        iono_alpha=attrs.get("iono_alpha"), iono_beta=attrs.get("iono_beta"))
+        iono_alpha=attrs.get("iono_alpha"),
+        iono_beta=attrs.get("iono_beta"),
+    )

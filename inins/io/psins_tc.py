@@ -26,10 +26,32 @@ from inins.exceptions import InputError
 from inins.io.flight_layout import EPHEMERIS_FIELDS, GnssRecord, ImuRecord, RecordedFlight
 
 EPHS_COLUMNS = {
-    "prn": 1, "toc": 2, "af0": 3, "af1": 4, "af2": 5, "iode": 6, "crs": 7, "delta_n": 8,
-    "m0": 9, "cuc": 10, "e": 11, "cus": 12, "sqrt_a": 13, "toe": 14, "cic": 15, "omega0": 16,
-    "cis": 17, "i0": 18, "crc": 19, "omega": 20, "omega_dot": 21, "idot": 22, "week": 24,
-    "ura": 26, "health": 27, "tgd": 28,
+    "prn": 1,
+    "toc": 2,
+    "af0": 3,
+    "af1": 4,
+    "af2": 5,
+    "iode": 6,
+    "crs": 7,
+    "delta_n": 8,
+    "m0": 9,
+    "cuc": 10,
+    "e": 11,
+    "cus": 12,
+    "sqrt_a": 13,
+    "toe": 14,
+    "cic": 15,
+    "omega0": 16,
+    "cis": 17,
+    "i0": 18,
+    "crc": 19,
+    "omega": 20,
+    "omega_dot": 21,
+    "idot": 22,
+    "week": 24,
+    "ura": 26,
+    "health": 27,
+    "tgd": 28,
 }
 """1-based column of each ephemeris field in ``ephs`` (PSINS ``ggpsvars``)."""
 EMPTY_HEALTH = 255
@@ -37,13 +59,20 @@ EMPTY_HEALTH = 255
 
 def _array(mat, name, columns, path, finite=None):
     if name not in mat:
-        raise InputError(f"array {name!r} missing (expected imu, obss, ephs, t0)",
-                         source=str(path), key=name)
+        raise InputError(
+            f"array {name!r} missing (expected imu, obss, ephs, t0)", source=str(path), key=name
+        )
     value = np.asarray(mat[name], dtype=float)
-    if value.ndim != 2 or value.shape[1] < columns or not np.isfinite(
-            value[:, finite] if finite is not None else value).all():
-        raise InputError(f"array {name!r} has shape {value.shape}, expected (n, {columns}) "
-                         f"of finite numbers", source=str(path), key=name)
+    if (
+        value.ndim != 2
+        or value.shape[1] < columns
+        or not np.isfinite(value[:, finite] if finite is not None else value).all()
+    ):
+        raise InputError(
+            f"array {name!r} has shape {value.shape}, expected (n, {columns}) of finite numbers",
+            source=str(path),
+            key=name,
+        )
     return value
 
 
@@ -51,8 +80,11 @@ def _ephemeris(ephs):
     rows = ephs[ephs[:, EPHS_COLUMNS["health"] - 1] != EMPTY_HEALTH]
     out = np.zeros(len(rows), dtype=[(n, dt) for n, dt, _, _ in EPHEMERIS_FIELDS])
     for name, col in EPHS_COLUMNS.items():
-        out[name] = rows[:, col - 1] if name != "ura" else np.where(
-            np.isfinite(rows[:, col - 1]), rows[:, col - 1], np.nan)
+        out[name] = (
+            rows[:, col - 1]
+            if name != "ura"
+            else np.where(np.isfinite(rows[:, col - 1]), rows[:, col - 1], np.nan)
+        )
     out["fit_interval"] = 4.0
     return out
 
@@ -63,10 +95,17 @@ def _gnss(obss, week):
     times, first = np.unique(obss[:, 0], return_index=True)
     m = len(obss)
     return GnssRecord(
-        week=np.full(len(times), week, np.int64), time=times,
-        start=np.append(first, m).astype(np.int64), prn=obss[:, 1].astype(np.int64),
-        pseudorange=obss[:, 2], signal=np.ones(m, np.int8), range_rate=-obss[:, 5],
-        sigma=obss[:, 4], snr=np.full(m, np.nan), carrier=obss[:, 3])
+        week=np.full(len(times), week, np.int64),
+        time=times,
+        start=np.append(first, m).astype(np.int64),
+        prn=obss[:, 1].astype(np.int64),
+        pseudorange=obss[:, 2],
+        signal=np.ones(m, np.int8),
+        range_rate=-obss[:, 5],
+        sigma=obss[:, 4],
+        snr=np.full(m, np.nan),
+        carrier=obss[:, 3],
+    )
 
 
 def read_psins_tc(path):
@@ -90,7 +129,13 @@ def read_psins_tc(path):
     path = Path(path)
     try:
         mat = scipy.io.loadmat(path)
-    except (OSError, ValueError, TypeError, NotImplementedError) as exc:
+    except (
+        OSError,
+        ValueError,
+        TypeError,
+        NotImplementedError,
+        scipy.io.matlab.MatReadError,
+    ) as exc:
         raise InputError(f"not a readable MATLAB v5 file: {exc}", source=str(path)) from exc
     imu = _array(mat, "imu", 7, path)
     obss = _array(mat, "obss", 6, path)
@@ -102,7 +147,11 @@ def read_psins_tc(path):
         raise InputError("no ephemeris row (every health is 255)", source=str(path), key="ephs")
     week = int(np.bincount(eph["week"]).argmax())
     return RecordedFlight(
-        gnss=_gnss(obss, week), ephemeris=eph,
+        gnss=_gnss(obss, week),
+        ephemeris=eph,
         imu=ImuRecord(time=imu[:, 6].copy(), dtheta=imu[:, 0:3].copy(), dv=imu[:, 3:6].copy()),
-        source=f"PSINS tc file {path.name}", imu_t0_week=week, imu_t0_sow=float(t0[0, 0]),
-        reference_pos_e=np.full(3, np.nan))
+        source=f"PSINS tc file {path.name}",
+        imu_t0_week=week,
+        imu_t0_sow=float(t0[0, 0]),
+        reference_pos_e=np.full(3, np.nan),
+    )

@@ -13,7 +13,6 @@ D19.12 numbers (3 or 4 leading blanks).
 """
 
 from dataclasses import dataclass
-from pathlib import Path
 
 import numpy as np
 
@@ -22,9 +21,34 @@ from inins.io.flight_layout import EPHEMERIS_FIELDS
 from inins.io.rinex_text import gps_week_sow, parse_float, read_lines, split_header, version_line
 
 # position of each parameter among the 29 numbers of orbit lines 1-7 (after af0-af2)
-_ORBIT = ("iode", "crs", "delta_n", "m0", "cuc", "e", "cus", "sqrt_a", "toe", "cic", "omega0",
-          "cis", "i0", "crc", "omega", "omega_dot", "idot", None, "week", None, "ura", "health",
-          "tgd", None, None, "fit_interval")
+_ORBIT = (
+    "iode",
+    "crs",
+    "delta_n",
+    "m0",
+    "cuc",
+    "e",
+    "cus",
+    "sqrt_a",
+    "toe",
+    "cic",
+    "omega0",
+    "cis",
+    "i0",
+    "crc",
+    "omega",
+    "omega_dot",
+    "idot",
+    None,
+    "week",
+    None,
+    "ura",
+    "health",
+    "tgd",
+    None,
+    None,
+    "fit_interval",
+)
 
 
 @dataclass(frozen=True)
@@ -53,12 +77,14 @@ def _iono(header, version, path):
     alpha = beta = None
     for label, content, line in header:
         if version < 3 and label in ("ION ALPHA", "ION BETA"):
-            vals = np.array([parse_float(content[2 + 12 * i: 14 + 12 * i], path, line)
-                             for i in range(4)])
+            vals = np.array(
+                [parse_float(content[2 + 12 * i : 14 + 12 * i], path, line) for i in range(4)]
+            )
             alpha, beta = (vals, beta) if label == "ION ALPHA" else (alpha, vals)
         elif version >= 3 and label == "IONOSPHERIC CORR" and content[:4] in ("GPSA", "GPSB"):
-            vals = np.array([parse_float(content[5 + 12 * i: 17 + 12 * i], path, line)
-                             for i in range(4)])
+            vals = np.array(
+                [parse_float(content[5 + 12 * i : 17 + 12 * i], path, line) for i in range(4)]
+            )
             alpha, beta = (vals, beta) if content[:4] == "GPSA" else (alpha, vals)
     return alpha, beta
 
@@ -68,16 +94,29 @@ def _epoch(first, version, path, line):
     try:
         if version < 3:
             prn = int(first[0:2])
-            cal = [int(first[3:5]), int(first[6:8]), int(first[9:11]), int(first[12:14]),
-                   int(first[15:17]), float(first[17:22])]
+            cal = [
+                int(first[3:5]),
+                int(first[6:8]),
+                int(first[9:11]),
+                int(first[12:14]),
+                int(first[15:17]),
+                float(first[17:22]),
+            ]
             return prn, cal, 22
         prn = int(first[1:3])
-        cal = [int(first[4:8]), int(first[9:11]), int(first[12:14]), int(first[15:17]),
-               int(first[18:20]), float(first[21:23])]
+        cal = [
+            int(first[4:8]),
+            int(first[9:11]),
+            int(first[12:14]),
+            int(first[15:17]),
+            int(first[18:20]),
+            float(first[21:23]),
+        ]
         return prn, cal, 23
     except ValueError:
-        raise InputError(f"unreadable epoch line {first.rstrip()!r}", source=str(path),
-                         line=line) from None
+        raise InputError(
+            f"unreadable epoch line {first.rstrip()!r}", source=str(path), line=line
+        ) from None
 
 
 def read_nav(path):
@@ -101,10 +140,16 @@ def read_nav(path):
     lines = read_lines(path)
     header, k = split_header(lines, path)
     version, ftype, system = version_line(header, path)
-    if not ((2.0 <= version < 3.0 and ftype == "N")
-            or (3.0 <= version < 4.0 and ftype == "N" and system in ("G", "M"))):
-        raise InputError(f"not a GPS navigation file of RINEX 2 or 3 (version {version}, "
-                         f"type {ftype!r}, system {system!r})", source=str(path), line=1)
+    if not (
+        (2.0 <= version < 3.0 and ftype == "N")
+        or (3.0 <= version < 4.0 and ftype == "N" and system in ("G", "M"))
+    ):
+        raise InputError(
+            f"not a GPS navigation file of RINEX 2 or 3 (version {version}, "
+            f"type {ftype!r}, system {system!r})",
+            source=str(path),
+            line=1,
+        )
     indent = 4 if version >= 3 else 3
     rows = []
     while k < len(lines):
@@ -116,22 +161,29 @@ def read_nav(path):
             k += {"R": 4, "S": 4, "E": 8, "J": 8, "C": 8, "I": 8}.get(first[0], 1)
             continue
         if k + 8 > len(lines):
-            raise InputError(f"truncated navigation record: {len(lines) - k} of 8 lines",
-                             source=str(path), line=k + 1)
+            raise InputError(
+                f"truncated navigation record: {len(lines) - k} of 8 lines",
+                source=str(path),
+                line=k + 1,
+            )
         prn, cal, col = _epoch(first, version, path, k + 1)
-        values = [parse_float(first[col + 19 * i: col + 19 * (i + 1)], path, k + 1)
-                  for i in range(3)]
+        values = [
+            parse_float(first[col + 19 * i : col + 19 * (i + 1)], path, k + 1) for i in range(3)
+        ]
         for j in range(1, 8):
             text = lines[k + j]
-            values += [parse_float(text[indent + 19 * i: indent + 19 * (i + 1)], path,
-                                   k + j + 1) for i in range(4)]
+            values += [
+                parse_float(text[indent + 19 * i : indent + 19 * (i + 1)], path, k + j + 1)
+                for i in range(4)
+            ]
         rows.append((prn, cal, values, k + 1))
         k += 8
     if not rows:
         raise InputError("no GPS navigation record", source=str(path), line=len(lines))
     alpha, beta = _iono(header, version, path)
-    return NavigationFile(path=str(path), version=version, records=_records(rows),
-                          iono_alpha=alpha, iono_beta=beta)
+    return NavigationFile(
+        path=str(path), version=version, records=_records(rows), iono_alpha=alpha, iono_beta=beta
+    )
 
 
 def _records(rows):

@@ -21,8 +21,12 @@ from inins.exceptions import InputError
 from inins.io.rinex_text import gps_week_sow, read_lines, split_header, version_line
 
 RINEX3_NAMES = {
-    "C1": ("C1C",), "P1": ("C1W", "C1P", "C1Y"), "P2": ("C2W", "C2P", "C2Y", "C2D"),
-    "D1": ("D1C", "D1W", "D1P"), "S1": ("S1C", "S1W", "S1P"), "L1": ("L1C", "L1W", "L1P"),
+    "C1": ("C1C",),
+    "P1": ("C1W", "C1P", "C1Y"),
+    "P2": ("C2W", "C2P", "C2Y", "C2D"),
+    "D1": ("D1C", "D1W", "D1P"),
+    "S1": ("S1C", "S1W", "S1P"),
+    "L1": ("L1C", "L1W", "L1P"),
 }
 """RINEX 3 codes (first found wins) for each RINEX 2 observable name."""
 
@@ -72,7 +76,7 @@ def observable(obs, name):
 
     All NaN when the file has no such observable.
     """
-    candidates = (name,) + RINEX3_NAMES.get(name, ())
+    candidates = (name, *RINEX3_NAMES.get(name, ()))
     for code in candidates:
         if code in obs.types:
             return obs.values[:, obs.types.index(code)]
@@ -94,7 +98,7 @@ def _header_info(header, version, path):
         elif label == "INTERVAL":
             interval = _float(content[:10], path, line)
         elif label == "APPROX POSITION XYZ":
-            pos = np.array([_float(content[14 * i: 14 * i + 14], path, line) for i in range(3)])
+            pos = np.array([_float(content[14 * i : 14 * i + 14], path, line) for i in range(3)])
     if not types:
         raise InputError("no GPS observation types in the header", source=str(path))
     return tuple(types), marker, interval, pos
@@ -121,12 +125,19 @@ def _truncated(path, line, what):
 
 def _epoch_v2(line, path, k):
     try:
-        cal = (int(line[1:3]), int(line[4:6]), int(line[7:9]), int(line[10:12]),
-               int(line[13:15]), float(line[15:26]))
+        cal = (
+            int(line[1:3]),
+            int(line[4:6]),
+            int(line[7:9]),
+            int(line[10:12]),
+            int(line[13:15]),
+            float(line[15:26]),
+        )
         return cal, int(line[26:29] or 0), int(line[29:32])
     except ValueError:
-        raise InputError(f"unreadable epoch line {line.rstrip()!r}", source=str(path),
-                         line=k + 1) from None
+        raise InputError(
+            f"unreadable epoch line {line.rstrip()!r}", source=str(path), line=k + 1
+        ) from None
 
 
 def _scan_v2(lines, k, n_types, path):
@@ -148,11 +159,14 @@ def _scan_v2(lines, k, n_types, path):
             k += nsat
             continue
         if k + nsat * per > n:
-            raise _truncated(path, k + 1, f"{nsat} satellites x {per} lines expected, "
-                             f"{n - k} lines left in the file")
+            raise _truncated(
+                path,
+                k + 1,
+                f"{nsat} satellites x {per} lines expected, {n - k} lines left in the file",
+            )
         kept = 0
         for i in range(nsat):
-            sid = ids[3 * i: 3 * i + 3]
+            sid = ids[3 * i : 3 * i + 3]
             if sid[0] in "G ":
                 body.prn.append(sid[1:3])
                 body.text.append("".join(lines[k + j].ljust(80)[:80] for j in range(per)))
@@ -176,15 +190,25 @@ def _scan_v3(lines, k, n_types, path):
             k += 1
             continue
         if line[0] != ">":
-            raise InputError(f"expected an epoch line starting '>', found {line[:20]!r}",
-                             source=str(path), line=k + 1)
+            raise InputError(
+                f"expected an epoch line starting '>', found {line[:20]!r}",
+                source=str(path),
+                line=k + 1,
+            )
         try:
-            cal = (int(line[2:6]), int(line[7:9]), int(line[10:12]), int(line[13:15]),
-                   int(line[16:18]), float(line[18:29]))
+            cal = (
+                int(line[2:6]),
+                int(line[7:9]),
+                int(line[10:12]),
+                int(line[13:15]),
+                int(line[16:18]),
+                float(line[18:29]),
+            )
             flag, nsat = int(line[31:32] or 0), int(line[32:35])
         except ValueError:
-            raise InputError(f"unreadable epoch line {line.rstrip()!r}", source=str(path),
-                             line=k + 1) from None
+            raise InputError(
+                f"unreadable epoch line {line.rstrip()!r}", source=str(path), line=k + 1
+            ) from None
         k += 1
         if flag > 1:
             k += nsat
@@ -223,8 +247,9 @@ def _numbers(body, width, offsets, path):
             try:
                 fields[i].view("S14")[..., 0].astype(float)
             except ValueError:
-                raise InputError("unreadable observation value", source=str(path),
-                                 line=body.line[i]) from None
+                raise InputError(
+                    "unreadable observation value", source=str(path), line=body.line[i]
+                ) from None
         raise
 
 
@@ -250,8 +275,12 @@ def read_obs(path):
     header, k = split_header(lines, path)
     version, ftype, system = version_line(header, path)
     if ftype != "O" or not (2.0 <= version < 4.0) or system not in ("G", "M", " "):
-        raise InputError(f"not a GPS observation file of RINEX 2 or 3 (version {version}, "
-                         f"type {ftype!r}, system {system!r})", source=str(path), line=1)
+        raise InputError(
+            f"not a GPS observation file of RINEX 2 or 3 (version {version}, "
+            f"type {ftype!r}, system {system!r})",
+            source=str(path),
+            line=1,
+        )
     types, marker, interval, pos = _header_info(header, version, path)
     scan = _scan_v2 if version < 3 else _scan_v3
     body, width, offsets = scan(lines, k, len(types), path)
@@ -263,8 +292,17 @@ def read_obs(path):
     cal = np.array(body.cal, dtype=float).reshape(-1, 6)
     week, sow = gps_week_sow(*cal[:, :5].astype(np.int64).T, cal[:, 5])
     return ObservationFile(
-        path=str(path), version=version, marker=marker, approx_pos_e=pos, interval=interval,
-        types=types, week=np.asarray(week, np.int64), time=np.asarray(sow, float),
+        path=str(path),
+        version=version,
+        marker=marker,
+        approx_pos_e=pos,
+        interval=interval,
+        types=types,
+        week=np.asarray(week, np.int64),
+        time=np.asarray(sow, float),
         flag=np.array(body.flag, np.int8),
         start=np.concatenate([[0], np.cumsum(body.count, dtype=np.int64)]),
-        prn=prn, values=values, line=np.array(body.line, np.int64))
+        prn=prn,
+        values=values,
+        line=np.array(body.line, np.int64),
+    )

@@ -34,8 +34,11 @@ def split_header(lines, path):
         header.append((label, line[:60], k + 1))
         if label == "END OF HEADER":
             return header, k + 1
-    raise InputError("no END OF HEADER line: not a RINEX file or truncated header",
-                     source=str(path), line=len(lines))
+    raise InputError(
+        "no END OF HEADER line: not a RINEX file or truncated header",
+        source=str(path),
+        line=len(lines),
+    )
 
 
 def version_line(header, path):
@@ -46,8 +49,9 @@ def version_line(header, path):
     try:
         version = float(content[:9])
     except ValueError:
-        raise InputError(f"unreadable RINEX version {content[:9]!r}", source=str(path),
-                         line=1) from None
+        raise InputError(
+            f"unreadable RINEX version {content[:9]!r}", source=str(path), line=1
+        ) from None
     return version, content[20:21].upper(), content[40:41].upper() or "G"
 
 
@@ -74,7 +78,8 @@ def gps_week_sow(year, month, day, hour, minute, second):
     year = np.where(year < 80, year + 2000, np.where(year < 100, year + 1900, year))
     months = (year - 1970) * 12 + np.asarray(month, dtype=np.int64) - 1
     dates = months.astype("datetime64[M]").astype("datetime64[D]") + (
-        np.asarray(day, dtype=np.int64) - 1)
+        np.asarray(day, dtype=np.int64) - 1
+    )
     days = (dates - _GPS_EPOCH).astype(np.int64)
     week = days // 7
     sow = (days - 7 * week) * 86400.0 + np.asarray(hour) * 3600.0 + np.asarray(minute) * 60.0

@@ -31,11 +31,19 @@ def code_observations(obs_file, p1=True):
     """Observations from a RINEX file: iono-free P1/P2 (p1=True) or C1 only."""
     nan = observable(obs_file, "C1") * float("nan")
     pr, signal = measurements.code_pseudorange(
-        observable(obs_file, "P1") if p1 else nan, observable(obs_file, "P2") if p1 else nan,
-        observable(obs_file, "C1"))
+        observable(obs_file, "P1") if p1 else nan,
+        observable(obs_file, "P2") if p1 else nan,
+        observable(obs_file, "C1"),
+    )
     return measurements.make_observations(
-        obs_file.week, obs_file.time, obs_file.start, obs_file.prn, pr, signal=signal,
-        snr=observable(obs_file, "S1"))
+        obs_file.week,
+        obs_file.time,
+        obs_file.start,
+        obs_file.prn,
+        pr,
+        signal=signal,
+        snr=observable(obs_file, "S1"),
+    )
 
 
 @pytest.fixture(scope="session")
@@ -57,8 +65,15 @@ def tc_flight():
 def tc_epochs(tc_flight):
     g = tc_flight.gnss
     obs = measurements.make_observations(
-        g.week, g.time, g.start, g.prn, g.pseudorange, range_rate=g.range_rate, sigma=g.sigma,
-        signal=g.signal)
+        g.week,
+        g.time,
+        g.start,
+        g.prn,
+        g.pseudorange,
+        range_rate=g.range_rate,
+        sigma=g.sigma,
+        signal=g.signal,
+    )
     return measurements.attach_satellites(obs, ephemeris.from_columns(tc_flight.ephemeris))
 
 

@@ -2,12 +2,11 @@
 station coordinates in the RINEX header."""
 
 import numpy as np
+from conftest import code_observations
 
 from inins.core import earth
 from inins.gnss import measurements, spp
 from inins.gnss.spp import FixStatus
-
-from conftest import code_observations
 
 
 def _errors(solution, truth):
@@ -20,7 +19,9 @@ def test_the_packaged_day(abpo_obs, abpo_nav):
     gap = np.diff(abpo_obs.time)
     k = int(np.argmax(gap))
     assert (abpo_obs.time[k] - 345600.0, abpo_obs.time[k + 1] - 345600.0) == (
-        14 * 3600 + 59 * 60 + 30.0, 16 * 3600 + 16 * 60 + 30.0)
+        14 * 3600 + 59 * 60 + 30.0,
+        16 * 3600 + 16 * 60 + 30.0,
+    )
     assert abpo_nav.iono_alpha is None and abpo_nav.iono_beta is None  # no Klobuchar
     np.testing.assert_allclose(abpo_obs.approx_pos_e, [4097216.6805, 4429119.0287, -2065771.3676])
 
@@ -64,6 +65,7 @@ def test_single_frequency_without_ionosphere_is_worse(abpo_obs, abpo_eph, abpo_s
     rms = np.sqrt(np.mean(err**2))
     assert 8.0 < rms < 15.0  # 11.0 m measured (11.3 m by the independent implementation)
     lla = earth.llh_from_ecef(abpo_obs.approx_pos_e)
-    up = -np.einsum("j,nj->n", earth.mat_en(lla[0], lla[1])[:, 2],
-                    abpo_spp.pos - abpo_obs.approx_pos_e)
+    up = -np.einsum(
+        "j,nj->n", earth.mat_en(lla[0], lla[1])[:, 2], abpo_spp.pos - abpo_obs.approx_pos_e
+    )
     assert abs(np.nanmean(up)) < 3.0  # iono-free: no large height bias

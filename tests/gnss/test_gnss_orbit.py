@@ -1,5 +1,7 @@
 """Broadcast orbits: self-consistency of real ephemerides, derivatives, closed forms."""
 
+import itertools
+
 import numpy as np
 import pytest
 from scipy import optimize
@@ -14,7 +16,7 @@ def _consecutive_pairs(eph):
     full = eph.week * gpstime.WEEK + eph.toe
     for prn in np.unique(eph.prn[healthy]):
         rows = healthy[eph.prn[healthy] == prn]
-        for a, b in zip(rows[:-1], rows[1:], strict=True):
+        for a, b in itertools.pairwise(rows):
             gap = full[b] - full[a]
             if 0 < gap <= 7200.0:
                 yield a, b, gap
@@ -81,8 +83,9 @@ def test_relativistic_clock_term_closed_form(abpo_eph):
     rel = -4.442807633e-10 * e * sqrt_a * np.sin(ecc)
     assert abs(s.clock - orbit.C * (poly + rel)) < 1e-6  # m
     assert abs(orbit.C * rel) > 1.0  # metres of relativistic term for e ~ 0.02
-    s_tgd = orbit.satellite_states(abpo_eph, row, abpo_eph.week[row],
-                                   abpo_eph.toe[row] + tk, tgd=True)
+    s_tgd = orbit.satellite_states(
+        abpo_eph, row, abpo_eph.week[row], abpo_eph.toe[row] + tk, tgd=True
+    )
     assert s.clock - s_tgd.clock == pytest.approx(orbit.C * abpo_eph.tgd[row], abs=1e-9)
 
 
@@ -107,8 +110,10 @@ def test_gps_time_helpers():
     assert gpstime.from_calendar(1980, 1, 6, 0, 0, 0.0) == (0, 0.0)
     week, sow = gpstime.from_calendar(21, 11, 12, 3, 31, 32.5)  # two-digit year
     assert (week, sow) == gps_week_sow(21, 11, 12, 3, 31, 32.5)
-    np.testing.assert_allclose(gpstime.wrap_week_seconds([302399.0, 302400.0, -302401.0, 10.0]),
-                               [302399.0, -302400.0, 302399.0, 10.0])
+    np.testing.assert_allclose(
+        gpstime.wrap_week_seconds([302399.0, 302400.0, -302401.0, 10.0]),
+        [302399.0, -302400.0, 302399.0, 10.0],
+    )
     assert gpstime.time_diff(1827, 5.0, 1826, 604795.0) == 10.0
     assert gpstime.normalize(1826, 604800.0 + 3.0) == (1827, 3.0)
     assert str(gpstime.to_datetime64(1826, 345600.0)) == "2015-01-08T00:00:00.000000000"

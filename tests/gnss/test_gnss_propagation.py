@@ -6,7 +6,7 @@ import pytest
 from inins.core import earth
 from inins.core.units import DEG
 from inins.gnss import constellation, ephemeris, orbit, propagation
-from inins.gnss.orbit import C, OMEGA_E
+from inins.gnss.orbit import OMEGA_E, C
 
 
 def _light_time_range(eph, index, week, t_rx, rx_pos):
@@ -33,7 +33,7 @@ def test_range_rate_is_the_time_derivative_of_the_light_time_range():
     h = 1e-2
     fd = (rho(h) - rho(-h)) / (2 * h)
     r0, s = _light_time_range(eph, idx, 1826, t, rx0)
-    rng, rate, los, scale = propagation.geometry(s.pos, s.vel, rx0, rx_vel)
+    rng, rate, _los, scale = propagation.geometry(s.pos, s.vel, rx0, rx_vel)
     np.testing.assert_allclose(rng, r0, atol=1e-6)
     assert np.abs(rate - fd).max() < 2e-5  # m/s; the (1 - tau_dot) factor matters at 1e-3
     assert np.abs(scale - 1.0).max() < 1e-5
@@ -68,8 +68,9 @@ def test_saastamoinen_standard_atmosphere():
     assert 2.3 < zenith < 2.45  # m: the textbook 2.3 m dry + ~0.1 m wet at sea level
     low = propagation.troposphere_saastamoinen(0.0, 0.0, 10 * DEG)
     # 1/cos z mapping with Saastamoinen's -tan^2 z bending term: 3 % below 1/sin(el) at 10 deg
-    assert low == pytest.approx(zenith / np.sin(10 * DEG) - 0.002277 * np.tan(80 * DEG) ** 2
-                                / np.sin(10 * DEG), rel=1e-9)
+    assert low == pytest.approx(
+        zenith / np.sin(10 * DEG) - 0.002277 * np.tan(80 * DEG) ** 2 / np.sin(10 * DEG), rel=1e-9
+    )
     assert low / zenith == pytest.approx(0.969 / np.sin(10 * DEG), rel=0.002)
     high = propagation.troposphere_saastamoinen(3000.0, 0.0, np.pi / 2)
     assert high / zenith == pytest.approx(0.70, abs=0.03)  # pressure ratio at 3 km

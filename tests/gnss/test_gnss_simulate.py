@@ -28,8 +28,7 @@ def test_noise_free_spp_recovers_position_and_clock(source, abpo_eph):
     rng = np.random.default_rng(3)
     options = simulate.SimulationOptions(sigma_pr_m=0.0, sigma_rate_mps=0.0)
     obs, truth = _static(eph, 50, rng, options)
-    sol = spp.solve(measurements.attach_satellites(obs, eph),
-                    spp.SppOptions(exclude_faults=False))
+    sol = spp.solve(measurements.attach_satellites(obs, eph), spp.SppOptions(exclude_faults=False))
     assert (sol.n_used >= 5).all()
     assert np.linalg.norm(sol.pos - truth.pos, axis=1).max() < 1e-3  # m
     assert np.abs(sol.clock - truth.clock).max() < 1e-9 * 299792458.0  # 1 ns
@@ -52,8 +51,17 @@ def test_noise_free_spp_on_a_moving_aircraft_with_lever_arm():
     eph = constellation.walker(WEEK, T0, 3600.0)
     rng = np.random.default_rng(4)
     bias, drift = simulate.clock_random_walk(T0 + t_rel, 2e-19, 2e-20, rng)
-    obs, truth = simulate.simulate(eph, WEEK, T0 + t_rel, pos, vel, bias, drift, rng,
-                                   simulate.SimulationOptions(sigma_pr_m=0.0, sigma_rate_mps=0.0))
+    obs, truth = simulate.simulate(
+        eph,
+        WEEK,
+        T0 + t_rel,
+        pos,
+        vel,
+        bias,
+        drift,
+        rng,
+        simulate.SimulationOptions(sigma_pr_m=0.0, sigma_rate_mps=0.0),
+    )
     sol = spp.solve(measurements.attach_satellites(obs, eph))
     assert np.linalg.norm(sol.pos - truth.pos, axis=1).max() < 1e-3
     assert np.abs(sol.clock - truth.clock).max() < 0.3
@@ -67,8 +75,10 @@ def test_noisy_scatter_matches_pdop_times_sigma():
     sigma = 2.0
     rng = np.random.default_rng(5)
     obs, truth = _static(eph, 500, rng, simulate.SimulationOptions(sigma_pr_m=sigma))
-    sol = spp.solve(measurements.attach_satellites(obs, eph),
-                    spp.SppOptions(elevation_weights=False, sigma_zenith_m=sigma))
+    sol = spp.solve(
+        measurements.attach_satellites(obs, eph),
+        spp.SppOptions(elevation_weights=False, sigma_zenith_m=sigma),
+    )
     err2 = np.sum((sol.pos - truth.pos) ** 2, axis=1)
     ratio = np.sqrt(np.mean(err2 / (sol.pdop * sigma) ** 2))
     assert abs(ratio - 1.0) < 0.2  # 0.99 measured
@@ -91,23 +101,32 @@ def test_a_100_m_fault_is_excluded_and_named(abpo_eph):
     np.testing.assert_array_equal(sol.excluded_prn, obs.prn[row])
     assert np.linalg.norm(sol.pos - truth.pos, axis=1).max() < 10.0
     assert not sol.used[row].any()
-    clean = spp.solve(measurements.attach_satellites(obs, abpo_eph),
-                      spp.SppOptions(sigma_zenith_m=0.5))
+    clean = spp.solve(
+        measurements.attach_satellites(obs, abpo_eph), spp.SppOptions(sigma_zenith_m=0.5)
+    )
     assert (clean.excluded_prn == 0).sum() >= 38  # false alarms at 1e-3 are rare
 
 
 def test_five_satellites_detect_but_cannot_name(abpo_eph):
     rng = np.random.default_rng(7)
-    obs, _ = _static(abpo_eph, 5, rng, simulate.SimulationOptions(sigma_pr_m=0.3),
-                     lat=-18.9 * DEG, lon=47.2 * DEG)
+    obs, _ = _static(
+        abpo_eph,
+        5,
+        rng,
+        simulate.SimulationOptions(sigma_pr_m=0.3),
+        lat=-18.9 * DEG,
+        lon=47.2 * DEG,
+    )
     keep = np.zeros(len(obs.prn), bool)
     for k in range(obs.n_epochs):
-        keep[obs.start[k]: obs.start[k] + 5] = True
+        keep[obs.start[k] : obs.start[k] + 5] = True
     five = obs.take_rows(keep)
     bad = five.pseudorange.copy()
     bad[five.start[:-1]] += 100.0
-    sol = spp.solve(measurements.attach_satellites(replace(five, pseudorange=bad), abpo_eph),
-                    spp.SppOptions(sigma_zenith_m=0.3, elevation_weights=False))
+    sol = spp.solve(
+        measurements.attach_satellites(replace(five, pseudorange=bad), abpo_eph),
+        spp.SppOptions(sigma_zenith_m=0.3, elevation_weights=False),
+    )
     assert (sol.status == FixStatus.FAULT_DETECTED).all()
     assert (sol.excluded_prn == 0).all()
 
@@ -116,11 +135,12 @@ def test_fewer_than_four_satellites_is_a_recorded_no_fix(abpo_eph):
     rng = np.random.default_rng(8)
     obs, _ = _static(abpo_eph, 4, rng, simulate.SimulationOptions(sigma_pr_m=0.3))
     keep = np.ones(len(obs.prn), bool)
-    keep[obs.start[1] + 3: obs.start[2]] = False  # epoch 1 keeps 3 satellites
-    keep[obs.start[2]: obs.start[3]] = False  # epoch 2 keeps none
+    keep[obs.start[1] + 3 : obs.start[2]] = False  # epoch 1 keeps 3 satellites
+    keep[obs.start[2] : obs.start[3]] = False  # epoch 2 keeps none
     sol = spp.solve(measurements.attach_satellites(obs.take_rows(keep), abpo_eph))
-    np.testing.assert_array_equal(sol.status, [FixStatus.FIX, FixStatus.NO_FIX,
-                                               FixStatus.NO_FIX, FixStatus.FIX])
+    np.testing.assert_array_equal(
+        sol.status, [FixStatus.FIX, FixStatus.NO_FIX, FixStatus.NO_FIX, FixStatus.FIX]
+    )
     assert np.isnan(sol.pos[1:3]).all() and np.isnan(sol.pdop[1:3]).all()
 
 
