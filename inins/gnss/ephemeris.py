@@ -141,23 +141,29 @@ def select(eph, prn, week, sow, *, max_age_s=7200.0, healthy_only=True):
     ndarray of int64, shape (n,)
         Row of ``eph``, or -1 where no set qualifies.
     """
-    prn = np.asarray(prn, dtype=np.int64)
-    sow = np.asarray(sow, dtype=float)
-    prn, week, sow = np.broadcast_arrays(prn, np.asarray(week, dtype=np.int64), sow)
-    out = np.full(prn.shape, -1, dtype=np.int64)
-    usable = np.ones(len(eph), bool) if not healthy_only else eph.health == 0
-    for p in np.unique(prn):
-        rows = np.flatnonzero(usable & (eph.prn == p))
-        if rows.size == 0:
-            continue
-        toe = gpstime.time_diff(eph.week[rows], eph.toe[rows], week.flat[0], 0.0)
-        queries = np.flatnonzero((prn == p).ravel())
-        t = gpstime.time_diff(week.ravel()[queries], sow.ravel()[queries], week.flat[0], 0.0)
-        # rows are sorted by toe; nearest neighbour by searchsorted, later set on ties
-        k = np.clip(np.searchsorted(toe, t, side="right"), 1, max(len(rows) - 1, 1))
-        k_lo = np.where(len(rows) > 1, k - 1, 0)
-        k_hi = np.minimum(k, len(rows) - 1)
-        best = np.where(np.abs(t - toe[k_lo]) < np.abs(t - toe[k_hi]), k_lo, k_hi)
-        ok = np.abs(t - toe[best]) <= max_age_s
-        out.ravel()[queries] = np.where(ok, rows[best], -1)
-    return out
+    prn, week, sow = np.broadcast_arrays(
+        np.asarray(prn, dtype=np.int64), np.asarray(week, dtype=np.int64),
+        np.asarray(sow, dtype=float))
+    rows = np.flatnonzero(eph.health == 0) if healthy_only else np.arange(len(eph))
+    if rows.size == 0:
+        return np.full(prn.shape, -1, dtype=np.int64)
+    ref = int(week.min()) if week.size else 0
+    # one sorted key for (PRN, time): PRN * 1e8 s + time since the reference week; exact
+    # distances are taken again below, the key only orders (0.5 us resolution)
+    toe = gpstime.time_diff(eph.week[rows], eph.toe[rows], ref, 0.0)
+    key = eph.prn[rows] * _PRN_SPAN + toe
+    order = np.argsort(key, kind="stable")
+    rows, key, toe = rows[order], key[order], toe[order]
+    t = gpstime.time_diff(week, sow, ref, 0.0)
+    q = prn * _PRN_SPAN + t
+    hi = np.clip(np.searchsorted(key, q, side="right"), 0, len(rows) - 1)
+    lo = np.clip(hi - 1, 0, None)
+    d_lo = np.where(eph.prn[rows[lo]] == prn, np.abs(t - toe[lo]), np.inf)
+    d_hi = np.where(eph.prn[rows[hi]] == prn, np.abs(t - toe[hi]), np.inf)
+    best = np.where(d_lo < d_hi, lo, hi)
+    dist = np.minimum(d_lo, d_hi)
+    return np.where(dist <= max_age_s, rows[best], -1)
+
+
+_PRN_SPAN = 1e8
+"""Seconds per PRN in the sort key of :func:`select` (> 3 years of toe span)."""
