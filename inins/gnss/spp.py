@@ -22,6 +22,7 @@ Velocity and clock drift from range rates (or Doppler, ``rate = -lambda_L1 D``):
 
 import enum
 from dataclasses import dataclass
+from typing import NamedTuple
 
 import numpy as np
 from scipy import stats
@@ -157,18 +158,79 @@ def _normal(h, w, v):
     return np.einsum("nki,nkj->nij", hw, h), np.einsum("nki,nk->ni", hw, v)
 
 
-def _iterate(x, sat_pos, pr, clk, use, sow, signal, options):
-    """Gauss-Newton on all epochs at once; returns x, residuals, weights, used, el, az, ok."""
+@dataclass(frozen=True)
+class _Padded:
+    """Measurements of n epochs padded to k slots: (n, k[, 3]); ``use`` False in the padding."""
+
+    sat_pos: np.ndarray
+    pr: np.ndarray
+    clk: np.ndarray
+    signal: np.ndarray
+    use: np.ndarray
+    sow: np.ndarray
+
+    def take(self, k, use=None):
+        return _Padded(
+            self.sat_pos[k],
+            self.pr[k],
+            self.clk[k],
+            self.signal[k],
+            self.use[k] if use is None else use,
+            self.sow[k],
+        )
+
+
+class _Fit(NamedTuple):
+    """State of the batch least squares: x (n, 4) [m, m, m, m]; per slot (n, k): residual v
+    (m), weight w (1/m^2), ok (used), el, az (rad); design h (n, k, 4); done (n,)."""
+
+    x: np.ndarray
+    v: np.ndarray
+    w: np.ndarray
+    ok: np.ndarray
+    el: np.ndarray
+    az: np.ndarray
+    h: np.ndarray
+    done: np.ndarray
+
+    def take(self, k):
+        return _Fit(*(a[k] for a in self))
+
+    def put(self, k, other):
+        """A copy with the epochs ``k`` replaced by ``other``'s."""
+        arrays = [a.copy() for a in self]
+        for a, b in zip(arrays, other, strict=True):
+            a[k] = b
+        return _Fit(*arrays)
+
+
+def _pad(epochs, rows):
+    have = rows >= 0
+    r = np.where(have, rows, 0)
+    obs = epochs.obs
+    pr = np.where(have, obs.pseudorange[r], np.nan)
+    return _Padded(
+        sat_pos=np.where(have[..., None], epochs.sat_pos[r], [2.0e7, 0.0, 0.0]),
+        pr=pr,
+        clk=np.where(have, epochs.sat_clock[r], 0.0),
+        signal=np.where(have, obs.signal[r], Signal.IONO_FREE),
+        use=have & np.isfinite(pr),
+        sow=obs.time,
+    )
+
+
+def _iterate(x, m, options):
+    """Gauss-Newton on all epochs at once, from ``x`` (n, 4), on the padded measurements ``m``."""
     done = np.zeros(len(x), bool)
-    zero = np.zeros_like(sat_pos)
+    zero = np.zeros_like(m.sat_pos)
     for _ in range(options.max_iterations):
         rx = x[:, None, :3]
-        rng, _, los, _ = propagation.geometry(sat_pos, zero, rx)
+        rng, _, los, _ = propagation.geometry(m.sat_pos, zero, rx)
         near = np.linalg.norm(x[:, :3], axis=1) > NEAR_EARTH_M
-        el, az, delay = _model_terms(los, np.broadcast_to(rx, los.shape), sow, signal, options)
+        el, az, delay = _model_terms(los, np.broadcast_to(rx, los.shape), m.sow, m.signal, options)
         delay = np.where(near[:, None], delay, 0.0)
-        v = pr - (rng + x[:, 3:4] - clk + delay)
-        w, ok = _weights(el, near, use, options)
+        v = m.pr - (rng + x[:, 3:4] - m.clk + delay)
+        w, ok = _weights(el, near, m.use, options)
         h = np.concatenate([-los, np.ones_like(rng)[..., None]], axis=-1)
         nmat, rhs = _normal(h, np.where(np.isfinite(v), w, 0.0), np.nan_to_num(v))
         enough = ok.sum(axis=1) >= 4
@@ -180,7 +242,7 @@ def _iterate(x, sat_pos, pr, clk, use, sow, signal, options):
         done |= (np.abs(dx).max(axis=1) < 1e-4) & near
         if done[enough].all():
             break
-    return x, v, w, ok, el, az, h, done
+    return _Fit(x, v, w, ok, el, az, h, done)
 
 
 def _w_test(h, w, v, ok):
@@ -216,51 +278,31 @@ def solve(epochs, options=SppOptions(), initial=None):
     obs = epochs.obs
     n = obs.n_epochs
     rows = padded_rows(obs.start)
-    have = rows >= 0
-    r = np.where(have, rows, 0)
-    sat_pos = np.where(have[..., None], epochs.sat_pos[r], [2.0e7, 0.0, 0.0])
-    pr = np.where(have, obs.pseudorange[r], np.nan)
-    clk = np.where(have, epochs.sat_clock[r], 0.0)
-    signal = np.where(have, obs.signal[r], Signal.IONO_FREE)
-    use = have & np.isfinite(pr)
-    x = np.zeros((n, 4))
+    padded = _pad(epochs, rows)
+    x0 = np.zeros((n, 4))
     if initial is not None:
-        x[:, :3] = initial
-    x, v, w, ok, el, az, h, done = _iterate(x, sat_pos, pr, clk, use, obs.time, signal, options)
-    status = np.where(done, FixStatus.FIX, FixStatus.NOT_CONVERGED).astype(np.int8)
+        x0[:, :3] = initial
+    fit = _iterate(x0, padded, options)
+    status = np.where(fit.done, FixStatus.FIX, FixStatus.NOT_CONVERGED).astype(np.int8)
     excluded = np.zeros(n, np.int64)
-    fail = _chi2_fail(w, v, ok, options.false_alarm)
+    fail = _chi2_fail(fit.w, fit.v, fit.ok, options.false_alarm)
+    status[fail] = FixStatus.FAULT_DETECTED
     if options.exclude_faults and fail.any():
-        x, v, w, ok, el, az, status, excluded = _exclude(
-            fail,
-            (x, v, w, ok, el, az, h),
-            sat_pos,
-            pr,
-            clk,
-            use,
-            obs,
-            signal,
-            rows,
-            options,
-            status,
-        )
-    n_used = ok.sum(axis=1)
+        fit, fixed, prn = _exclude(np.flatnonzero(fail), fit, padded, obs.prn, rows, options)
+        status[fixed], excluded[fixed] = FixStatus.FAULT_EXCLUDED, prn
+    n_used = fit.ok.sum(axis=1)
     no_fix = n_used < 4
     status[no_fix] = FixStatus.NO_FIX
-    x[no_fix] = np.nan
-    pdop = _pdop(h, ok)
-    rms = np.sqrt(np.sum(np.where(ok, v**2, 0.0), axis=1) / np.maximum(n_used, 1))
-    vel, drift = _velocity(epochs, rows, x, ok, el, options)
-    m = len(obs.prn)
-    flat = rows[have]
-    out = {name: np.full(m, np.nan) for name in ("residual", "elevation", "azimuth")}
-    out["residual"][flat], out["elevation"][flat], out["azimuth"][flat] = (
-        v[have],
-        el[have],
-        az[have],
-    )
-    used = np.zeros(m, bool)
-    used[flat] = ok[have]
+    x = np.where(no_fix[:, None], np.nan, fit.x)
+    rms = np.sqrt(np.sum(np.where(fit.ok, fit.v**2, 0.0), axis=1) / np.maximum(n_used, 1))
+    vel, drift = _velocity(epochs, rows, x, fit.ok, fit.el, options)
+    have = rows >= 0
+    per_row = {}
+    for name, value in (("residual", fit.v), ("elevation", fit.el), ("azimuth", fit.az)):
+        per_row[name] = np.full(len(obs.prn), np.nan)
+        per_row[name][rows[have]] = value[have]
+    used = np.zeros(len(obs.prn), bool)
+    used[rows[have]] = fit.ok[have]
     return SppSolution(
         week=obs.week,
         time=obs.time,
@@ -270,45 +312,31 @@ def solve(epochs, options=SppOptions(), initial=None):
         drift=drift,
         status=status,
         n_used=n_used,
-        pdop=np.where(no_fix, np.nan, pdop),
+        pdop=np.where(no_fix, np.nan, _pdop(fit.h, fit.ok)),
         residual_rms=np.where(no_fix, np.nan, rms),
         excluded_prn=excluded,
         used=used,
-        **out,
+        **per_row,
     )
 
 
-def _exclude(fail, state, sat_pos, pr, clk, use, obs, signal, rows, options, status):
-    """Exclude the satellite with the largest w-statistic in failing epochs with >= 6 used."""
-    x, v, w, ok, el, az, h = (a.copy() for a in state)
-    excluded = np.zeros(len(x), np.int64)
-    status[fail] = FixStatus.FAULT_DETECTED
-    try_it = np.flatnonzero(fail & (ok.sum(axis=1) >= 6))
-    if try_it.size == 0:
-        return x, v, w, ok, el, az, status, excluded
-    wstat = _w_test(h[try_it], w[try_it], v[try_it], ok[try_it])
-    worst = np.argmax(wstat, axis=1)
-    use2 = use[try_it].copy()
-    use2[np.arange(len(try_it)), worst] = False
-    sub = (
-        x[try_it],
-        sat_pos[try_it],
-        pr[try_it],
-        clk[try_it],
-        use2,
-        obs.time[try_it],
-        signal[try_it],
-        options,
-    )
-    x2, v2, w2, ok2, el2, az2, h2, done2 = _iterate(*sub)
-    passed = ~_chi2_fail(w2, v2, ok2, options.false_alarm) & done2
-    k = try_it[passed]
-    x[k], v[k], w[k], ok[k], el[k], az[k], h[k] = (
-        a[passed] for a in (x2, v2, w2, ok2, el2, az2, h2)
-    )
-    status[k] = FixStatus.FAULT_EXCLUDED
-    excluded[k] = obs.prn[rows[k, worst[passed]]]
-    return x, v, w, ok, el, az, status, excluded
+def _exclude(failed, fit, padded, prn, rows, options):
+    """Exclude the satellite with the largest w-statistic in failed epochs with >= 6 used.
+
+    Returns the fit with the epochs that pass after the exclusion replaced, those
+    epochs (int array) and the PRN excluded in each.
+    """
+    candidates = failed[fit.ok[failed].sum(axis=1) >= 6]
+    if candidates.size == 0:
+        return fit, candidates, np.zeros(0, np.int64)
+    sub = fit.take(candidates)
+    worst = np.argmax(_w_test(sub.h, sub.w, sub.v, sub.ok), axis=1)
+    use = padded.use[candidates].copy()
+    use[np.arange(len(candidates)), worst] = False
+    again = _iterate(sub.x, padded.take(candidates, use), options)
+    passed = ~_chi2_fail(again.w, again.v, again.ok, options.false_alarm) & again.done
+    fixed = candidates[passed]
+    return fit.put(fixed, again.take(passed)), fixed, prn[rows[fixed, worst[passed]]]
 
 
 def _pdop(h, ok):
