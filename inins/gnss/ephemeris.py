@@ -8,7 +8,7 @@ declares them once; :mod:`inins.io` readers and the recorded-flight layout
 use it for names, units and descriptions.
 """
 
-from dataclasses import dataclass, fields
+from dataclasses import dataclass, fields, replace
 
 import numpy as np
 
@@ -111,6 +111,17 @@ def from_columns(columns):
     return Ephemeris(**{k: v[order] for k, v in arrays.items()})
 
 
+def with_week(eph, week):
+    """The same sets referred to another GPS week (toe, toc and orbits unchanged).
+
+    The broadcast orbit is expressed relative to the start of its week
+    (``Omega0``, ``toe``), so the satellites stand at the same ECEF place at the
+    same seconds of week of any week: a navigation file of one day gives a
+    real constellation for a simulation on another date.
+    """
+    return replace(eph, week=np.full(len(eph), week, dtype=np.int64))
+
+
 def concatenate(parts):
     """One :class:`Ephemeris` holding the rows of all ``parts`` (sorted again)."""
     return from_columns(
@@ -142,8 +153,10 @@ def select(eph, prn, week, sow, *, max_age_s=7200.0, healthy_only=True):
         Row of ``eph``, or -1 where no set qualifies.
     """
     prn, week, sow = np.broadcast_arrays(
-        np.asarray(prn, dtype=np.int64), np.asarray(week, dtype=np.int64),
-        np.asarray(sow, dtype=float))
+        np.asarray(prn, dtype=np.int64),
+        np.asarray(week, dtype=np.int64),
+        np.asarray(sow, dtype=float),
+    )
     rows = np.flatnonzero(eph.health == 0) if healthy_only else np.arange(len(eph))
     if rows.size == 0:
         return np.full(prn.shape, -1, dtype=np.int64)

@@ -15,7 +15,7 @@ import numpy as np
 from inins.exceptions import InputError
 from inins.gnss import ephemeris, orbit
 from inins.gnss.orbit import C
-from inins.gnss.propagation import ionosphere_free
+from inins.gnss.propagation import LAMBDA_L1, ionosphere_free
 
 
 class Signal(enum.IntEnum):
@@ -146,6 +146,36 @@ def code_pseudorange(p1, p2, c1):
     single = np.where(np.isfinite(p1), p1, c1)
     pr = np.where(dual, ionosphere_free(p1, p2), single)
     return pr, np.where(dual, Signal.IONO_FREE, Signal.L1).astype(np.int8)
+
+
+def range_rate_from_doppler(doppler_hz):
+    """Range rate (m/s, positive when the range grows) from an L1 Doppler (Hz): ``-lambda_L1 D``."""
+    return -LAMBDA_L1 * np.asarray(doppler_hz, float)
+
+
+def from_code(week, time, start, prn, p1, p2, c1, *, doppler_l1=None, snr=None, sigma=None):
+    """:class:`Observations` from RINEX-style code observables (one call for a reader's arrays).
+
+    Pseudorange per :func:`code_pseudorange` (ionosphere-free where P1 and P2
+    exist, else P1, else C1); range rate from the L1 Doppler when given.
+
+    Parameters
+    ----------
+    week, time, start, prn : as in :class:`Observations`
+    p1, p2, c1 : ndarray, shape (m,), m (NaN where absent; all-NaN columns allowed)
+    doppler_l1 : ndarray, shape (m,), Hz, optional
+    snr : ndarray, shape (m,), dB-Hz, optional
+    sigma : ndarray, shape (m,), m, optional
+
+    Returns
+    -------
+    Observations
+    """
+    pr, signal = code_pseudorange(p1, p2, c1)
+    rate = None if doppler_l1 is None else range_rate_from_doppler(doppler_l1)
+    return make_observations(
+        week, time, start, prn, pr, range_rate=rate, sigma=sigma, snr=snr, signal=signal
+    )
 
 
 @dataclass(frozen=True)

@@ -75,23 +75,58 @@ def satellite_states(eph, index, week, sow, *, tgd=False):
     SatelliteStates
     """
     index = np.asarray(index, dtype=np.int64)
-    index, week, sow = np.broadcast_arrays(index, np.asarray(week, np.int64),
-                                           np.asarray(sow, float))
+    index, week, sow = np.broadcast_arrays(
+        index, np.asarray(week, np.int64), np.asarray(sow, float)
+    )
     shape = index.shape
     par = np.stack([getattr(eph, name) for name in _PARAMS], axis=1)
     pos = np.empty((index.size, 3))
     vel = np.empty((index.size, 3))
     clock = np.empty(index.size)
     drift = np.empty(index.size)
-    _states_kernel(np.ascontiguousarray(index).ravel(), np.ascontiguousarray(week).ravel(),
-                   np.ascontiguousarray(sow).ravel(), par, eph.week.astype(np.int64),
-                   bool(tgd), pos, vel, clock, drift)
-    return SatelliteStates(pos=pos.reshape(*shape, 3), vel=vel.reshape(*shape, 3),
-                           clock=clock.reshape(shape), drift=drift.reshape(shape))
+    _states_kernel(
+        np.ascontiguousarray(index).ravel(),
+        np.ascontiguousarray(week).ravel(),
+        np.ascontiguousarray(sow).ravel(),
+        par,
+        eph.week.astype(np.int64),
+        bool(tgd),
+        pos,
+        vel,
+        clock,
+        drift,
+    )
+    return SatelliteStates(
+        pos=pos.reshape(*shape, 3),
+        vel=vel.reshape(*shape, 3),
+        clock=clock.reshape(shape),
+        drift=drift.reshape(shape),
+    )
 
 
-_PARAMS = ("sqrt_a", "delta_n", "m0", "e", "omega", "cuc", "cus", "crc", "crs", "cic", "cis",
-           "i0", "idot", "omega0", "omega_dot", "toe", "toc", "af0", "af1", "af2", "tgd")
+_PARAMS = (
+    "sqrt_a",
+    "delta_n",
+    "m0",
+    "e",
+    "omega",
+    "cuc",
+    "cus",
+    "crc",
+    "crs",
+    "cic",
+    "cis",
+    "i0",
+    "idot",
+    "omega0",
+    "omega_dot",
+    "toe",
+    "toc",
+    "af0",
+    "af1",
+    "af2",
+    "tgd",
+)
 
 
 @numba.njit(cache=True)
@@ -103,8 +138,29 @@ def _wrap(dt):
 def _states_kernel(index, week, sow, par, eph_week, tgd, pos, vel, clock, drift):
     """IS-GPS-200 Table 20-IV per state (see :func:`satellite_states`); outputs filled in place."""
     for k in range(index.size):
-        (sqrt_a, delta_n, m0, e, omega, cuc, cus, crc, crs, cic, cis, i0, idot, omega0,
-         omega_dot, toe, toc, af0, af1, af2, group_delay) = par[index[k]]
+        (
+            sqrt_a,
+            delta_n,
+            m0,
+            e,
+            omega,
+            cuc,
+            cus,
+            crc,
+            crs,
+            cic,
+            cis,
+            i0,
+            idot,
+            omega0,
+            omega_dot,
+            toe,
+            toc,
+            af0,
+            af1,
+            af2,
+            group_delay,
+        ) = par[index[k]]
         weeks = float(week[k] - eph_week[index[k]]) * WEEK
         tk = _wrap(weeks + sow[k] - toe)
         a = sqrt_a * sqrt_a

@@ -386,3 +386,20 @@ def track(solution):
     lla = earth.llh_from_ecef(np.nan_to_num(pos))
     vel_n = np.einsum("nji,nj->ni", earth.mat_en(lla[:, 0], lla[:, 1]), solution.vel)
     return Track(distance=np.cumsum(step), speed=np.hypot(vel_n[:, 0], vel_n[:, 1]), vel_n=vel_n)
+
+
+def errors_ned(solution, reference_pos_e):
+    """Position error of each epoch against a known antenna position, NED at the reference.
+
+    Parameters
+    ----------
+    solution : SppSolution
+    reference_pos_e : array_like, shape (3,), m, ECEF
+
+    Returns
+    -------
+    ndarray, shape (n, 3), m (NaN without a fix); its norm is the 3D error.
+    """
+    ref = np.asarray(reference_pos_e, float)
+    lla = earth.llh_from_ecef(ref)
+    return (solution.pos - ref) @ earth.mat_en(lla[0], lla[1])

@@ -2,6 +2,7 @@
 
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 from inins.gnss import ephemeris, measurements, spp
@@ -29,19 +30,15 @@ def abpo_eph(abpo_nav):
 
 def code_observations(obs_file, p1=True):
     """Observations from a RINEX file: iono-free P1/P2 (p1=True) or C1 only."""
-    nan = observable(obs_file, "C1") * float("nan")
-    pr, signal = measurements.code_pseudorange(
-        observable(obs_file, "P1") if p1 else nan,
-        observable(obs_file, "P2") if p1 else nan,
-        observable(obs_file, "C1"),
-    )
-    return measurements.make_observations(
+    nan = np.full(len(obs_file.prn), np.nan)
+    return measurements.from_code(
         obs_file.week,
         obs_file.time,
         obs_file.start,
         obs_file.prn,
-        pr,
-        signal=signal,
+        observable(obs_file, "P1") if p1 else nan,
+        observable(obs_file, "P2") if p1 else nan,
+        observable(obs_file, "C1"),
         snr=observable(obs_file, "S1"),
     )
 

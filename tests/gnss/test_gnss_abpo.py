@@ -35,6 +35,9 @@ def test_iono_free_spp_against_the_station_coordinates(abpo_obs, abpo_spp):
     assert err.max() <= 15.0  # 12.24 m
     assert np.count_nonzero(abpo_spp.status == FixStatus.NO_FIX) == 1
     assert np.nanmedian(abpo_spp.pdop) < 2.5
+    ned = spp.errors_ned(abpo_spp, abpo_obs.approx_pos_e)
+    np.testing.assert_allclose(np.linalg.norm(ned, axis=1)[np.isfinite(ned[:, 0])], err)
+    assert np.nanstd(ned[:, 2]) > np.nanstd(ned[:, 0])  # height is the weak direction
     used_el = abpo_spp.elevation[abpo_spp.used]
     assert used_el.min() >= np.radians(10.0)
 

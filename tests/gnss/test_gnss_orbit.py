@@ -117,3 +117,13 @@ def test_gps_time_helpers():
     assert gpstime.time_diff(1827, 5.0, 1826, 604795.0) == 10.0
     assert gpstime.normalize(1826, 604800.0 + 3.0) == (1827, 3.0)
     assert str(gpstime.to_datetime64(1826, 345600.0)) == "2015-01-08T00:00:00.000000000"
+
+
+def test_a_constellation_moved_to_another_week_stands_in_the_same_place(abpo_eph):
+    rows = np.flatnonzero(abpo_eph.health == 0)
+    sow = abpo_eph.toe[rows] + 600.0
+    here = orbit.satellite_states(abpo_eph, rows, abpo_eph.week[rows], sow)
+    later = ephemeris.with_week(abpo_eph, 2300)
+    there = orbit.satellite_states(later, rows, 2300, sow)
+    np.testing.assert_array_equal(there.pos, here.pos)
+    assert (ephemeris.select(later, abpo_eph.prn[rows], 2300, sow) >= 0).all()

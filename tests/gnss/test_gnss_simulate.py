@@ -167,3 +167,28 @@ def test_elevation_mask_and_visibility():
     sol = spp.solve(measurements.attach_satellites(obs, eph), spp.SppOptions(mask_rad=0.0))
     assert np.nanmin(sol.elevation) >= 20 * DEG - 1e-6
     assert earth.llh_from_ecef(truth.pos[0])[2] == pytest.approx(100.0, abs=1e-6)
+
+
+def test_doppler_sign_convention():
+    """Doppler (Hz) = -range rate / lambda_L1: an approaching satellite has positive Doppler."""
+    from inins.gnss.propagation import LAMBDA_L1
+
+    rate = np.array([-500.0, 0.0, 300.0])
+    np.testing.assert_allclose(measurements.range_rate_from_doppler(-rate / LAMBDA_L1), rate)
+    obs = measurements.from_code(
+        [WEEK],
+        [T0],
+        [0, 3],
+        [1, 2, 3],
+        [2.1e7, np.nan, 2.3e7],
+        [2.1e7 + 3.0, np.nan, np.nan],
+        [np.nan, 2.2e7, 2.2e7],
+        doppler_l1=[1000.0, 0.0, -1000.0],
+    )
+    np.testing.assert_array_equal(
+        obs.signal, [measurements.Signal.IONO_FREE, measurements.Signal.L1, measurements.Signal.L1]
+    )
+    np.testing.assert_allclose(
+        obs.pseudorange, [2.1e7 - 3.0 / (1.6469 - 1.0), 2.2e7, 2.3e7], rtol=0, atol=0.01
+    )
+    assert obs.range_rate[0] < 0 < obs.range_rate[2]
