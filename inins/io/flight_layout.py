@@ -227,6 +227,10 @@ def ephemeris_array(eph):
 def write_flight(path, flight):
     """Write a :class:`RecordedFlight` to ``path`` (HDF5), atomically.
 
+    ``flight.gnss`` may be any object with the attributes of :class:`GnssRecord`
+    (``carrier`` optional, e.g. :class:`inins.gnss.measurements.Observations` of
+    a simulation) and ``flight.ephemeris`` anything :func:`ephemeris_array` takes.
+
     The file appears under its name only when complete (:class:`~inins.io.atomic.AtomicFile`).
     """
     with AtomicFile(path) as out, h5py.File(out.tmp, "w") as f:
@@ -242,10 +246,10 @@ def write_flight(path, flight):
         for d in DATASETS:
             group, name = d.path.split("/", 1)
             record = flight.gnss if group == "gnss" else flight.imu
-            if record is None:
-                continue
-            value = np.asarray(getattr(record, name.rsplit("/", 1)[-1]), dtype=d.dtype)
-            _dataset(f, d.path, value, d.unit, d.description)
+            value = None if record is None else getattr(record, name.rsplit("/", 1)[-1], None)
+            if value is None and not d.required:
+                continue  # no IMU, or a source without carrier phase
+            _dataset(f, d.path, np.asarray(value, dtype=d.dtype), d.unit, d.description)
         eph = ephemeris_array(flight.ephemeris)
         for name, dtype, unit, desc in EPHEMERIS_FIELDS:
             _dataset(f, f"gnss/ephemeris/{name}", eph[name].astype(dtype), unit, desc)

@@ -192,3 +192,20 @@ def test_doppler_sign_convention():
         obs.pseudorange, [2.1e7 - 3.0 / (1.6469 - 1.0), 2.2e7, 2.3e7], rtol=0, atol=0.01
     )
     assert obs.range_rate[0] < 0 < obs.range_rate[2]
+
+
+def test_klobuchar_delay_is_simulated_and_removed():
+    alpha = np.array([1.1176e-8, 7.4506e-9, -5.9605e-8, -5.9605e-8])
+    beta = np.array([9.0112e4, 4.9152e4, -1.3107e5, -3.2768e5])
+    eph = constellation.walker(WEEK, 345600.0, 86400.0)
+    rng = np.random.default_rng(11)
+    t0 = 345600.0 + 6 * 3600.0  # local afternoon at 127 deg E: ionosphere near its peak
+    opts = simulate.SimulationOptions(sigma_pr_m=0.0, sigma_rate_mps=0.0, klobuchar=(alpha, beta))
+    t = t0 + np.arange(10.0)
+    pos, vel = simulate.static_receiver(37 * DEG, 127 * DEG, 100.0, len(t))
+    obs, truth = simulate.simulate(eph, WEEK, t, pos, vel, np.zeros(10), np.zeros(10), rng, opts)
+    epochs = measurements.attach_satellites(obs, eph)
+    modelled = spp.solve(epochs, spp.SppOptions(klobuchar=(alpha, beta)))
+    ignored = spp.solve(epochs)
+    assert np.linalg.norm(modelled.pos - truth.pos, axis=1).max() < 1e-3
+    assert np.linalg.norm(ignored.pos - truth.pos, axis=1).min() > 2.0  # metres of ionosphere

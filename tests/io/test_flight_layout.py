@@ -133,3 +133,52 @@ def test_layout_is_declared_once_and_matches_the_gnss_container():
     text = "\n".join(flight_layout.layout_text())
     for d in flight_layout.DATASETS:
         assert d.path in text and d.unit in text
+
+
+def test_a_simulation_is_written_like_a_recording(tmp_path):
+    """Simulated observations (no carrier phase) go into the same layout."""
+    from inins.core.units import DEG
+    from inins.gnss import constellation, simulate
+
+    eph = constellation.walker(2100, 0.0, 3600.0)
+    t = np.arange(0.0, 60.0)
+    pos, vel = simulate.static_receiver(37 * DEG, 127 * DEG, 50.0, len(t))
+    rng = np.random.default_rng(0)
+    obs, _ = simulate.simulate(eph, 2100, t, pos, vel, np.zeros(len(t)), np.zeros(len(t)), rng)
+    record = flight_layout.RecordedFlight(
+        gnss=obs,
+        ephemeris=eph,
+        imu=None,
+        source="simulation",
+        imu_t0_week=-1,
+        imu_t0_sow=float("nan"),
+        reference_pos_e=pos[0],
+    )
+    path = tmp_path / "sim.h5"
+    write_flight(path, record)
+    back = read_flight(path)
+    np.testing.assert_array_equal(back.gnss.pseudorange, obs.pseudorange)
+    assert np.isnan(back.gnss.carrier).all() and back.imu is None
+    sol = spp.solve(
+        measurements.attach_satellites(
+            measurements.make_observations(
+                **{
+                    k: getattr(back.gnss, k)
+                    for k in (
+                        "week",
+                        "time",
+                        "start",
+                        "prn",
+                        "pseudorange",
+                        "range_rate",
+                        "sigma",
+                        "snr",
+                        "signal",
+                    )
+                }
+            ),
+            ephemeris.from_columns(back.ephemeris),
+        )
+    )
+    err = np.linalg.norm(sol.pos - back.reference_pos_e, axis=1)
+    assert np.median(err) < 5.0  # 1 m pseudorange noise
