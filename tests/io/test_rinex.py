@@ -228,3 +228,14 @@ def test_no_navigation_data_for_the_observed_satellites(obs, nav):
     with pytest.raises(InputError, match="no usable navigation data") as err:
         measurements.attach_satellites(raw, ephemeris.from_columns(other), source="abpo.15n")
     assert err.value.source == "abpo.15n"
+
+
+def test_more_than_twelve_satellites_continue_on_the_next_line(obs, tmp_path):
+    lines = _text(OBS)
+    header, record = lines[:27], lines[28:30]  # the first record of G02 (two lines)
+    ids = "".join(f"G{p:02d}" for p in range(1, 15))
+    epoch = [f" 15  1  8  0  0  0.0000000  0 14{ids[:36]}", f"{'':32s}{ids[36:]}"]
+    path = _write(tmp_path, "many.15o", header + epoch + record * 14)
+    many = read_obs(path)
+    np.testing.assert_array_equal(many.prn, np.arange(1, 15))
+    np.testing.assert_array_equal(many.values, np.tile(obs.values[0], (14, 1)))
