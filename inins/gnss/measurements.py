@@ -12,8 +12,9 @@ from dataclasses import dataclass, fields, replace
 
 import numpy as np
 
+from inins.core import earth
 from inins.exceptions import InputError
-from inins.gnss import ephemeris, orbit
+from inins.gnss import ephemeris, orbit, propagation
 from inins.gnss.orbit import C
 from inins.gnss.propagation import LAMBDA_L1, ionosphere_free
 
@@ -267,4 +268,76 @@ def attach_satellites(obs, eph, *, max_age_s=7200.0, source=None):
         sat_vel=states.vel,
         sat_clock=clock,
         sat_drift=states.drift,
+    )
+
+
+@dataclass(frozen=True)
+class Prediction:
+    """Predicted measurements and their partial derivatives, one per row.
+
+    Attributes
+    ----------
+    pseudorange : ndarray, shape (m,), m
+    range_rate : ndarray, shape (m,), m/s
+    los : ndarray, shape (m, 3)
+        Unit line of sight receiver -> satellite, ECEF: ``dP/dr_e = -los``.
+    rate_scale : ndarray, shape (m,)
+        ``d range_rate / d v_e = -rate_scale * los`` (1 +- 3e-6).
+    elevation, azimuth : ndarray, shape (m,), rad
+    delay : ndarray, shape (m,), m
+        Troposphere plus modelled ionosphere.
+    """
+
+    pseudorange: np.ndarray
+    range_rate: np.ndarray
+    los: np.ndarray
+    rate_scale: np.ndarray
+    elevation: np.ndarray
+    azimuth: np.ndarray
+    delay: np.ndarray
+
+
+def predict(epochs, rx_pos, rx_vel, clock, drift, *, troposphere=True, klobuchar=None):
+    """Model of every measurement row at given receiver states (the EKF's h(x)).
+
+    ``P = rho + b - sat_clock + T + I``, ``rdot = rate + d - sat_drift`` with
+    ``rho, rate`` from :func:`inins.gnss.propagation.geometry` (Earth rotation
+    during travel), ``T`` Saastamoinen, ``I`` Klobuchar on L1 rows when
+    ``klobuchar`` = (alpha, beta) is given.
+
+    Parameters
+    ----------
+    epochs : GnssEpochs
+    rx_pos, rx_vel : ndarray, shape (m, 3) or (3,) (or scalar 0 velocity), m, m/s
+        Antenna ECEF position and velocity for each row (or one for all).
+    clock, drift : ndarray, shape (m,) or scalar, m, m/s
+        ``c dt_rx`` and ``c dt_rx_dot``.
+    troposphere : bool
+    klobuchar : tuple of two (4,) arrays, optional
+
+    Returns
+    -------
+    Prediction
+    """
+    rx_pos = np.broadcast_to(np.asarray(rx_pos, float), epochs.sat_pos.shape)
+    rx_vel = np.broadcast_to(np.asarray(rx_vel, float), epochs.sat_pos.shape)
+    rho, rate, los, scale = propagation.geometry(epochs.sat_pos, epochs.sat_vel, rx_pos, rx_vel)
+    el, az = propagation.elevation_azimuth(los, rx_pos)
+    lla = earth.llh_from_ecef(rx_pos)
+    delay = np.zeros_like(rho)
+    if troposphere:
+        delay += propagation.troposphere_saastamoinen(lla[:, 2], lla[:, 0], el)
+    if klobuchar is not None:
+        iono = propagation.ionosphere_klobuchar(
+            epochs.obs.time[epochs.obs.epoch], lla[:, 0], lla[:, 1], el, az, *klobuchar
+        )
+        delay += np.where(epochs.obs.signal == Signal.L1, iono, 0.0)
+    return Prediction(
+        pseudorange=rho + clock - epochs.sat_clock + delay,
+        range_rate=rate + drift - epochs.sat_drift,
+        los=los,
+        rate_scale=scale,
+        elevation=el,
+        azimuth=az,
+        delay=delay,
     )

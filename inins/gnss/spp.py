@@ -219,19 +219,27 @@ def _pad(epochs, rows):
     )
 
 
+def _linearize(x, m, options):
+    """Residuals, weights, used slots, elevation, azimuth and design matrix at ``x`` (n, 4)."""
+    rx = x[:, None, :3]
+    rng, _, los, _ = propagation.geometry(m.sat_pos, np.zeros_like(m.sat_pos), rx)
+    near = np.linalg.norm(x[:, :3], axis=1) > NEAR_EARTH_M
+    el, az, delay = _model_terms(los, np.broadcast_to(rx, los.shape), m.sow, m.signal, options)
+    delay = np.where(near[:, None], delay, 0.0)
+    v = m.pr - (rng + x[:, 3:4] - m.clk + delay)
+    w, ok = _weights(el, near, m.use, options)
+    h = np.concatenate([-los, np.ones_like(rng)[..., None]], axis=-1)
+    return v, w, ok, el, az, h, near
+
+
 def _iterate(x, m, options):
-    """Gauss-Newton on all epochs at once, from ``x`` (n, 4), on the padded measurements ``m``."""
+    """Gauss-Newton on all epochs at once, from ``x`` (n, 4), on the padded measurements ``m``.
+
+    The returned residuals are evaluated at the final ``x``.
+    """
     done = np.zeros(len(x), bool)
-    zero = np.zeros_like(m.sat_pos)
     for _ in range(options.max_iterations):
-        rx = x[:, None, :3]
-        rng, _, los, _ = propagation.geometry(m.sat_pos, zero, rx)
-        near = np.linalg.norm(x[:, :3], axis=1) > NEAR_EARTH_M
-        el, az, delay = _model_terms(los, np.broadcast_to(rx, los.shape), m.sow, m.signal, options)
-        delay = np.where(near[:, None], delay, 0.0)
-        v = m.pr - (rng + x[:, 3:4] - m.clk + delay)
-        w, ok = _weights(el, near, m.use, options)
-        h = np.concatenate([-los, np.ones_like(rng)[..., None]], axis=-1)
+        v, w, ok, _, _, h, near = _linearize(x, m, options)
         nmat, rhs = _normal(h, np.where(np.isfinite(v), w, 0.0), np.nan_to_num(v))
         enough = ok.sum(axis=1) >= 4
         nmat[~enough] = np.eye(4)
@@ -242,6 +250,7 @@ def _iterate(x, m, options):
         done |= (np.abs(dx).max(axis=1) < 1e-4) & near
         if done[enough].all():
             break
+    v, w, ok, el, az, h, _ = _linearize(x, m, options)
     return _Fit(x, v, w, ok, el, az, h, done)
 
 
@@ -290,8 +299,9 @@ def solve(epochs, options=SppOptions(), initial=None):
     if options.exclude_faults and fail.any():
         fit, fixed, prn = _exclude(np.flatnonzero(fail), fit, padded, obs.prn, rows, options)
         status[fixed], excluded[fixed] = FixStatus.FAULT_EXCLUDED, prn
+    no_fix = fit.ok.sum(axis=1) < 4
+    fit = fit._replace(ok=fit.ok & ~no_fix[:, None])
     n_used = fit.ok.sum(axis=1)
-    no_fix = n_used < 4
     status[no_fix] = FixStatus.NO_FIX
     x = np.where(no_fix[:, None], np.nan, fit.x)
     rms = np.sqrt(np.sum(np.where(fit.ok, fit.v**2, 0.0), axis=1) / np.maximum(n_used, 1))

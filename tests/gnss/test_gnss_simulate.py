@@ -209,3 +209,24 @@ def test_klobuchar_delay_is_simulated_and_removed():
     ignored = spp.solve(epochs)
     assert np.linalg.norm(modelled.pos - truth.pos, axis=1).max() < 1e-3
     assert np.linalg.norm(ignored.pos - truth.pos, axis=1).min() > 2.0  # metres of ionosphere
+
+
+def test_predict_reproduces_simulated_measurements_and_spp_residuals(
+    abpo_eph, abpo_epochs, abpo_spp
+):
+    rng = np.random.default_rng(12)
+    opts = simulate.SimulationOptions(sigma_pr_m=0.0, sigma_rate_mps=0.0)
+    obs, truth = _static(abpo_eph, 20, rng, opts, lat=-18.9 * DEG, lon=47.2 * DEG)
+    epochs = measurements.attach_satellites(obs, abpo_eph)
+    e = obs.epoch
+    pred = measurements.predict(epochs, truth.pos[e], truth.vel[e], truth.clock[e], truth.drift[e])
+    assert np.abs(pred.pseudorange - obs.pseudorange).max() < 1e-6
+    assert np.abs(pred.range_rate - obs.range_rate).max() < 1e-9
+    # at the SPP solution of the real day, the residuals are the SPP's
+    k = np.arange(0, abpo_epochs.obs.n_epochs, 50)
+    sub = abpo_epochs.take_epochs(k)
+    rows = sub.obs.epoch
+    at = measurements.predict(sub, abpo_spp.pos[k][rows], 0.0, abpo_spp.clock[k][rows], 0.0)
+    mine = abpo_spp.residual[abpo_epochs.obs.epoch_rows(k)]
+    used = abpo_spp.used[abpo_epochs.obs.epoch_rows(k)]
+    np.testing.assert_allclose((sub.obs.pseudorange - at.pseudorange)[used], mine[used], atol=1e-6)
