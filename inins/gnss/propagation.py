@@ -94,6 +94,7 @@ def elevation_azimuth(los, rx_pos):
     los : ndarray, shape (..., 3)
         Unit vectors in ECEF.
     rx_pos : ndarray, shape (..., 3), m
+        Broadcastable against ``los`` (one receiver for many satellites: (n, 1, 3)).
 
     Returns
     -------

@@ -187,7 +187,7 @@ def simulate(eph, week, time, pos_e, vel_e, clock, drift, rng, options=Simulatio
     for _ in range(3):
         sat = orbit.satellite_states(eph, index, week, t - tau, tgd=single)
         rho, rate, los, _ = propagation.geometry(sat.pos, sat.vel, rx, rx_vel)
-        el, delay = _delays(los, np.broadcast_to(rx, los.shape), t, options)
+        el, delay = _delays(los, rx, t, options)
         tau = (rho + delay) / C
     seen = have & (el >= options.mask_rad)
     scale = 1.0 / np.sin(np.clip(el, 1e-3, None)) if options.elevation_noise else 1.0

@@ -130,7 +130,7 @@ def padded_rows(start):
 
 
 def _model_terms(los, rx_pos, sow, signal, options):
-    """Elevation, azimuth, troposphere and ionosphere (m) per padded row."""
+    """Elevation, azimuth, troposphere and ionosphere (m) per padded row; ``rx_pos`` (n, 1, 3)."""
     el, az = propagation.elevation_azimuth(los, rx_pos)
     lla = earth.llh_from_ecef(rx_pos[:, 0, :])
     delay = np.zeros_like(el)
@@ -224,7 +224,7 @@ def _linearize(x, m, options):
     rx = x[:, None, :3]
     rng, _, los, _ = propagation.geometry(m.sat_pos, np.zeros_like(m.sat_pos), rx)
     near = np.linalg.norm(x[:, :3], axis=1) > NEAR_EARTH_M
-    el, az, delay = _model_terms(los, np.broadcast_to(rx, los.shape), m.sow, m.signal, options)
+    el, az, delay = _model_terms(los, rx, m.sow, m.signal, options)
     delay = np.where(near[:, None], delay, 0.0)
     v = m.pr - (rng + x[:, 3:4] - m.clk + delay)
     w, ok = _weights(el, near, m.use, options)
