@@ -59,7 +59,13 @@ class SppOptions:
     mask_rad : float, rad
         Elevation mask.
     sigma_zenith_m : float, m
-        Pseudorange 1-sigma at zenith (UERE) for the weights and the test.
+        Pseudorange 1-sigma at zenith (UERE) for the weights and the test. The
+        default 1.5 m is the user range error of broadcast orbits and clocks
+        with P-code noise; on the ABPO day (iono-free residual RMS 1.3 m median)
+        it flags only the 26 m errors of G01 just after acquisition. The sigma
+        a source states per measurement is not used here: sources state it
+        inconsistently (the PSINS tc file gives 3-5 cm, the noise of a
+        carrier-smoothed code, not its error).
     elevation_weights : bool
         ``sigma / sin(el)`` if True, else ``sigma`` for every satellite.
     false_alarm : float
