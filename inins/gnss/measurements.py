@@ -8,7 +8,7 @@ need and gives :class:`GnssEpochs`, the structure SPP and the EKF consume.
 """
 
 import enum
-from dataclasses import dataclass, fields, replace
+from dataclasses import dataclass, field, fields, replace
 
 import numpy as np
 
@@ -196,6 +196,12 @@ class GnssEpochs:
     sat_clock : ndarray, shape (m,), m
         ``c dt_sv`` with the relativistic term, minus ``c TGD`` on L1 rows.
     sat_drift : ndarray, shape (m,), m/s
+    dropped_prn : ndarray of int64, shape (k,)
+        PRNs of the measurements left out for want of a healthy ephemeris (sorted, unique).
+    dropped_count : ndarray of int64, shape (k,)
+        How many measurements of each of those PRNs were left out (on the ABPO day:
+        all of unhealthy G08, and one row each of seven satellites at 00:00:00,
+        transmitted 70 ms before the 2 h limit of their first set).
     """
 
     obs: Observations
@@ -204,11 +210,15 @@ class GnssEpochs:
     sat_vel: np.ndarray
     sat_clock: np.ndarray
     sat_drift: np.ndarray
+    dropped_prn: np.ndarray = field(default_factory=lambda: np.zeros(0, np.int64))
+    dropped_count: np.ndarray = field(default_factory=lambda: np.zeros(0, np.int64))
 
     def take_epochs(self, index):
         """The epochs ``index`` (int array) with their rows and satellite states."""
         rows = self.obs.epoch_rows(index)
         return GnssEpochs(
+            dropped_prn=self.dropped_prn,
+            dropped_count=self.dropped_count,
             obs=self.obs.take_epochs(index),
             eph_index=self.eph_index[rows],
             sat_pos=self.sat_pos[rows],
@@ -253,6 +263,7 @@ def attach_satellites(obs, eph, *, max_age_s=7200.0, source=None):
             f"{max_age_s:.0f} s of the observation times",
             source=source,
         )
+    dropped_prn, dropped_count = np.unique(obs.prn[~keep], return_counts=True)
     obs = obs.take_rows(keep)
     index, week, t_sv = index[keep], week[keep], t_sv[keep]
     single = obs.signal == Signal.L1
@@ -268,6 +279,8 @@ def attach_satellites(obs, eph, *, max_age_s=7200.0, source=None):
         sat_vel=states.vel,
         sat_clock=clock,
         sat_drift=states.drift,
+        dropped_prn=dropped_prn,
+        dropped_count=dropped_count.astype(np.int64),
     )
 
 

@@ -45,6 +45,12 @@ def test_iono_free_spp_against_the_station_coordinates(abpo_obs, abpo_spp):
 def test_unhealthy_g08_is_never_used(abpo_obs, abpo_epochs):
     assert (abpo_obs.prn == 8).any()
     assert not (abpo_epochs.obs.prn == 8).any()
+    dropped = dict(zip(abpo_epochs.dropped_prn, abpo_epochs.dropped_count, strict=True))
+    assert dropped.pop(8) == np.count_nonzero(abpo_obs.prn == 8)
+    # the others: one row each at 00:00:00, sent 70 ms before their first set's 2 h limit
+    assert set(dropped.values()) == {1}
+    first = abpo_obs.prn[: abpo_obs.start[1]]
+    assert set(dropped) <= set(first)
 
 
 def test_a_real_faulty_pseudorange_is_excluded_and_named(abpo_obs, abpo_epochs, abpo_spp):
