@@ -48,16 +48,23 @@ satellite state at the transmit time ``t_tx = time - P / c - dt_sv``
 (:class:`~inins.gnss.measurements.GnssEpochs`): ``sat_pos`` (m, 3) m and
 ``sat_vel`` (m, 3) m/s in the ECEF frame *of transmit time*, ``sat_clock``
 (m,) m = ``c dt_sv`` with the relativistic term and, on L1 rows, ``- c TGD``,
-``sat_drift`` (m,) m/s, and ``eph_index``. A filter predicts a row with
-:func:`inins.gnss.propagation.geometry` (which applies the Earth rotation
-during travel) at its antenna position ``r`` and velocity ``v``::
+``sat_drift`` (m,) m/s, and ``eph_index`` (rows without a healthy ephemeris
+are left out and counted in ``dropped_prn``, ``dropped_count``). A filter
+predicts every row with :func:`~inins.gnss.measurements.predict` at its
+antenna position ``r`` and velocity ``v`` (ECEF), which is::
 
     rho, rate, los, s = geometry(sat_pos, sat_vel, r, v)
     P_hat    = rho + b - sat_clock + T(el, h) + I        # b = c dt_rx (m)
     rate_hat = rate + d - sat_drift                      # d = c dt_rx_dot (m/s)
     dP/dr = -los,  d rate/dv = -s * los,  dP/db = 1,  d rate/dd = 1
 
-with ``T`` from :func:`~inins.gnss.propagation.troposphere_saastamoinen` and
-``I`` zero for ionosphere-free rows (Klobuchar on L1 rows when the navigation
-data carry it).
+with ``rho, rate, los, s`` from :func:`~inins.gnss.propagation.geometry`
+(Earth rotation during travel applied), ``T`` from
+:func:`~inins.gnss.propagation.troposphere_saastamoinen` and ``I`` zero for
+ionosphere-free rows (Klobuchar on L1 rows when the navigation data carry it).
+In NED, ``dP/dr_n = -(C_en^T los)``; with a lever arm see spec §6a.
+
+The time tag is the receiver's clock reading: the true reception time is
+``time - b / c``. :func:`~inins.gnss.simulate.simulate` tags simulated
+measurements the same way, so a simulation and a recording look alike.
 """
