@@ -17,7 +17,7 @@ import time
 from pathlib import Path
 
 HERE = Path(__file__).parent
-MODULES = ("bench_strapdown", "bench_imu", "bench_table", "bench_observability")
+MODULES = ("bench_strapdown", "bench_imu", "bench_table", "bench_gnss", "bench_observability")
 
 
 def _module(name):

@@ -1,0 +1,356 @@
+"""Per-epoch GNSS measurements, with and without satellite states.
+
+Rows of all epochs are stacked on one axis, those of epoch ``k`` being
+``start[k]:start[k + 1]`` (compressed rows: epochs may have any number of
+satellites, including none). :class:`Observations` is what a receiver
+reports; :func:`attach_satellites` adds the satellite states the models
+need and gives :class:`GnssEpochs`, the structure SPP and the EKF consume.
+"""
+
+import enum
+from dataclasses import dataclass, field, fields, replace
+
+import numpy as np
+
+from inins.core import earth
+from inins.exceptions import InputError
+from inins.gnss import ephemeris, orbit, propagation
+from inins.gnss.orbit import C
+from inins.gnss.propagation import LAMBDA_L1, ionosphere_free
+
+
+class Signal(enum.IntEnum):
+    """What a pseudorange row is: decides TGD and the ionosphere model."""
+
+    L1 = 1
+    """Single-frequency L1 (C/A or P1): satellite clock with TGD, ionosphere modelled."""
+    IONO_FREE = 2
+    """Ionosphere-free P1/P2 combination: no TGD, no ionosphere model."""
+
+
+@dataclass(frozen=True)
+class Observations:
+    """Receiver measurements per epoch (no satellite states).
+
+    Attributes
+    ----------
+    week : ndarray of int64, shape (n_epochs,)
+        GPS week of each epoch.
+    time : ndarray, shape (n_epochs,), s
+        Receive time tag, GPS seconds of week as the receiver clock reads it.
+    start : ndarray of int64, shape (n_epochs + 1,)
+        Rows of epoch ``k`` are ``start[k]:start[k + 1]``.
+    prn : ndarray of int64, shape (m,)
+    pseudorange : ndarray, shape (m,), m
+    range_rate : ndarray, shape (m,), m/s
+        Positive when the range grows (Doppler Hz = -range_rate / LAMBDA_L1); NaN if absent.
+    sigma : ndarray, shape (m,), m
+        Pseudorange 1-sigma as the source states it (NaN if it does not).
+    snr : ndarray, shape (m,), dB-Hz (NaN if absent)
+    signal : ndarray of int8, shape (m,)
+        :class:`Signal` of the pseudorange.
+    """
+
+    week: np.ndarray
+    time: np.ndarray
+    start: np.ndarray
+    prn: np.ndarray
+    pseudorange: np.ndarray
+    range_rate: np.ndarray
+    sigma: np.ndarray
+    snr: np.ndarray
+    signal: np.ndarray
+
+    @property
+    def n_epochs(self):
+        return len(self.time)
+
+    @property
+    def epoch(self):
+        """Epoch index of every row, shape (m,)."""
+        return np.repeat(np.arange(self.n_epochs), np.diff(self.start))
+
+    def epoch_rows(self, index):
+        """Row numbers of the epochs ``index`` (int array), in order."""
+        index = np.asarray(index, dtype=np.int64)
+        counts = self.start[index + 1] - self.start[index]
+        offsets = np.repeat(
+            self.start[index] - np.concatenate([[0], np.cumsum(counts)[:-1]]), counts
+        )
+        return np.arange(counts.sum()) + offsets
+
+    def take_epochs(self, index):
+        """The epochs ``index`` (int array) with their rows, as new Observations."""
+        index = np.asarray(index, dtype=np.int64)
+        rows = self.epoch_rows(index)
+        counts = self.start[index + 1] - self.start[index]
+        per_row = {
+            f.name: getattr(self, f.name)[rows]
+            for f in fields(Observations)
+            if f.name not in ("week", "time", "start")
+        }
+        return Observations(
+            week=self.week[index],
+            time=self.time[index],
+            start=np.concatenate([[0], np.cumsum(counts)]),
+            **per_row,
+        )
+
+    def take_rows(self, keep):
+        """The same epochs with only the rows where ``keep`` (bool, shape (m,)) is True."""
+        counts = np.bincount(self.epoch[keep], minlength=self.n_epochs)
+        start = np.concatenate([[0], np.cumsum(counts)])
+        row = {
+            f.name: getattr(self, f.name)[keep]
+            for f in fields(Observations)
+            if f.name not in ("week", "time", "start")
+        }
+        return replace(self, start=start, **row)
+
+
+def make_observations(
+    week, time, start, prn, pseudorange, *, range_rate=None, sigma=None, snr=None, signal=Signal.L1
+):
+    """:class:`Observations` from arrays, with dtypes checked and absent columns NaN."""
+    m = len(prn)
+    nan = np.full(m, np.nan)
+    return Observations(
+        week=np.broadcast_to(np.asarray(week, np.int64), np.shape(time)).copy(),
+        time=np.asarray(time, float),
+        start=np.asarray(start, np.int64),
+        prn=np.asarray(prn, np.int64),
+        pseudorange=np.asarray(pseudorange, float),
+        range_rate=nan if range_rate is None else np.asarray(range_rate, float),
+        sigma=nan if sigma is None else np.asarray(sigma, float),
+        snr=nan if snr is None else np.asarray(snr, float),
+        signal=np.broadcast_to(np.asarray(signal, np.int8), (m,)).copy(),
+    )
+
+
+def code_pseudorange(p1, p2, c1):
+    """Pseudorange and its :class:`Signal` per row from RINEX code observables.
+
+    Ionosphere-free ``(f1^2 P1 - f2^2 P2) / (f1^2 - f2^2)`` where P1 and P2 both
+    exist, else P1, else C1 (single-frequency L1). NaN where none exists.
+
+    Parameters
+    ----------
+    p1, p2, c1 : ndarray, shape (m,), m (NaN where absent)
+
+    Returns
+    -------
+    pseudorange : ndarray, shape (m,), m
+    signal : ndarray of int8, shape (m,)
+    """
+    p1, p2, c1 = (np.asarray(v, float) for v in (p1, p2, c1))
+    dual = np.isfinite(p1) & np.isfinite(p2)
+    single = np.where(np.isfinite(p1), p1, c1)
+    pr = np.where(dual, ionosphere_free(p1, p2), single)
+    return pr, np.where(dual, Signal.IONO_FREE, Signal.L1).astype(np.int8)
+
+
+def range_rate_from_doppler(doppler_hz):
+    """Range rate (m/s, positive when the range grows) from an L1 Doppler (Hz): ``-lambda_L1 D``."""
+    return -LAMBDA_L1 * np.asarray(doppler_hz, float)
+
+
+def from_code(week, time, start, prn, p1, p2, c1, *, doppler_l1=None, snr=None, sigma=None):
+    """:class:`Observations` from RINEX-style code observables (one call for a reader's arrays).
+
+    Pseudorange per :func:`code_pseudorange` (ionosphere-free where P1 and P2
+    exist, else P1, else C1); range rate from the L1 Doppler when given.
+
+    Parameters
+    ----------
+    week, time, start, prn : as in :class:`Observations`
+    p1, p2, c1 : ndarray, shape (m,), m (NaN where absent; all-NaN columns allowed)
+    doppler_l1 : ndarray, shape (m,), Hz, optional
+    snr : ndarray, shape (m,), dB-Hz, optional
+    sigma : ndarray, shape (m,), m, optional
+
+    Returns
+    -------
+    Observations
+    """
+    pr, signal = code_pseudorange(p1, p2, c1)
+    rate = None if doppler_l1 is None else range_rate_from_doppler(doppler_l1)
+    return make_observations(
+        week, time, start, prn, pr, range_rate=rate, sigma=sigma, snr=snr, signal=signal
+    )
+
+
+@dataclass(frozen=True)
+class GnssEpochs:
+    """Measurements with the satellite states that go with them (what SPP and the EKF use).
+
+    Attributes
+    ----------
+    obs : Observations
+        The measurements (rows as below).
+    eph_index : ndarray of int64, shape (m,)
+        Ephemeris row used for each measurement.
+    sat_pos : ndarray, shape (m, 3), m
+        Satellite position at transmit time, ECEF frame of transmit time
+        (rotate with :func:`inins.gnss.propagation.geometry` / ``sagnac_rotate``).
+    sat_vel : ndarray, shape (m, 3), m/s
+    sat_clock : ndarray, shape (m,), m
+        ``c dt_sv`` with the relativistic term, minus ``c TGD`` on L1 rows.
+    sat_drift : ndarray, shape (m,), m/s
+    dropped_prn : ndarray of int64, shape (k,)
+        PRNs of the measurements left out for want of a healthy ephemeris (sorted, unique).
+    dropped_count : ndarray of int64, shape (k,)
+        How many measurements of each of those PRNs were left out (on the ABPO day:
+        all of unhealthy G08, and one row each of seven satellites at 00:00:00,
+        transmitted 70 ms before the 2 h limit of their first set).
+    """
+
+    obs: Observations
+    eph_index: np.ndarray
+    sat_pos: np.ndarray
+    sat_vel: np.ndarray
+    sat_clock: np.ndarray
+    sat_drift: np.ndarray
+    dropped_prn: np.ndarray = field(default_factory=lambda: np.zeros(0, np.int64))
+    dropped_count: np.ndarray = field(default_factory=lambda: np.zeros(0, np.int64))
+
+    def take_epochs(self, index):
+        """The epochs ``index`` (int array) with their rows and satellite states."""
+        rows = self.obs.epoch_rows(index)
+        return GnssEpochs(
+            dropped_prn=self.dropped_prn,
+            dropped_count=self.dropped_count,
+            obs=self.obs.take_epochs(index),
+            eph_index=self.eph_index[rows],
+            sat_pos=self.sat_pos[rows],
+            sat_vel=self.sat_vel[rows],
+            sat_clock=self.sat_clock[rows],
+            sat_drift=self.sat_drift[rows],
+        )
+
+
+def attach_satellites(obs, eph, *, max_age_s=7200.0, source=None):
+    """Satellite states at the transmit time of every measurement.
+
+    Transmit time (GPS) ``t_tx = t_rx - P / c - dt_sv(t_tx)`` (two steps; the
+    receiver clock cancels: ``P`` carries it). Rows whose satellite has no
+    healthy ephemeris within ``max_age_s`` are dropped.
+
+    Parameters
+    ----------
+    obs : Observations
+    eph : Ephemeris
+    max_age_s : float, s
+    source : str, optional
+        File name for the error message.
+
+    Returns
+    -------
+    GnssEpochs
+
+    Raises
+    ------
+    InputError
+        If no measurement has an ephemeris (navigation data missing).
+    """
+    week = obs.week[obs.epoch]
+    t_sv = obs.time[obs.epoch] - obs.pseudorange / C
+    index = ephemeris.select(eph, obs.prn, week, t_sv, max_age_s=max_age_s)
+    keep = (index >= 0) & np.isfinite(obs.pseudorange)
+    if obs.prn.size and not keep.any():
+        raise InputError(
+            f"no usable navigation data for the satellites observed "
+            f"(PRNs {sorted(set(obs.prn.tolist()))[:12]}): no healthy ephemeris within "
+            f"{max_age_s:.0f} s of the observation times",
+            source=source,
+        )
+    dropped_prn, dropped_count = np.unique(obs.prn[~keep], return_counts=True)
+    obs = obs.take_rows(keep)
+    index, week, t_sv = index[keep], week[keep], t_sv[keep]
+    single = obs.signal == Signal.L1
+    t_tx = t_sv
+    for _ in range(2):
+        states = orbit.satellite_states(eph, index, week, t_tx)
+        clock = states.clock - np.where(single, C * eph.tgd[index], 0.0)
+        t_tx = t_sv - clock / C
+    return GnssEpochs(
+        obs=obs,
+        eph_index=index,
+        sat_pos=states.pos,
+        sat_vel=states.vel,
+        sat_clock=clock,
+        sat_drift=states.drift,
+        dropped_prn=dropped_prn,
+        dropped_count=dropped_count.astype(np.int64),
+    )
+
+
+@dataclass(frozen=True)
+class Prediction:
+    """Predicted measurements and their partial derivatives, one per row.
+
+    Attributes
+    ----------
+    pseudorange : ndarray, shape (m,), m
+    range_rate : ndarray, shape (m,), m/s
+    los : ndarray, shape (m, 3)
+        Unit line of sight receiver -> satellite, ECEF: ``dP/dr_e = -los``.
+    rate_scale : ndarray, shape (m,)
+        ``d range_rate / d v_e = -rate_scale * los`` (1 +- 3e-6).
+    elevation, azimuth : ndarray, shape (m,), rad
+    delay : ndarray, shape (m,), m
+        Troposphere plus modelled ionosphere.
+    """
+
+    pseudorange: np.ndarray
+    range_rate: np.ndarray
+    los: np.ndarray
+    rate_scale: np.ndarray
+    elevation: np.ndarray
+    azimuth: np.ndarray
+    delay: np.ndarray
+
+
+def predict(epochs, rx_pos, rx_vel, clock, drift, *, troposphere=True, klobuchar=None):
+    """Model of every measurement row at given receiver states (the EKF's h(x)).
+
+    ``P = rho + b - sat_clock + T + I``, ``rdot = rate + d - sat_drift`` with
+    ``rho, rate`` from :func:`inins.gnss.propagation.geometry` (Earth rotation
+    during travel), ``T`` Saastamoinen, ``I`` Klobuchar on L1 rows when
+    ``klobuchar`` = (alpha, beta) is given.
+
+    Parameters
+    ----------
+    epochs : GnssEpochs
+    rx_pos, rx_vel : ndarray, shape (m, 3) or (3,) (or scalar 0 velocity), m, m/s
+        Antenna ECEF position and velocity for each row (or one for all).
+    clock, drift : ndarray, shape (m,) or scalar, m, m/s
+        ``c dt_rx`` and ``c dt_rx_dot``.
+    troposphere : bool
+    klobuchar : tuple of two (4,) arrays, optional
+
+    Returns
+    -------
+    Prediction
+    """
+    rx_pos = np.broadcast_to(np.asarray(rx_pos, float), epochs.sat_pos.shape)
+    rx_vel = np.broadcast_to(np.asarray(rx_vel, float), epochs.sat_pos.shape)
+    rho, rate, los, scale = propagation.geometry(epochs.sat_pos, epochs.sat_vel, rx_pos, rx_vel)
+    el, az = propagation.elevation_azimuth(los, rx_pos)
+    lla = earth.llh_from_ecef(rx_pos)
+    delay = np.zeros_like(rho)
+    if troposphere:
+        delay += propagation.troposphere_saastamoinen(lla[:, 2], lla[:, 0], el)
+    if klobuchar is not None:
+        iono = propagation.ionosphere_klobuchar(
+            epochs.obs.time[epochs.obs.epoch], lla[:, 0], lla[:, 1], el, az, *klobuchar
+        )
+        delay += np.where(epochs.obs.signal == Signal.L1, iono, 0.0)
+    return Prediction(
+        pseudorange=rho + clock - epochs.sat_clock + delay,
+        range_rate=rate + drift - epochs.sat_drift,
+        los=los,
+        rate_scale=scale,
+        elevation=el,
+        azimuth=az,
+        delay=delay,
+    )

@@ -1,0 +1,213 @@
+"""Satellite position, velocity and clock from broadcast ephemerides.
+
+IS-GPS-200 §20.3.3.4.3 (Table 20-IV, user algorithm for ephemeris
+determination), one compiled loop over any number of (set, time) pairs; the velocity
+is the analytic time derivative of the same expressions (no finite difference).
+Clock: IS-GPS-200 §20.3.3.3.3.1 with the relativistic term
+``dtr = F e sqrt(A) sin(E_k)`` and, for single-frequency L1 users, ``- TGD``
+(§20.3.3.3.3.2). Times are GPS time (week, seconds of week) of transmission;
+positions are in the ECEF frame of that same instant.
+"""
+
+from dataclasses import dataclass
+
+import numba
+import numpy as np
+
+from inins.gnss.gpstime import WEEK
+
+MU = 3.986005e14
+"""WGS84 Earth gravitational constant for GPS orbits (m^3/s^2), IS-GPS-200 Table 20-IV."""
+OMEGA_E = 7.2921151467e-5
+"""WGS84 Earth rotation rate for GPS (rad/s), IS-GPS-200 Table 20-IV."""
+C = 299792458.0
+"""Speed of light (m/s)."""
+F_REL = -4.442807633e-10
+"""Relativistic clock constant F = -2 sqrt(mu) / c^2 (s/m^0.5), IS-GPS-200 §20.3.3.3.3.1."""
+KEPLER_ITERATIONS = 10
+"""Most Newton steps on Kepler's equation (from E = M + e sin M; 2-3 reach 1e-15 rad
+for GPS eccentricities)."""
+
+
+@dataclass(frozen=True)
+class SatelliteStates:
+    """Satellite states at the requested times, in the ECEF frame of those times.
+
+    Attributes
+    ----------
+    pos : ndarray, shape (..., 3), m
+    vel : ndarray, shape (..., 3), m/s (relative to ECEF)
+    clock : ndarray, shape (...), m
+        ``c * dt_sv`` (relativistic term in; ``- c TGD`` when asked for).
+    drift : ndarray, shape (...), m/s
+        ``c * d(dt_sv)/dt``.
+    """
+
+    pos: np.ndarray
+    vel: np.ndarray
+    clock: np.ndarray
+    drift: np.ndarray
+
+
+def satellite_states(eph, index, week, sow, *, tgd=False):
+    """Satellite ECEF position, velocity and clock at GPS time (week, sow).
+
+    Governing equations: IS-GPS-200 Table 20-IV. ``tk = t - toe`` (wrapped at
+    +-302400 s), ``n = sqrt(mu/A^3) + dn``, ``M = M0 + n tk``, Kepler
+    ``M = E - e sin E``, argument of latitude ``u = v + omega + cuc cos 2phi +
+    cus sin 2phi``, ``r = A (1 - e cos E) + crc cos 2phi + crs sin 2phi``,
+    ``i = i0 + idot tk + ...``, node ``Omega = Omega0 + (Omega_dot - omega_e) tk
+    - omega_e toe``.
+
+    Parameters
+    ----------
+    eph : Ephemeris
+    index : ndarray of int, shape (...)
+        Ephemeris row per state (from :func:`inins.gnss.ephemeris.select`); must be >= 0.
+    week : int or ndarray of int, broadcastable to ``index``
+    sow : ndarray of float, shape broadcastable to ``index``, s
+        GPS time of transmission.
+    tgd : bool
+        Subtract ``c TGD`` from the clock (single-frequency L1 C/A or P1 user).
+
+    Returns
+    -------
+    SatelliteStates
+    """
+    index = np.asarray(index, dtype=np.int64)
+    index, week, sow = np.broadcast_arrays(
+        index, np.asarray(week, np.int64), np.asarray(sow, float)
+    )
+    shape = index.shape
+    par = np.stack([getattr(eph, name) for name in _PARAMS], axis=1)
+    pos = np.empty((index.size, 3))
+    vel = np.empty((index.size, 3))
+    clock = np.empty(index.size)
+    drift = np.empty(index.size)
+    _states_kernel(
+        np.ascontiguousarray(index).ravel(),
+        np.ascontiguousarray(week).ravel(),
+        np.ascontiguousarray(sow).ravel(),
+        par,
+        eph.week.astype(np.int64),
+        bool(tgd),
+        pos,
+        vel,
+        clock,
+        drift,
+    )
+    return SatelliteStates(
+        pos=pos.reshape(*shape, 3),
+        vel=vel.reshape(*shape, 3),
+        clock=clock.reshape(shape),
+        drift=drift.reshape(shape),
+    )
+
+
+_PARAMS = (
+    "sqrt_a",
+    "delta_n",
+    "m0",
+    "e",
+    "omega",
+    "cuc",
+    "cus",
+    "crc",
+    "crs",
+    "cic",
+    "cis",
+    "i0",
+    "idot",
+    "omega0",
+    "omega_dot",
+    "toe",
+    "toc",
+    "af0",
+    "af1",
+    "af2",
+    "tgd",
+)
+
+
+@numba.njit(cache=True)
+def _wrap(dt):
+    return dt - WEEK * np.floor((dt + 0.5 * WEEK) / WEEK)
+
+
+@numba.njit(cache=True)
+def _states_kernel(index, week, sow, par, eph_week, tgd, pos, vel, clock, drift):
+    """IS-GPS-200 Table 20-IV per state (see :func:`satellite_states`); outputs filled in place."""
+    for k in range(index.size):
+        (
+            sqrt_a,
+            delta_n,
+            m0,
+            e,
+            omega,
+            cuc,
+            cus,
+            crc,
+            crs,
+            cic,
+            cis,
+            i0,
+            idot,
+            omega0,
+            omega_dot,
+            toe,
+            toc,
+            af0,
+            af1,
+            af2,
+            group_delay,
+        ) = par[index[k]]
+        weeks = float(week[k] - eph_week[index[k]]) * WEEK
+        tk = _wrap(weeks + sow[k] - toe)
+        a = sqrt_a * sqrt_a
+        n = np.sqrt(MU / (a * a * a)) + delta_n
+        mean = m0 + n * tk
+        ecc = mean + e * np.sin(mean)
+        sin_e, cos_e = np.sin(ecc), np.cos(ecc)
+        for _ in range(KEPLER_ITERATIONS):
+            step = (ecc - e * sin_e - mean) / (1.0 - e * cos_e)
+            ecc -= step
+            if abs(step) < 1e-9:  # sin, cos of ecc - step to first order: error < step^2
+                sin_e, cos_e = sin_e - cos_e * step, cos_e + sin_e * step
+                break
+            sin_e, cos_e = np.sin(ecc), np.cos(ecc)
+        one_minus = 1.0 - e * cos_e
+        ecc_dot = n / one_minus
+        beta = np.sqrt(1.0 - e * e)
+        phi = np.arctan2(beta * sin_e, cos_e - e) + omega
+        nu_dot = beta * ecc_dot / one_minus
+        sin_p, cos_p = np.sin(phi), np.cos(phi)
+        s2, c2 = 2.0 * sin_p * cos_p, cos_p * cos_p - sin_p * sin_p
+        du = cuc * c2 + cus * s2  # ~1e-5 rad: sin, cos by series (error < du^6 / 720)
+        du2 = du * du
+        sin_du = du * (1.0 - du2 / 6.0 * (1.0 - du2 / 20.0))
+        cos_du = 1.0 - du2 / 2.0 * (1.0 - du2 / 12.0)
+        su, cu = sin_p * cos_du + cos_p * sin_du, cos_p * cos_du - sin_p * sin_du
+        r = a * one_minus + crc * c2 + crs * s2
+        inc = i0 + idot * tk + cic * c2 + cis * s2
+        u_dot = nu_dot * (1.0 + 2.0 * (cus * c2 - cuc * s2))
+        r_dot = a * e * sin_e * ecc_dot + 2.0 * nu_dot * (crs * c2 - crc * s2)
+        inc_dot = idot + 2.0 * nu_dot * (cis * c2 - cic * s2)
+        node_dot = omega_dot - OMEGA_E
+        node = omega0 + node_dot * tk - OMEGA_E * toe
+        x_p, y_p = r * cu, r * su
+        xp_dot = r_dot * cu - r * su * u_dot
+        yp_dot = r_dot * su + r * cu * u_dot
+        sn, cn = np.sin(node), np.cos(node)
+        si, ci = np.sin(inc), np.cos(inc)
+        x = x_p * cn - y_p * ci * sn
+        y = x_p * sn + y_p * ci * cn
+        pos[k, 0], pos[k, 1], pos[k, 2] = x, y, y_p * si
+        vel[k, 0] = xp_dot * cn - yp_dot * ci * sn + y_p * si * sn * inc_dot - y * node_dot
+        vel[k, 1] = xp_dot * sn + yp_dot * ci * cn - y_p * si * cn * inc_dot + x * node_dot
+        vel[k, 2] = yp_dot * si + y_p * ci * inc_dot
+        tc = _wrap(weeks + sow[k] - toc)
+        clk = af0 + af1 * tc + af2 * tc * tc + F_REL * e * sqrt_a * sin_e
+        if tgd:
+            clk -= group_delay
+        clock[k] = C * clk
+        drift[k] = C * (af1 + 2.0 * af2 * tc + F_REL * e * sqrt_a * cos_e * ecc_dot)

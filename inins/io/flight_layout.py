@@ -1,0 +1,336 @@
+"""The recorded-flight HDF5 layout: IMU increments, per-epoch GNSS measurements and
+broadcast ephemerides, so that a recording and a simulation look the same to run-ekf.
+
+Declared once here (:data:`DATASETS`, :data:`EPHEMERIS_FIELDS`, :data:`ROOT_ATTRS`);
+:func:`write_flight` and :func:`read_flight` follow the declaration, and
+:func:`layout_text` prints it for the documentation.
+
+Layout
+------
+``/`` attributes: ``layout`` = ``"inins-recorded-flight"``, ``layout_version``,
+``source`` (what the data came from), ``imu_t0_sow`` (GPS seconds of week of
+IMU time 0, NaN without IMU), ``imu_t0_week``, ``reference_pos_e`` (known
+antenna ECEF position, m, or NaN: a static station), optional ``iono_alpha``,
+``iono_beta`` (Klobuchar, from the navigation header).
+
+``/gnss/epoch/*`` one row per epoch; ``/gnss/obs/*`` one row per satellite
+measurement, rows of epoch ``k`` being ``start[k]:start[k + 1]``;
+``/gnss/ephemeris/*`` one row per broadcast ephemeris set; ``/imu/*`` one row
+per IMU sample (absent without IMU).
+"""
+
+from dataclasses import dataclass
+from pathlib import Path
+
+import h5py
+import numpy as np
+
+from inins.exceptions import InputError
+from inins.io.atomic import AtomicFile
+
+LAYOUT = "inins-recorded-flight"
+LAYOUT_VERSION = 1
+
+EPHEMERIS_FIELDS = (
+    ("prn", "int64", "", "satellite PRN number"),
+    ("week", "int64", "week", "GPS week of toe (continuous, not mod 1024)"),
+    ("toc", "float64", "s", "clock reference time, seconds of week"),
+    ("af0", "float64", "s", "clock bias"),
+    ("af1", "float64", "s/s", "clock drift"),
+    ("af2", "float64", "s/s^2", "clock drift rate"),
+    ("iode", "int64", "", "issue of data, ephemeris"),
+    ("crs", "float64", "m", "sine harmonic correction to the orbit radius"),
+    ("delta_n", "float64", "rad/s", "mean motion difference from the computed value"),
+    ("m0", "float64", "rad", "mean anomaly at toe"),
+    ("cuc", "float64", "rad", "cosine harmonic correction to the argument of latitude"),
+    ("e", "float64", "", "eccentricity"),
+    ("cus", "float64", "rad", "sine harmonic correction to the argument of latitude"),
+    ("sqrt_a", "float64", "m^0.5", "square root of the semi-major axis"),
+    ("toe", "float64", "s", "ephemeris reference time, seconds of week"),
+    ("cic", "float64", "rad", "cosine harmonic correction to the inclination"),
+    ("omega0", "float64", "rad", "longitude of ascending node at the week start"),
+    ("cis", "float64", "rad", "sine harmonic correction to the inclination"),
+    ("i0", "float64", "rad", "inclination at toe"),
+    ("crc", "float64", "m", "cosine harmonic correction to the orbit radius"),
+    ("omega", "float64", "rad", "argument of perigee"),
+    ("omega_dot", "float64", "rad/s", "rate of right ascension"),
+    ("idot", "float64", "rad/s", "rate of inclination"),
+    ("health", "int64", "", "SV health (0 = healthy)"),
+    ("tgd", "float64", "s", "group delay differential L1-L2 (P(Y))"),
+    ("ura", "float64", "m", "user range accuracy"),
+    ("fit_interval", "float64", "h", "curve fit interval (4 h nominal)"),
+)
+"""(name, dtype, unit, description) of ``/gnss/ephemeris/<name>``; equal to
+:data:`inins.gnss.ephemeris.FIELDS` (a test keeps them equal)."""
+
+
+@dataclass(frozen=True)
+class Dataset:
+    """One dataset of the layout: HDF5 path, dtype, shape, unit, meaning, required."""
+
+    path: str
+    dtype: str
+    shape: str
+    unit: str
+    description: str
+    required: bool = True
+
+
+DATASETS = (
+    Dataset("gnss/epoch/week", "int64", "(n_epochs,)", "week", "GPS week of the epoch"),
+    Dataset(
+        "gnss/epoch/time",
+        "float64",
+        "(n_epochs,)",
+        "s",
+        "receive time tag, GPS seconds of week (receiver clock)",
+    ),
+    Dataset(
+        "gnss/epoch/start",
+        "int64",
+        "(n_epochs + 1,)",
+        "",
+        "rows of epoch k in gnss/obs are start[k]:start[k+1]",
+    ),
+    Dataset("gnss/obs/prn", "int64", "(m,)", "", "satellite PRN"),
+    Dataset(
+        "gnss/obs/pseudorange",
+        "float64",
+        "(m,)",
+        "m",
+        "pseudorange (signal says which: 1 L1 C/A or P1, 2 ionosphere-free P1/P2)",
+    ),
+    Dataset("gnss/obs/signal", "int8", "(m,)", "", "1 = L1 (TGD applies), 2 = ionosphere-free"),
+    Dataset(
+        "gnss/obs/range_rate",
+        "float64",
+        "(m,)",
+        "m/s",
+        "range rate, positive when the range grows (= -Doppler * lambda_L1); NaN absent",
+    ),
+    Dataset(
+        "gnss/obs/sigma",
+        "float64",
+        "(m,)",
+        "m",
+        "pseudorange 1-sigma stated by the source; NaN absent",
+    ),
+    Dataset("gnss/obs/snr", "float64", "(m,)", "dB-Hz", "signal strength; NaN absent"),
+    Dataset(
+        "gnss/obs/carrier",
+        "float64",
+        "(m,)",
+        "m",
+        "L1 carrier phase in metres (arbitrary offset); NaN absent",
+        required=False,
+    ),
+    Dataset(
+        "imu/time",
+        "float64",
+        "(n,)",
+        "s",
+        "IMU time of the end of each increment; GPS sow = imu_t0_sow + time",
+        False,
+    ),
+    Dataset("imu/dtheta", "float64", "(n, 3)", "rad", "angle increments, body frame", False),
+    Dataset("imu/dv", "float64", "(n, 3)", "m/s", "velocity increments, body frame", False),
+)
+"""Every dataset of the layout besides ``gnss/ephemeris/<field>``."""
+
+ROOT_ATTRS = (
+    ("layout", "str", "", "always 'inins-recorded-flight'"),
+    ("layout_version", "int", "", "version of this layout"),
+    ("source", "str", "", "what the data came from (file names, simulation)"),
+    ("imu_t0_week", "int", "week", "GPS week of IMU time 0 (-1 without IMU)"),
+    ("imu_t0_sow", "float", "s", "GPS seconds of week of IMU time 0 (NaN without IMU)"),
+    ("reference_pos_e", "float (3,)", "m", "known ECEF antenna position, NaN if none"),
+    ("iono_alpha", "float (4,)", "s, s/sc, s/sc^2, s/sc^3", "Klobuchar alpha (optional)"),
+    ("iono_beta", "float (4,)", "s, s/sc, s/sc^2, s/sc^3", "Klobuchar beta (optional)"),
+)
+
+
+@dataclass(frozen=True)
+class GnssRecord:
+    """The ``gnss/epoch`` and ``gnss/obs`` datasets (names and units as in :data:`DATASETS`).
+
+    Field names are those of :class:`inins.gnss.measurements.Observations` (plus
+    ``carrier``), so ``make_observations(**...)`` turns one into the other.
+    """
+
+    week: np.ndarray
+    time: np.ndarray
+    start: np.ndarray
+    prn: np.ndarray
+    pseudorange: np.ndarray
+    signal: np.ndarray
+    range_rate: np.ndarray
+    sigma: np.ndarray
+    snr: np.ndarray
+    carrier: np.ndarray
+
+
+@dataclass(frozen=True)
+class ImuRecord:
+    """IMU increments: ``time`` (n,) s, ``dtheta`` (n, 3) rad, ``dv`` (n, 3) m/s, body frame."""
+
+    time: np.ndarray
+    dtheta: np.ndarray
+    dv: np.ndarray
+
+
+@dataclass(frozen=True)
+class RecordedFlight:
+    """A recorded (or simulated) flight as stored in the layout.
+
+    ``ephemeris`` is a structured array of :data:`EPHEMERIS_FIELDS`; ``imu`` is
+    None without IMU data; ``reference_pos_e`` is NaN (3,) when unknown.
+    """
+
+    gnss: GnssRecord
+    ephemeris: np.ndarray
+    imu: ImuRecord | None
+    source: str
+    imu_t0_week: int
+    imu_t0_sow: float
+    reference_pos_e: np.ndarray
+    iono_alpha: np.ndarray | None = None
+    iono_beta: np.ndarray | None = None
+
+
+def layout_text():
+    """The layout as text lines (path, dtype, shape, unit, description)."""
+    rows = [
+        f"/{d.path:24s} {d.dtype:8s} {d.shape:16s} {d.unit:6s} {d.description}" for d in DATASETS
+    ]
+    rows += [
+        f"/gnss/ephemeris/{n:9s} {dt:8s} {'(n_sets,)':16s} {u:6s} {desc}"
+        for n, dt, u, desc in EPHEMERIS_FIELDS
+    ]
+    rows += [f"@{n:24s} {dt:25s} {u:6s} {desc}" for n, dt, u, desc in ROOT_ATTRS]
+    return rows
+
+
+def ephemeris_array(eph):
+    """Structured array of :data:`EPHEMERIS_FIELDS` from anything with those attributes
+    or fields (an :class:`inins.gnss.ephemeris.Ephemeris`, a structured array)."""
+
+    def get(name):
+        return eph[name] if isinstance(eph, np.ndarray) else getattr(eph, name)
+
+    n = len(get("prn"))
+    out = np.zeros(n, dtype=[(name, dt) for name, dt, _, _ in EPHEMERIS_FIELDS])
+    for name, *_ in EPHEMERIS_FIELDS:
+        out[name] = get(name)
+    return out
+
+
+def write_flight(path, flight):
+    """Write a :class:`RecordedFlight` to ``path`` (HDF5), atomically.
+
+    ``flight.gnss`` may be any object with the attributes of :class:`GnssRecord`
+    (``carrier`` optional, e.g. :class:`inins.gnss.measurements.Observations` of
+    a simulation) and ``flight.ephemeris`` anything :func:`ephemeris_array` takes.
+
+    The file appears under its name only when complete (:class:`~inins.io.atomic.AtomicFile`).
+    """
+    with AtomicFile(path) as out, h5py.File(out.tmp, "w") as f:
+        f.attrs["layout"] = LAYOUT
+        f.attrs["layout_version"] = LAYOUT_VERSION
+        f.attrs["source"] = flight.source
+        f.attrs["imu_t0_week"] = int(flight.imu_t0_week)
+        f.attrs["imu_t0_sow"] = float(flight.imu_t0_sow)
+        f.attrs["reference_pos_e"] = np.asarray(flight.reference_pos_e, float)
+        for name in ("iono_alpha", "iono_beta"):
+            if getattr(flight, name) is not None:
+                f.attrs[name] = np.asarray(getattr(flight, name), float)
+        for d in DATASETS:
+            group, name = d.path.split("/", 1)
+            record = flight.gnss if group == "gnss" else flight.imu
+            value = None if record is None else getattr(record, name.rsplit("/", 1)[-1], None)
+            if value is None and not d.required:
+                continue  # no IMU, or a source without carrier phase
+            _dataset(f, d.path, np.asarray(value, dtype=d.dtype), d.unit, d.description)
+        eph = ephemeris_array(flight.ephemeris)
+        for name, dtype, unit, desc in EPHEMERIS_FIELDS:
+            _dataset(f, f"gnss/ephemeris/{name}", eph[name].astype(dtype), unit, desc)
+
+
+def _dataset(f, path, value, unit, description):
+    dset = f.create_dataset(path, data=value, compression="gzip" if value.size > 4096 else None)
+    dset.attrs["unit"] = unit
+    dset.attrs["description"] = description
+
+
+def read_flight(path):
+    """Read a file of the recorded-flight layout.
+
+    Raises
+    ------
+    InputError
+        Not an HDF5 file of this layout, or a required dataset missing (named),
+        or rows that do not match (the ``start`` offsets against the rows).
+    """
+    path = Path(path)
+    try:
+        f = h5py.File(path, "r")
+    except OSError as exc:
+        raise InputError(f"not a readable HDF5 file: {exc}", source=str(path)) from exc
+    with f:
+        if f.attrs.get("layout") != LAYOUT:
+            raise InputError(
+                f"not a recorded-flight file (layout attribute "
+                f"{f.attrs.get('layout')!r}, expected {LAYOUT!r})",
+                source=str(path),
+                key="/",
+            )
+        values = {}
+        for d in DATASETS:
+            if d.path in f:
+                values[d.path] = np.asarray(f[d.path][()], dtype=d.dtype)
+            elif d.required:
+                raise InputError("dataset missing", source=str(path), key=d.path)
+        eph = np.zeros(0, dtype=[(n, dt) for n, dt, _, _ in EPHEMERIS_FIELDS])
+        for name, dtype, _, _ in EPHEMERIS_FIELDS:
+            key = f"gnss/ephemeris/{name}"
+            if key not in f:
+                raise InputError("dataset missing", source=str(path), key=key)
+            column = np.asarray(f[key][()], dtype=dtype)
+            if len(eph) != len(column):
+                eph = np.zeros(len(column), dtype=eph.dtype)
+            eph[name] = column
+        attrs = {k: f.attrs[k] for k in f.attrs}
+    return _assemble(values, eph, attrs, path)
+
+
+def _assemble(values, eph, attrs, path):
+    m = len(values["gnss/obs/prn"])
+    start = values["gnss/epoch/start"]
+    if len(start) != len(values["gnss/epoch/time"]) + 1 or start[-1] != m:
+        raise InputError(
+            f"epoch offsets do not match the {m} measurement rows",
+            source=str(path),
+            key="gnss/epoch/start",
+        )
+    carrier = values.get("gnss/obs/carrier", np.full(m, np.nan))
+    gnss = GnssRecord(
+        carrier=carrier,
+        **{
+            d.path.rsplit("/", 1)[-1]: values[d.path]
+            for d in DATASETS
+            if d.path.startswith("gnss/") and d.path != "gnss/obs/carrier"
+        },
+    )
+    imu = None
+    if "imu/time" in values:
+        imu = ImuRecord(time=values["imu/time"], dtheta=values["imu/dtheta"], dv=values["imu/dv"])
+    return RecordedFlight(
+        gnss=gnss,
+        ephemeris=eph,
+        imu=imu,
+        source=str(attrs.get("source", "")),
+        imu_t0_week=int(attrs.get("imu_t0_week", -1)),
+        imu_t0_sow=float(attrs.get("imu_t0_sow", np.nan)),
+        reference_pos_e=np.asarray(attrs.get("reference_pos_e", np.full(3, np.nan)), float),
+        iono_alpha=attrs.get("iono_alpha"),
+        iono_beta=attrs.get("iono_beta"),
+    )
