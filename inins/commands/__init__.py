@@ -80,6 +80,12 @@ COMMANDS = (
         "attitude, Earth rate, implied latitude, gravity.",
     ),
     CommandSpec(
+        "import-flight",
+        "Import a GNSS recording (RINEX observation and navigation files, or the PSINS "
+        "tightly coupled file with its IMU) into the recorded-flight layout that run-ekf "
+        "reads; reports a single-point-positioning check of every epoch.",
+    ),
+    CommandSpec(
         "calibrate-bias",
         "Gyro-bias calibration from table data (simulated or a real log): "
         "attitude-error, velocity-error (quadratic fit) and the disturbance-robust "

@@ -12,6 +12,11 @@ resources     where the shipped scenarios (``configs/``) are
 tabledata     the table-data layout of simulate-table / import-log / calibrate-bias
 logformats    CSV, HDF5 and PSINS text logs, read in blocks
 logimport     a lab log as typed chunks in SI
+rinex_obs     RINEX 2.11 / 3.x GPS observation files (gzip read transparently)
+rinex_nav     RINEX GPS navigation files
+rinex_text    fixed-width RINEX text helpers
+psins_tc      the PSINS tightly coupled MATLAB file
+flight_layout the recorded-flight layout (IMU, GNSS epochs, ephemerides), declared once
 
 Nothing here imports a method package, :mod:`inins.commands` or :mod:`inins.cli`.
 """

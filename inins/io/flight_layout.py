@@ -224,35 +224,51 @@ def ephemeris_array(eph):
     return out
 
 
-def write_flight(path, flight):
-    """Write a :class:`RecordedFlight` to ``path`` (HDF5), atomically.
+def flight_arrays(flight):
+    """The layout's datasets of a :class:`RecordedFlight`: ``{path: (array, unit,
+    description)}``, absent optional datasets left out.
 
     ``flight.gnss`` may be any object with the attributes of :class:`GnssRecord`
-    (``carrier`` optional, e.g. :class:`inins.gnss.measurements.Observations` of
-    a simulation) and ``flight.ephemeris`` anything :func:`ephemeris_array` takes.
-
-    The file appears under its name only when complete (:class:`~inins.io.atomic.AtomicFile`).
+    (``carrier`` optional, e.g. :class:`inins.gnss.measurements.Observations` of a
+    simulation) and ``flight.ephemeris`` anything :func:`ephemeris_array` takes.
     """
+    out = {}
+    for d in DATASETS:
+        group, name = d.path.split("/", 1)
+        record = flight.gnss if group == "gnss" else flight.imu
+        value = None if record is None else getattr(record, name.rsplit("/", 1)[-1], None)
+        if value is None and not d.required:
+            continue  # no IMU, or a source without carrier phase
+        out[d.path] = (np.asarray(value, dtype=d.dtype), d.unit, d.description)
+    eph = ephemeris_array(flight.ephemeris)
+    for name, dtype, unit, desc in EPHEMERIS_FIELDS:
+        out[f"gnss/ephemeris/{name}"] = (eph[name].astype(dtype), unit, desc)
+    return out
+
+
+def flight_attrs(flight):
+    """The layout's root attributes of a :class:`RecordedFlight`."""
+    attrs = {
+        "layout": LAYOUT,
+        "layout_version": LAYOUT_VERSION,
+        "source": flight.source,
+        "imu_t0_week": int(flight.imu_t0_week),
+        "imu_t0_sow": float(flight.imu_t0_sow),
+        "reference_pos_e": np.asarray(flight.reference_pos_e, float),
+    }
+    for name in ("iono_alpha", "iono_beta"):
+        if getattr(flight, name) is not None:
+            attrs[name] = np.asarray(getattr(flight, name), float)
+    return attrs
+
+
+def write_flight(path, flight):
+    """Write a :class:`RecordedFlight` to ``path`` (HDF5), atomically (the file appears
+    under its name only when complete, :class:`~inins.io.atomic.AtomicFile`)."""
     with AtomicFile(path) as out, h5py.File(out.tmp, "w") as f:
-        f.attrs["layout"] = LAYOUT
-        f.attrs["layout_version"] = LAYOUT_VERSION
-        f.attrs["source"] = flight.source
-        f.attrs["imu_t0_week"] = int(flight.imu_t0_week)
-        f.attrs["imu_t0_sow"] = float(flight.imu_t0_sow)
-        f.attrs["reference_pos_e"] = np.asarray(flight.reference_pos_e, float)
-        for name in ("iono_alpha", "iono_beta"):
-            if getattr(flight, name) is not None:
-                f.attrs[name] = np.asarray(getattr(flight, name), float)
-        for d in DATASETS:
-            group, name = d.path.split("/", 1)
-            record = flight.gnss if group == "gnss" else flight.imu
-            value = None if record is None else getattr(record, name.rsplit("/", 1)[-1], None)
-            if value is None and not d.required:
-                continue  # no IMU, or a source without carrier phase
-            _dataset(f, d.path, np.asarray(value, dtype=d.dtype), d.unit, d.description)
-        eph = ephemeris_array(flight.ephemeris)
-        for name, dtype, unit, desc in EPHEMERIS_FIELDS:
-            _dataset(f, f"gnss/ephemeris/{name}", eph[name].astype(dtype), unit, desc)
+        f.attrs.update(flight_attrs(flight))
+        for path_in_file, (value, unit, description) in flight_arrays(flight).items():
+            _dataset(f, path_in_file, value, unit, description)
 
 
 def _dataset(f, path, value, unit, description):

@@ -1,0 +1,75 @@
+"""Scenario of ``inins import-flight``: a GNSS recording (RINEX observation and
+navigation files, or the PSINS tightly coupled MATLAB file with its IMU) into the
+recorded-flight layout, with a single-point-positioning check of every epoch.
+
+Paths are relative to the scenario file; RINEX files may be gzip-compressed.
+"""
+
+from typing import Literal
+
+from pydantic import Field, model_validator
+
+from inins.scenario.base import ScenarioModel, ScenarioPath
+from inins.scenario.base import ScenarioSection as Section
+from inins.scenario.types import NonNegFloat, PositiveFloat
+from inins.scenario.validation import KeyPathError
+
+
+class Spp(Section):
+    """Single-point positioning of every epoch (the check of the recording)."""
+
+    mask_deg: NonNegFloat = Field(10.0, le=90.0, description="elevation mask (deg)")
+    ionosphere: Literal["auto", "iono-free", "klobuchar", "none"] = Field(
+        "auto",
+        description="auto: ionosphere-free P1/P2 where both exist, else Klobuchar when the "
+        "navigation header carries it, else none; the report says which",
+    )
+    sigma_zenith_m: PositiveFloat = Field(
+        1.5, description="pseudorange 1-sigma at zenith for the weights and the residual test (m)"
+    )
+    false_alarm: float = Field(
+        1e-3, gt=0.0, lt=0.5, description="false-alarm probability of the residual test (1)"
+    )
+
+
+class ImportFlightScenario(ScenarioModel):
+    """Import a GNSS recording into the recorded-flight layout and check it by SPP."""
+
+    format: Literal["rinex", "psins-tc"] = Field(
+        description="rinex: observation + navigation files (2.11 or 3.x, GPS); psins-tc: the "
+        "PSINS tightly coupled .mat file (imu, obss, ephs, t0)"
+    )
+    obs_file: ScenarioPath | None = Field(None, description="rinex: the observation file")
+    nav_file: ScenarioPath | None = Field(None, description="rinex: the navigation file")
+    file: ScenarioPath | None = Field(None, description="psins-tc: the .mat file")
+    reference: Literal["none", "header"] = Field(
+        "none",
+        description="known antenna position for the error statistics: none, or the RINEX "
+        "header's APPROX POSITION XYZ (a static station); or give reference_pos_e_m",
+    )
+    reference_pos_e_m: tuple[float, float, float] | None = Field(
+        None, description="known antenna position, ECEF (m)"
+    )
+    static_window_imu_s: tuple[float, float] | None = Field(
+        None,
+        description="an interval of IMU time (s) where the vehicle stands: its SPP scatter "
+        "and range-rate speed are reported",
+    )
+    spp: Spp = Field(default_factory=Spp)
+
+    @model_validator(mode="after")
+    def _files(self):
+        if self.format == "rinex":
+            for key in ("obs_file", "nav_file"):
+                if getattr(self, key) is None:
+                    raise KeyPathError((key,), "format rinex needs obs_file and nav_file")
+        elif self.file is None:
+            raise KeyPathError(("file",), "format psins-tc needs file")
+        if self.reference == "header" and self.format != "rinex":
+            raise KeyPathError(("reference",), "only a RINEX header carries a position")
+        if self.reference == "header" and self.reference_pos_e_m is not None:
+            raise KeyPathError(("reference_pos_e_m",), "give reference: header or a position")
+        window = self.static_window_imu_s
+        if window is not None and not window[1] > window[0]:
+            raise KeyPathError(("static_window_imu_s",), "the end must be after the start")
+        return self

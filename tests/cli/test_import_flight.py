@@ -1,0 +1,67 @@
+"""``inins import-flight`` end to end on the packaged real data: the ABPO station day
+(SPP against the header coordinates) and the PSINS tc drive (convergence, standing
+scatter, track), the output readable as a recorded flight, and bad input."""
+
+import json
+
+import numpy as np
+from typer.testing import CliRunner
+
+from inins.cli import app
+from inins.io.flight_layout import read_flight
+from tests.helpers import CONFIGS, ROOT
+
+
+def run(*args):
+    return CliRunner().invoke(app, ["import-flight", *map(str, args)])
+
+
+def results(path):
+    return json.loads((path / "summary.json").read_text())["results"]
+
+
+def test_abpo_day_against_the_station_coordinates(tmp_path):
+    result = run("-o", tmp_path)
+    assert result.exit_code == 0, result.output
+    r = results(tmp_path)
+    assert r["epochs"] == 2727 and r["epochs_no_fix"] == 1
+    assert r["err_3d_rms_m"] <= 4.5 and r["err_3d_p95_m"] <= 8.0 and r["err_3d_max_m"] <= 15.0
+    flight = read_flight(tmp_path / "import-flight.h5")
+    assert len(flight.gnss.time) == 2727 and flight.imu is None
+    np.testing.assert_allclose(flight.reference_pos_e, [4097216.6805, 4429119.0287, -2065771.3676])
+    report = (tmp_path / "import-flight.txt").read_text()
+    assert "ionosphere-free P1/P2" in report and "G01" in report  # the excluded fault
+
+
+def test_psins_tc_drive(tmp_path):
+    result = run(CONFIGS / "import-flight" / "psins-tc.yaml", "-o", tmp_path)
+    assert result.exit_code == 0, result.output
+    r = results(tmp_path)
+    assert 1540 <= r["epochs_fix"] <= 1710
+    assert r["residual_rms_median_m"] < 1.0
+    assert r["static_horizontal_std_m"] < 0.5 and r["static_speed_rms_mps"] < 0.1
+    assert 240.0 < r["track_length_imu_m"] < 290.0  # about 264 m during the IMU span
+    flight = read_flight(tmp_path / "import-flight.h5")
+    assert flight.imu.dtheta.shape == (27280, 3) and flight.imu_t0_sow == 185492.5
+    assert "single-frequency L1" in (tmp_path / "import-flight.txt").read_text()
+
+
+def test_a_navigation_file_given_as_observations_is_bad_input(tmp_path):
+    result = run("-o", tmp_path, "--set", f"obs_file={ROOT / 'data' / 'abpo0080.15n.gz'}")
+    assert result.exit_code == 2, result.output
+    assert "abpo0080.15n.gz" in result.stderr
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_missing_keys_and_files_are_bad_input(tmp_path):
+    result = run("-o", tmp_path, "--set", "nav_file=null")
+    assert result.exit_code == 2 and "nav_file" in result.stderr
+    (tmp_path / "x.mat").write_bytes(b"not a mat file")
+    result = run(
+        CONFIGS / "import-flight" / "psins-tc.yaml",
+        "-o",
+        tmp_path / "out",
+        "--set",
+        f"file={tmp_path / 'x.mat'}",
+    )
+    assert result.exit_code == 2 and "x.mat" in result.stderr
