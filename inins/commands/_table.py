@@ -1,5 +1,11 @@
 """Rate-table scenarios into the methods' SI objects, and the table record a scenario names."""
 
+import shutil
+import tempfile
+import weakref
+from dataclasses import replace
+from pathlib import Path
+
 import numpy as np
 
 from inins.core.records import MemoryRecord
@@ -99,8 +105,42 @@ def load_record(data=None, setup=None, seed=0, progress=None):
     if data is not None:
         return read_table_data(data), None
     sim = table_simulation(setup)
+    if sim.n_samples * BYTES_PER_SAMPLE > SPILL_BYTES:
+        return spilled_record(setup, seed, progress), sim.sensor
     chunks = simulate.simulation_chunks(sim, np.random.default_rng(seed), progress)
     return memory_record(sim, chunks), sim.sensor
+
+
+SPILL_BYTES = 32 << 20
+"""A simulated record whose increments take more memory than this is written to a
+temporary table-data file and read back in chunks, so that memory stays flat in the
+record length (a 4-h hold at 1 kHz would otherwise hold 1.4 GB)."""
+BYTES_PER_SAMPLE = 48  # dtheta and dv, float64
+
+
+def spilled_record(setup, seed, progress=None):
+    """The simulation of ``setup`` written to a temporary table-data file (removed when
+    the record is no longer referenced), as a :class:`inins.io.tabledata.TableData`.
+
+    The same numbers as :func:`memory_record`: quantized increments go through pulse
+    counts either way, others are stored as float64.
+    """
+    from inins.commands import simulate_table
+    from inins.io.hdf5 import ResultsWriter
+
+    folder = Path(tempfile.mkdtemp(prefix="inins-simulation-"))
+    try:
+        path = folder / "simulation.h5"
+        with ResultsWriter(path) as h5:
+            with h5.sink(threaded=True) as sink:
+                result = simulate_table.run(setup, seed, sink=sink, progress=progress)
+            h5.write_result(result)
+        record = replace(read_table_data(path), source="simulation")
+    except BaseException:
+        shutil.rmtree(folder, ignore_errors=True)
+        raise
+    weakref.finalize(record, shutil.rmtree, folder, ignore_errors=True)
+    return record
 
 
 def memory_record(sim, chunks):
