@@ -167,13 +167,16 @@ def pseudorange_rows(r_ant, v_ant, mat_ne, j_v, lever_n, lever_vel_n, sat_pos, s
     """Predicted pseudorange and range rate and their rows of ``H`` (003 eq. 7, spec §6a).
 
     Rows ``2 i`` (pseudorange) and ``2 i + 1`` (range rate) of satellite ``i``;
-    ``zhat`` without clock terms. With ``e`` the unit line of sight to the
-    satellite (NED), ``dv = v_sat - v_ant``, ``rho`` the range, ``l_n`` the lever arm,
-    ``u_n = mat_nb (omega_eb_b x l_b)`` its velocity and ``G = -dv^T (I - e e^T) / rho``::
+    ``zhat`` without clock terms. ``H`` is ``dz / dx`` for the true measurement
+    ``z = h(nav (-) x)``: the navigation states are errors (estimate minus true), so
+    their columns are minus the sensitivity of ``h`` at the estimate; the clock
+    states are the clock values (+1). With ``e`` the unit line of sight (NED),
+    ``dv = v_sat - v_ant``, ``rho`` the range, ``l_n`` the lever arm,
+    ``u_n = mat_nb (omega_eb_b x l_b)`` its velocity and ``G = -dv^T (I - e e^T) / rho``,
+    the sensitivities at the estimate are::
 
-        rho  : H_pos = -e^T,  H_att = -e^T [l_n x],  H_clock_bias = 1
-        rhodot: H_pos = e^T [v_ant x] J_v + G,  H_vel = -e^T,
-                H_att = -e^T [u_n x] + G [l_n x],  H_clock_drift = 1
+        rho   : pos -e^T,  att -e^T [l_n x]
+        rhodot: pos e^T [v_ant x] J_v + G,  vel -e^T,  att -e^T [u_n x] + G [l_n x]
 
     from ``dr_ant = dr + [l_n x] phi`` and ``dv_ant = dv - [v_ant x] J_v dr + [u_n x] phi``
     (the estimated NED frame is turned by ``J_v dr``).
@@ -196,11 +199,11 @@ def pseudorange_rows(r_ant, v_ant, mat_ne, j_v, lever_n, lever_vel_n, sat_pos, s
         h_att_rr = np.cross(lever_vel_n, e) + np.cross(g, lever_n)  # -e^T [u x] + G [l x]
         evj = np.cross(e, va) @ j_v  # e^T [v x] J_v
         for k in range(3):
-            H[2 * i, POS + k] = -e[k]
-            H[2 * i, ATT + k] = h_att_pr[k]
-            H[2 * i + 1, POS + k] = evj[k] + g[k]
-            H[2 * i + 1, VEL + k] = -e[k]
-            H[2 * i + 1, ATT + k] = h_att_rr[k]
+            H[2 * i, POS + k] = e[k]
+            H[2 * i, ATT + k] = -h_att_pr[k]
+            H[2 * i + 1, POS + k] = -evj[k] - g[k]
+            H[2 * i + 1, VEL + k] = e[k]
+            H[2 * i + 1, ATT + k] = -h_att_rr[k]
         H[2 * i, CLK] = 1.0
         H[2 * i + 1, CLK + 1] = 1.0
 

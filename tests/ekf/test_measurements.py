@@ -25,10 +25,11 @@ def _epoch(lla):
 
 
 def _measure(x, lla, vel_n, mat_nb, omega_eb_b, lever_b, epoch):
-    """Nonlinear measurements at the estimate displaced by the error state ``x`` (17,)."""
-    lla_e = error_model.lla_offset(lla, x[0:3])
-    mat_e = rotation.mat_from_rotvec(-x[6:9]) @ mat_nb  # mat_nb_est = exp(-[phi x]) mat_nb
-    r, v = antenna(lla_e, vel_n + x[3:6], mat_e, omega_eb_b, lever_b)
+    """Nonlinear measurements of the truth ``nav (-) x`` for the estimate ``nav`` and the
+    error state ``x`` (17,): navigation states are errors, clock states values."""
+    lla_e = error_model.lla_offset(lla, -x[0:3])
+    mat_e = rotation.mat_from_rotvec(x[6:9]) @ mat_nb  # mat_nb_est = exp(-[phi x]) mat_nb
+    r, v = antenna(lla_e, vel_n - x[3:6], mat_e, omega_eb_b, lever_b)
     pr, rr = predict(epoch, r, v, x[15], x[16])
     return np.ravel(np.column_stack([pr, rr]))
 
