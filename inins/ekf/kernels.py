@@ -143,7 +143,7 @@ def discretize(F, Qc, dt, Phi, Qd):
 
     ``Phi = I + A + A^2/2 + A^3/6`` with ``A = F dt``, ``Qd = (Phi Qc Phi^T + Qc) dt / 2``;
     for the INS model at 1 s (``|A|`` ~ 1e-3 apart from the kinematic couplings)
-    this agrees with van Loan's exact form to ~1e-6 relative (tested).
+    this agrees with van Loan's exact form to ~1e-5 of the largest entry (tested).
     """
     n = F.shape[0]
     A = F * dt
