@@ -370,7 +370,8 @@ def gyrocompass_attitude(mat_nb, lat, height, errors):
     closed forms of :mod:`inins.calibration.alignment`: ``roll = atan2(-f_y, -f_z)``,
     ``pitch = atan2(f_x, hypot(f_y, f_z))``, ``heading = atan2(-omega_L[1], omega_L[0])``
     with ``omega_L = Ry(pitch) Rx(roll) omega_b``. To first order the heading error is
-    ``-eps_E / (W cos L)`` (003 eq. 10) and the tilts ``b_N / g``, ``-b_E / g``.
+    ``-eps_E / (W cos L)`` (003 eq. 10) and the tilts ``phi_E = -b_N / g``, ``phi_N = b_E / g``
+    (levelling leaves ``b_n = phi x f_n``).
 
     Parameters
     ----------
