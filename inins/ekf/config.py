@@ -130,8 +130,9 @@ class FilterConfig:
         if not 0.5 < self.gate_probability <= 1.0:
             raise InputError("gate probability must be in (0.5, 1]", key="gate_probability")
         if int(self.dither_window) != self.dither_window or self.dither_window < 1:
-            raise InputError("dither window must be a positive number of samples",
-                             key="dither_window")
+            raise InputError(
+                "dither window must be a positive number of samples", key="dither_window"
+            )
         outages = tuple((float(a), float(b)) for a, b in self.outages)
         for i, (a, b) in enumerate(outages):
             if not b > a:
@@ -188,5 +189,6 @@ class EpochInput:
         if np.shape(self.dtheta) != (n, 3) or np.shape(self.dv) != (n, 3):
             raise InputError("IMU chunk must be (n, 3) increments", key="imu")
         if not 0 <= self.pps_index <= n:
-            raise InputError(f"pps_index {self.pps_index} outside the chunk of {n}",
-                             key="pps_index")
+            raise InputError(
+                f"pps_index {self.pps_index} outside the chunk of {n}", key="pps_index"
+            )

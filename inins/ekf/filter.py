@@ -24,19 +24,22 @@ Per epoch ``k`` (1PPS time ``t_k``, data arriving at ``t_k + tau``):
 ``mat_nb_est = (I - [phi x]) mat_nb_true`` of :mod:`inins.core.error_model`).
 """
 
-import math
 import time as _time
 
 import numpy as np
 from scipy import stats
 
-from inins.core import earth, error_model, kalman, rotation, strapdown
-from inins.ekf import kernels
+from inins.core import error_model, kalman, rotation, strapdown
+from inins.ekf import step
 from inins.ekf.config import Coupling
-from inins.ekf.measurements import antenna
-from inins.ekf.result import EkfResult, Innovations
+from inins.ekf.result import EkfResult
 
-_NAV, _SENS = slice(0, 9), np.r_[9:15, 17:26]
+_NAV = slice(0, 9)
+
+
+def _sensor_index(n):
+    """Sensor states in ``comp`` order ``[ba, bg, ma, mg]`` (EKF26) or ``[ba, bg]`` (EKF17)."""
+    return np.r_[9:15, 17:26] if n == 26 else np.r_[9:15]
 
 
 def correct(quat, vel, lla, dx):
@@ -44,47 +47,93 @@ def correct(quat, vel, lla, dx):
 
     Returns quat (4,), vel (3,), lla (3,) as new arrays.
     """
-    rn, re = earth.principal_radii(lla[0])
-    lla = np.array([lla[0] - dx[0] / (rn + lla[2]),
-                    lla[1] - dx[1] / ((re + lla[2]) * math.cos(lla[0])), lla[2] + dx[2]])
-    quat = rotation.quat_multiply(rotation.quat_from_rotvec(dx[6:9]), quat)
-    return quat / np.linalg.norm(quat), vel - dx[3:6], lla
+    out = np.empty(4), np.empty(3), np.empty(3)
+    step.correct(
+        np.asarray(quat, float),
+        np.asarray(vel, float),
+        np.asarray(lla, float),
+        np.asarray(dx, float),
+        *out,
+    )
+    return out
 
 
-def _compensate(dtheta, dv, dt, comp):
-    """Increments with the cumulative FB sensor estimates removed (module docstring)."""
-    ba, bg, ma, mg = comp[0:3], comp[3:6], comp[6:9], comp[9:15]
-    m_g = np.array([[0.0, mg[0], mg[1]], [mg[2], 0.0, mg[3]], [mg[4], mg[5], 0.0]])
-    m_a = np.array([[0.0, 0.0, 0.0], [ma[0], 0.0, 0.0], [ma[1], ma[2], 0.0]])
-    return ((dtheta - bg * dt) @ (np.eye(3) - m_g).T, (dv - ba * dt) @ (np.eye(3) - m_a).T)
+class _Strapdown:
+    """Free-inertial navigation state carried through chunks without per-chunk objects.
 
+    Runs the compiled kernel behind :func:`inins.core.strapdown.integrate` on plain
+    arrays (mode free, coning and sculling on, every sample kept), which that
+    function documents as exact in chunks; ``tests/ekf/test_step.py`` checks the
+    result equals ``integrate`` bit for bit.
+    """
 
-def _mean_rates(dtheta, dv, centre, window, dt, prev):
-    """Moving average of omega_b, f_b over ``window`` samples centred at ``centre``."""
-    n = dtheta.shape[0]
-    if n == 0:
-        return prev
-    lo = min(max(centre - window // 2, 0), max(n - window, 0))
-    hi = min(lo + window, n)
-    span = (hi - lo) * dt
-    return dtheta[lo:hi].sum(axis=0) / span, dv[lo:hi].sum(axis=0) / span
+    _HOME = np.zeros(8)  # Earth terms of fixed-position modes; unused in free mode
+
+    def __init__(self, state):
+        self.quat = state.quat_nb.copy()
+        self.vel = state.vel_n.copy()
+        self.lla = state.lla.copy()
+        self.prev = np.concatenate([state.dtheta_prev, state.dv_prev])
+        self.count = state.count
+
+    def run(self, dtheta, dv, dt):
+        """Integrate a chunk; returns the states after each sample, (n, 4), (n, 3), (n, 3)."""
+        n = dtheta.shape[0]
+        out = (np.empty(n, np.int64), np.empty((n, 4)), np.empty((n, 3)), np.empty((n, 3)))
+        start = (self.quat.copy(), self.vel.copy(), self.lla.copy())
+        strapdown._navigate(
+            self.quat,
+            self.vel,
+            self.lla,
+            self.prev,
+            self.count,
+            np.ascontiguousarray(dtheta),
+            np.ascontiguousarray(dv),
+            float(dt),
+            0,
+            True,
+            True,
+            1,
+            self._HOME,
+            *out,
+        )
+        self.count += n
+        return start, out[1:]
+
+    def state(self):
+        """The current state as a :class:`inins.core.strapdown.NavState`."""
+        return strapdown.NavState(
+            self.quat.copy(),
+            self.vel.copy(),
+            self.lla.copy(),
+            self.prev[:3].copy(),
+            self.prev[3:].copy(),
+            self.count,
+        )
 
 
 def _state_at(start, series, index):
     """(quat, vel, lla) after ``index`` samples of a chunk (0: the chunk start)."""
     if index == 0:
-        return start.quat_nb, start.vel_n, start.lla
+        return start
     i = index - 1
-    return series.quat_nb[i], series.vel_n[i], series.lla[i]
+    return series[0][i], series[1][i], series[2][i]
 
 
 def _truth_error(truth, out, estimate, true_sensor):
     """Estimation error (estimate - truth) of the output and of the sensor and clock states."""
     quat, vel, lla = out
     n = estimate.size
-    true = np.concatenate([np.zeros(9), true_sensor.accel_bias, true_sensor.gyro_bias,
-                           [truth.clock_bias, truth.clock_drift],
-                           true_sensor.accel_misalignment, true_sensor.gyro_misalignment])
+    true = np.concatenate(
+        [
+            np.zeros(9),
+            true_sensor.accel_bias,
+            true_sensor.gyro_bias,
+            [truth.clock_bias, truth.clock_drift],
+            true_sensor.accel_misalignment,
+            true_sensor.gyro_misalignment,
+        ]
+    )
     e = estimate - true[:n]
     e[0:3] = error_model.position_error_ned(lla, truth.lla)
     e[3:6] = vel - truth.vel_n
@@ -97,81 +146,100 @@ class _Run:
 
     def __init__(self, config, initial, t0):
         self.cfg = config
-        self.n = len(config.layout)
-        self.x = np.zeros(self.n)
-        self.P = config.initial_sigma.covariance(self.n)
+        n = self.n = len(config.layout)
+        self.x = np.zeros(n)
+        self.P = config.initial_sigma.covariance(n)
         self.comp = np.zeros(15)
-        self.cum_nav = np.zeros(9)
-        self.nav = initial
+        self.cum = np.zeros(9)
+        self.sens = _sensor_index(n)
+        self.nav = _Strapdown(initial)
         self.t_prev = t0
         self.clock_ready = False
-        self.rates = (np.zeros(3), np.zeros(3))
-        self.F = np.zeros((self.n, self.n))
-        self.Qc = np.zeros((self.n, self.n))
-        self.Phi = np.eye(self.n)
-        self.Qd = np.zeros((self.n, self.n))
+        self.rates = np.zeros((2, 3))  # omega_b, f_b at the last PPS (dither-filtered)
+        self.rates_mid = np.zeros((2, 3))
+        self.F, self.Qc, self.Phi, self.Qd = (np.zeros((n, n)) for _ in range(4))
         self.threshold = float(stats.chi2.ppf(config.gate_probability, 1))
-        self.noise = (config.arw, config.vrw, config.accel_bias_rw, config.gyro_bias_rw,
-                      config.clock_bias_psd, config.clock_drift_psd)
-
-    def propagate(self, quat, vel, lla, rates, dt_k):
-        mat_nb = rotation.mat_from_quat(quat)
-        omega_b, f_b = rates
-        kernels.system_matrix26(lla[0], lla[2], vel, f_b, mat_nb, omega_b, self.F)
-        if dt_k <= 0.0:
-            return
-        kernels.noise26(mat_nb, *self.noise, self.Qc)
-        kernels.discretize(self.F, self.Qc, dt_k, self.Phi, self.Qd)
-        kernels.predict(self.x, self.P, self.Phi, self.Qd)
+        self.noise = np.concatenate(
+            [
+                config.arw,
+                config.vrw,
+                config.accel_bias_rw,
+                config.gyro_bias_rw,
+                [config.clock_bias_psd, config.clock_drift_psd],
+            ]
+        )
+        self.lever = np.asarray(config.lever_arm, dtype=float)
 
     def update(self, gnss, quat, vel, lla, omega_b):
-        """Measurement update at the stored PPS state; returns the per-row arrays."""
-        cfg, n = self.cfg, self.n
-        quat, vel, lla = correct(quat, vel, lla, self.x)
-        mat_nb = rotation.mat_from_quat(quat)
-        omega_eb_b = omega_b - mat_nb.T @ earth.rate_ie_n(lla[0])
-        r_ant, v_ant = antenna(lla, vel, mat_nb, omega_eb_b, cfg.lever_arm)
+        """Measurement update at the stored PPS state; per-row arrays of the rows used."""
         k = len(gnss)
-        H = np.zeros((2 * k, n))
-        zhat = np.empty(2 * k)
-        j_v = np.empty((3, 3))
-        kernels.earth_jacobians(lla[0], lla[2], vel, j_v, np.empty((3, 3)), np.empty((3, 3)),
-                                np.empty((3, 3)))
-        mat_ne = earth.mat_en(lla[0], lla[1]).T
-        lever_n = mat_nb @ cfg.lever_arm
-        kernels.pseudorange_rows(r_ant, v_ant, mat_ne, j_v, lever_n,
-                                 mat_nb @ np.cross(omega_eb_b, cfg.lever_arm),
-                                 gnss.sat_pos, gnss.sat_vel, H, zhat)
-        z = np.empty(2 * k)
-        z[0::2] = gnss.pseudorange + gnss.sat_clock - gnss.delay
-        z[1::2] = gnss.range_rate + gnss.sat_clock_drift
-        if not self.clock_ready:  # receiver clock from the first epoch's residuals
-            self.x[15] = np.median(z[0::2] - zhat[0::2])
-            self.x[16] = np.median(z[1::2] - zhat[1::2])
-            self.clock_ready = True
-        y0 = z - zhat - np.repeat([[self.x[15], self.x[16]]], k, axis=0).ravel()
-        r = np.empty(2 * k)
-        r[0::2], r[1::2] = gnss.sigma_pr**2, gnss.sigma_rr**2
-        rows = np.arange(2 * k) if cfg.use_range_rate else np.arange(0, 2 * k, 2)
+        meas = np.stack(
+            [
+                gnss.pseudorange,
+                gnss.sat_clock,
+                gnss.delay,
+                gnss.range_rate,
+                gnss.sat_clock_drift,
+                gnss.sigma_pr,
+                gnss.sigma_rr,
+            ]
+        )
+        rows = np.arange(2 * k) if self.cfg.use_range_rate else np.arange(0, 2 * k, 2)
         acc = np.zeros(rows.size, dtype=np.bool_)
-        y_out, s_out = np.empty(rows.size), np.empty(rows.size)
-        kernels.sequential_update(self.x, self.P, H[rows], y0[rows], r[rows], self.threshold,
-                                  acc, y_out, s_out)
-        return rows, acc, y_out, s_out
+        y, s = np.empty(rows.size), np.empty(rows.size)
+        step.update(
+            self.x,
+            self.P,
+            quat,
+            vel,
+            lla,
+            omega_b,
+            self.lever,
+            gnss.sat_pos,
+            gnss.sat_vel,
+            meas,
+            self.threshold,
+            self.cfg.use_range_rate,
+            not self.clock_ready,
+            acc,
+            y,
+            s,
+        )
+        self.clock_ready = True
+        return rows, acc, y, s
 
     def feedback(self, tau):
         """FB: apply the correction to the current state (carried over ``tau``), reset."""
-        delta = self.x.copy()
-        if tau > 0.0:
-            delta = delta + tau * (self.F @ delta)
-        quat, vel, lla = correct(self.nav.quat_nb, self.nav.vel_n, self.nav.lla, delta)
-        self.nav = strapdown.NavState(quat, vel, lla, self.nav.dtheta_prev, self.nav.dv_prev,
-                                      self.nav.count)
-        self.cum_nav += self.x[_NAV]
-        sens = _SENS[: self.n - 11] if self.n == 26 else np.r_[9:15]
-        self.comp[: sens.size] += self.x[sens]
-        self.x[_NAV] = 0.0
-        self.x[sens] = 0.0
+        nav = self.nav
+        step.feedback(
+            self.x, self.F, tau, nav.quat, nav.vel, nav.lla, self.comp, self.cum, self.sens
+        )
+
+
+def _log_epoch(log, run, index, ep, out, update, true_sensor):
+    """Append the epoch's outputs (after its update, before an FB reset)."""
+    estimate = run.x.copy()
+    estimate[run.sens] += run.comp[: run.sens.size]
+    if update is not None:
+        rows, acc, y, s = update
+        for key, value in (
+            ("i_epoch", np.full(rows.size, index)),
+            ("i_prn", ep.gnss.prn[rows // 2]),
+            ("i_kind", rows % 2),
+            ("i_value", y),
+            ("i_variance", s),
+            ("i_accepted", acc),
+        ):
+            log[key].append(value)
+    if ep.truth is not None and true_sensor is not None:
+        e = _truth_error(ep.truth, out, estimate, true_sensor)
+        log["err"].append(e[:9])
+        log["nees"].append(float(kalman.nees(e, run.P)))
+        heading = rotation.euler_from_mat(rotation.mat_from_quat(out[0]))[2]
+        true_heading = rotation.euler_from_mat(ep.truth.mat_nb)[2]
+        log["heading_err"].append(float(rotation.wrap_angle(heading - true_heading)))
+    log["sigma"].append(np.sqrt(np.diag(run.P)))
+    log["state"].append(estimate)
 
 
 def run_filter(config, initial, t0, epochs, true_sensor=None):
@@ -196,66 +264,86 @@ def run_filter(config, initial, t0, epochs, true_sensor=None):
     """
     cfg, run = config, _Run(config, initial, t0)
     fb = cfg.coupling is Coupling.FB
-    log = {k: [] for k in ("time", "quat", "vel", "lla", "state", "sigma", "cum", "err",
-                           "nees", "heading_err", "n_sats", "n_used", "n_rejected", "coasted",
-                           "nis", "update_s")}
-    innov = {k: [] for k in ("epoch", "prn", "kind", "value", "variance", "accepted")}
+    log = {
+        k: []
+        for k in (
+            "time",
+            "quat",
+            "vel",
+            "lla",
+            "state",
+            "sigma",
+            "cum",
+            "err",
+            "nees",
+            "heading_err",
+            "n_sats",
+            "n_used",
+            "n_rejected",
+            "coasted",
+            "nis",
+            "update_s",
+            "i_epoch",
+            "i_prn",
+            "i_kind",
+            "i_value",
+            "i_variance",
+            "i_accepted",
+        )
+    }
     start_wall = _time.perf_counter()
     t_end = t0
+    out = np.empty(4), np.empty(3), np.empty(3)
     for index, ep in enumerate(epochs):
-        dth, dv = (_compensate(ep.dtheta, ep.dv, cfg.dt, run.comp) if fb
-                   else (ep.dtheta, ep.dv))
-        start = run.nav
-        end, series = strapdown.integrate(start, dth, dv, cfg.dt)
+        dth, dv = step.compensate(ep.dtheta, ep.dv, cfg.dt, run.comp) if fb else (ep.dtheta, ep.dv)
+        start, series = run.nav.run(dth, dv, cfg.dt)
         t_k, tau = ep.gnss.time, ep.gnss.arrival - ep.gnss.time
         t_end = ep.gnss.arrival
         p = ep.pps_index if cfg.pps_storage else dth.shape[0]
-        mid = max(p - int(round(0.5 * (t_k - run.t_prev) / cfg.dt)), 0)
+        mid = max(p - round(0.5 * (t_k - run.t_prev) / cfg.dt), 0)
         tick = _time.perf_counter()
-        rates_mid = _mean_rates(dth, dv, mid, cfg.dither_window, cfg.dt, run.rates)
-        run.propagate(*_state_at(start, series, mid), rates_mid, t_k - run.t_prev)
+        step.mean_rates(dth, dv, mid, cfg.dither_window, cfg.dt, run.rates_mid)
+        step.propagate(
+            run.x,
+            run.P,
+            run.F,
+            run.Qc,
+            run.Phi,
+            run.Qd,
+            *_state_at(start, series, mid),
+            run.rates_mid[0],
+            run.rates_mid[1],
+            t_k - run.t_prev,
+            run.noise,
+        )
         quat, vel, lla = _state_at(start, series, p)
-        run.rates = _mean_rates(dth, dv, p, cfg.dither_window, cfg.dt, run.rates)
-        run.nav = end
-        k = len(ep.gnss)
-        coasted = k == 0 or cfg.in_outage(t_k)
-        n_used = 0
-        nis = 0.0
-        if not coasted:
-            rows, acc, y, s = run.update(ep.gnss, quat, vel, lla, run.rates[0])
-            n_used = int(acc.sum())
-            nis = float(np.sum(y[acc] ** 2 / s[acc]))
-            innov["epoch"].append(np.full(rows.size, index))
-            innov["prn"].append(ep.gnss.prn[rows // 2])
-            innov["kind"].append(rows % 2)
-            for key, value in (("value", y), ("variance", s), ("accepted", acc)):
-                innov[key].append(value)
-            log["n_rejected"].append(rows.size - n_used)
-        else:
-            log["n_rejected"].append(0)
-        out = correct(quat, vel, lla, run.x)
-        estimate = run.x.copy()
-        sens = _SENS[: run.n - 11] if run.n == 26 else np.r_[9:15]
-        estimate[sens] += run.comp[: sens.size]
-        if ep.truth is not None and true_sensor is not None:
-            e = _truth_error(ep.truth, out, estimate, true_sensor)
-            log["err"].append(e[:9])
-            log["nees"].append(float(kalman.nees(e, run.P)))
-            true_heading = rotation.euler_from_mat(ep.truth.mat_nb)[2]
-            log["heading_err"].append(float(rotation.wrap_angle(
-                rotation.euler_from_mat(rotation.mat_from_quat(out[0]))[2] - true_heading)))
-        log["sigma"].append(np.sqrt(np.diag(run.P)))
+        step.mean_rates(dth, dv, p, cfg.dither_window, cfg.dt, run.rates)
+        coasted = len(ep.gnss) == 0 or cfg.in_outage(t_k)
+        update = None if coasted else run.update(ep.gnss, quat, vel, lla, run.rates[0])
+        step.correct(quat, vel, lla, run.x, *out)
+        n_used = 0 if coasted else int(update[1].sum())
+        log["n_rejected"].append(0 if coasted else update[1].size - n_used)
+        log["nis"].append(
+            0.0 if coasted else float(np.sum(update[2][update[1]] ** 2 / update[3][update[1]]))
+        )
+        _log_epoch(log, run, index, ep, out, update, true_sensor)
         if fb and not coasted:
             run.feedback(tau)
         log["update_s"].append(_time.perf_counter() - tick)
         run.t_prev = t_k
-        for key, value in (("time", t_k), ("quat", out[0]), ("vel", out[1]), ("lla", out[2]),
-                           ("state", estimate), ("n_sats", k), ("n_used", n_used),
-                           ("coasted", coasted), ("nis", nis)):
-            log[key].append(value)
         cum = np.zeros(run.n)
-        cum[_NAV] = run.cum_nav
-        cum[sens] = run.comp[: sens.size]
-        log["cum"].append(cum)
+        cum[_NAV] = run.cum
+        cum[run.sens] = run.comp[: run.sens.size]
+        for key, value in (
+            ("time", t_k),
+            ("quat", out[0].copy()),
+            ("vel", out[1].copy()),
+            ("lla", out[2].copy()),
+            ("n_sats", len(ep.gnss)),
+            ("n_used", n_used),
+            ("coasted", coasted),
+            ("cum", cum),
+        ):
+            log[key].append(value)
     wall = _time.perf_counter() - start_wall
-    return EkfResult.from_logs(cfg, log, innov, t_end - t0, wall)
+    return EkfResult.from_logs(cfg, log, t_end - t0, wall)

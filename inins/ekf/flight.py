@@ -30,6 +30,7 @@ acceleration). Dropped: the cross term ``2 omega_0 x (theta' u x r)``
 velocity ``mat_nb theta' u x r``.
 """
 
+import itertools
 import math
 from dataclasses import dataclass, field
 from enum import Enum
@@ -138,8 +139,10 @@ def _leg_durations(plan):
         if leg.kind is LegKind.CLIMB and duration < 40.0:
             raise InputError(f"a climb lasts >= 40 s, got {duration}", key=f"{key}.duration")
         if leg.kind is LegKind.CLIMB and not abs(leg.climb_rate) < 0.5 * speed:
-            raise InputError(f"climb rate {leg.climb_rate} m/s too steep for {speed} m/s",
-                             key=f"{key}.climb_rate")
+            raise InputError(
+                f"climb rate {leg.climb_rate} m/s too steep for {speed} m/s",
+                key=f"{key}.climb_rate",
+            )
         if leg.kind is LegKind.TURN:
             duration = _turn_duration(leg, speed, key)
         if leg.kind is not LegKind.TURN and duration <= 0.0:
@@ -150,8 +153,9 @@ def _leg_durations(plan):
 
 def _turn_duration(leg, speed, key):
     if not 0.0 < leg.bank < 0.5 * math.pi:
-        raise InputError(f"bank must be in (0, 90) deg, got {leg.bank / DEG:.6g}",
-                         key=f"{key}.bank")
+        raise InputError(
+            f"bank must be in (0, 90) deg, got {leg.bank / DEG:.6g}", key=f"{key}.bank"
+        )
     if leg.angle == 0.0 or not math.isfinite(leg.angle):
         raise InputError("a turn needs a non-zero heading change", key=f"{key}.angle")
     rate = earth.GAMMA_E * math.tan(leg.bank) / speed
@@ -159,11 +163,13 @@ def _turn_duration(leg, speed, key):
         raise InputError(
             f"turn rate {leg.turn_rate / DEG:.4g} deg/s cannot be flown coordinated at bank "
             f"{leg.bank / DEG:.4g} deg and {speed:.4g} m/s (needs {rate / DEG:.4g} deg/s)",
-            key=f"{key}.turn_rate")
+            key=f"{key}.turn_rate",
+        )
     need = abs(leg.angle) / rate
     if leg.duration and leg.duration < need:
-        raise InputError(f"duration {leg.duration} s shorter than the turn ({need:.4g} s)",
-                         key=f"{key}.duration")
+        raise InputError(
+            f"duration {leg.duration} s shorter than the turn ({need:.4g} s)", key=f"{key}.duration"
+        )
     return max(leg.duration, need)
 
 
@@ -205,8 +211,12 @@ def flight_velocity(plan):
             for j in range(count):
                 track += leg.angle / count
                 step(first + (j + 0.5) * spacing, spacing / 3.0)
-    velocity = SmoothVelocity(np.zeros(3), np.array([r[0] for r in rows]),
-                              np.array([r[1] for r in rows]), np.array([r[2] for r in rows]))
+    velocity = SmoothVelocity(
+        np.zeros(3),
+        np.array([r[0] for r in rows]),
+        np.array([r[1] for r in rows]),
+        np.array([r[2] for r in rows]),
+    )
     return velocity, starts
 
 
@@ -310,8 +320,11 @@ class Dithered:
         mat_d, rate, acc, axis = self._rot(time)
         omega = np.einsum("nji,nj->ni", mat_d, omega0) + rate[:, None] * axis
         u_r = np.cross(axis, self.dither.lever)
-        force = (np.einsum("nji,nj->ni", mat_d, force0) + acc[:, None] * u_r
-                 + (rate * rate)[:, None] * np.cross(axis, u_r))
+        force = (
+            np.einsum("nji,nj->ni", mat_d, force0)
+            + acc[:, None] * u_r
+            + (rate * rate)[:, None] * np.cross(axis, u_r)
+        )
         return omega, force
 
 
@@ -323,11 +336,11 @@ def dither_window(dither, dt):
     """
     if dither is None or dither.amplitude == 0.0:
         return 1
-    for n in range(1, int(round(1.0 / dt)) + 1):
+    for n in range(1, round(1.0 / dt) + 1):
         cycles = n * dt * dither.frequency
         if cycles >= 1.0 and abs(cycles - round(cycles)) < 0.01:
             return n
-    return int(round(1.0 / dt))
+    return round(1.0 / dt)
 
 
 def imu_stream(truth, errors, dt, edges_index, rng, *, nodes=3):
@@ -353,7 +366,7 @@ def imu_stream(truth, errors, dt, edges_index, rng, *, nodes=3):
     """
     state = None
     edges_index = np.asarray(edges_index, dtype=np.int64)
-    for lo, hi in zip(edges_index[:-1], edges_index[1:], strict=True):
+    for lo, hi in itertools.pairwise(edges_index):
         if hi == lo:
             yield np.zeros((0, 3)), np.zeros((0, 3))
             continue

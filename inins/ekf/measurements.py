@@ -81,8 +81,15 @@ class GnssEpoch:
             object.__setattr__(self, name, _array(name, getattr(self, name), (k, 3)))
         if self.delay is None:
             object.__setattr__(self, "delay", np.zeros(k))
-        for name in ("sat_clock", "sat_clock_drift", "pseudorange", "range_rate", "sigma_pr",
-                     "sigma_rr", "delay"):
+        for name in (
+            "sat_clock",
+            "sat_clock_drift",
+            "pseudorange",
+            "range_rate",
+            "sigma_pr",
+            "sigma_rr",
+            "delay",
+        ):
             object.__setattr__(self, name, _array(name, getattr(self, name), (k,)))
         if np.any(self.sigma_pr <= 0.0) or np.any(self.sigma_rr <= 0.0):
             raise InputError("measurement sigmas must be > 0", key="sigma")
@@ -114,5 +121,7 @@ def predict(epoch, r_ant, v_ant, clock_bias, clock_drift):
     rho = np.linalg.norm(d, axis=1)
     e = d / rho[:, None]
     rr = np.einsum("ij,ij->i", epoch.sat_vel - v_ant, e)
-    return (rho + clock_bias - epoch.sat_clock + epoch.delay,
-            rr + clock_drift - epoch.sat_clock_drift)
+    return (
+        rho + clock_bias - epoch.sat_clock + epoch.delay,
+        rr + clock_drift - epoch.sat_clock_drift,
+    )

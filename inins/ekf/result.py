@@ -120,7 +120,7 @@ class EkfResult:
     wall_time: float
 
     @classmethod
-    def from_logs(cls, config, log, innov, flight_time, wall_time):
+    def from_logs(cls, config, log, flight_time, wall_time):
         """Stack the per-epoch lists the run collected."""
         n = len(config.layout)
 
@@ -129,20 +129,41 @@ class EkfResult:
             return np.array(values, dtype=dtype).reshape((len(values), *shape))
 
         def cat(key, dtype):
-            parts = innov[key]
+            parts = log["i_" + key]
             return np.concatenate(parts).astype(dtype) if parts else np.zeros(0, dtype)
 
-        innovations = Innovations(cat("epoch", np.int64), cat("prn", np.int64),
-                                  cat("kind", np.int8), cat("value", float),
-                                  cat("variance", float), cat("accepted", bool))
-        return cls(config.model.value, config.coupling.value, config.layout,
-                   stack("time", ()), stack("quat", (4,)), stack("vel", (3,)),
-                   stack("lla", (3,)), stack("state", (n,)), stack("sigma", (n,)),
-                   stack("cum", (n,)), stack("err", (9,)), stack("heading_err", ()),
-                   stack("nees", ()), stack("n_sats", (), np.int64),
-                   stack("n_used", (), np.int64), stack("n_rejected", (), np.int64),
-                   stack("coasted", (), bool), stack("nis", ()), stack("update_s", ()),
-                   innovations, float(flight_time), float(wall_time))
+        innovations = Innovations(
+            cat("epoch", np.int64),
+            cat("prn", np.int64),
+            cat("kind", np.int8),
+            cat("value", float),
+            cat("variance", float),
+            cat("accepted", bool),
+        )
+        return cls(
+            config.model.value,
+            config.coupling.value,
+            config.layout,
+            stack("time", ()),
+            stack("quat", (4,)),
+            stack("vel", (3,)),
+            stack("lla", (3,)),
+            stack("state", (n,)),
+            stack("sigma", (n,)),
+            stack("cum", (n,)),
+            stack("err", (9,)),
+            stack("heading_err", ()),
+            stack("nees", ()),
+            stack("n_sats", (), np.int64),
+            stack("n_used", (), np.int64),
+            stack("n_rejected", (), np.int64),
+            stack("coasted", (), bool),
+            stack("nis", ()),
+            stack("update_s", ()),
+            innovations,
+            float(flight_time),
+            float(wall_time),
+        )
 
     def euler(self):
         """Roll, pitch, heading (rad), shape (m, 3)."""
@@ -158,13 +179,17 @@ class EkfResult:
         flags = np.concatenate([[False], self.coasted, [False]]).astype(np.int8)
         starts = np.flatnonzero(np.diff(flags) == 1)
         stops = np.flatnonzero(np.diff(flags) == -1) - 1
-        return tuple((float(self.time[a]), float(self.time[b]))
-                     for a, b in zip(starts, stops, strict=True))
+        return tuple(
+            (float(self.time[a]), float(self.time[b])) for a, b in zip(starts, stops, strict=True)
+        )
 
     def summary(self, window=None):
         """:class:`EkfSummary`; RMS errors over epochs with ``window[0] <= t <= window[1]``."""
-        sel = np.ones(self.time.size, bool) if window is None else \
-            (self.time >= window[0]) & (self.time <= window[1])
+        sel = (
+            np.ones(self.time.size, bool)
+            if window is None
+            else (self.time >= window[0]) & (self.time <= window[1])
+        )
         has_truth = self.nav_error.shape[0] == self.time.size and self.time.size > 0
 
         def rms(values):
@@ -175,10 +200,12 @@ class EkfResult:
         return EkfSummary(
             heading_err_rms_deg=rms(self.heading_error[sel] if has_truth else None) / DEG,
             heading_err_final_deg=float(self.heading_error[-1] / DEG) if has_truth else np.nan,
-            pos_err_rms_m=rms(np.linalg.norm(self.nav_error[sel, 0:3], axis=1)
-                              if has_truth else None),
-            vel_err_rms_mps=rms(np.linalg.norm(self.nav_error[sel, 3:6], axis=1)
-                                if has_truth else None),
+            pos_err_rms_m=rms(
+                np.linalg.norm(self.nav_error[sel, 0:3], axis=1) if has_truth else None
+            ),
+            vel_err_rms_mps=rms(
+                np.linalg.norm(self.nav_error[sel, 3:6], axis=1) if has_truth else None
+            ),
             gyro_bias_z_est_dph=float(bz[-1] / DPH),
             gyro_bias_z_sigma_dph=float(sz[-1] / DPH),
             nees_mean=float(np.mean(self.nees[sel])) if has_truth else np.nan,

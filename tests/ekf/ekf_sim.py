@@ -26,8 +26,14 @@ def walker(time):
     raan = np.radians(60.0) * plane
     n = math.sqrt(earth.GM / A_ORBIT**3)
     u = np.radians(90.0) * slot + np.radians(15.0) * plane + n * time
-    cu, su, co, so, ci, si = (np.cos(u), np.sin(u), np.cos(raan), np.sin(raan),
-                              math.cos(INCLINATION), math.sin(INCLINATION))
+    cu, su, co, so, ci, si = (
+        np.cos(u),
+        np.sin(u),
+        np.cos(raan),
+        np.sin(raan),
+        math.cos(INCLINATION),
+        math.sin(INCLINATION),
+    )
     r_i = A_ORBIT * np.stack([co * cu - so * su * ci, so * cu + co * su * ci, su * si], -1)
     v_i = A_ORBIT * n * np.stack([-co * su - so * cu * ci, -so * su + co * cu * ci, cu * si], -1)
     theta = earth.RATE * time
@@ -40,8 +46,9 @@ def _rot_z(vec, angle):
     """Coordinates in a frame turned by ``angle`` about z: ``[c x + s y, -s x + c y, z]``."""
     angle = np.broadcast_to(angle, vec.shape[:-1])
     c, s = np.cos(angle), np.sin(angle)
-    return np.stack([c * vec[..., 0] + s * vec[..., 1], -s * vec[..., 0] + c * vec[..., 1],
-                     vec[..., 2]], -1)
+    return np.stack(
+        [c * vec[..., 0] + s * vec[..., 1], -s * vec[..., 0] + c * vec[..., 1], vec[..., 2]], -1
+    )
 
 
 @dataclass(frozen=True)
@@ -74,11 +81,24 @@ def gnss_epoch(t, r_ant, v_ant, rx, rng, sat_clock):
     k = int(visible.sum())
     b = rx.clock_bias + rx.clock_drift * t
     pr = rho + b - sat_clock + rx.sigma_pr * rng.standard_normal(24)
-    rr = np.einsum("ij,ij->i", vel - v_ant, e) + rx.clock_drift + \
-        rx.sigma_rr * rng.standard_normal(24)
-    return GnssEpoch(t, np.flatnonzero(visible) + 1, pos[visible], vel[visible],
-                     sat_clock[visible], np.zeros(k), pr[visible], rr[visible],
-                     np.full(k, rx.sigma_pr), np.full(k, rx.sigma_rr), arrival=t + rx.latency)
+    rr = (
+        np.einsum("ij,ij->i", vel - v_ant, e)
+        + rx.clock_drift
+        + rx.sigma_rr * rng.standard_normal(24)
+    )
+    return GnssEpoch(
+        t,
+        np.flatnonzero(visible) + 1,
+        pos[visible],
+        vel[visible],
+        sat_clock[visible],
+        np.zeros(k),
+        pr[visible],
+        rr[visible],
+        np.full(k, rx.sigma_pr),
+        np.full(k, rx.sigma_rr),
+        arrival=t + rx.latency,
+    )
 
 
 def epoch_stream(truth, base, errors, dt, duration, rx, seed, *, nodes=3, on_gnss=None):
@@ -89,9 +109,9 @@ def epoch_stream(truth, base, errors, dt, duration, rx, seed, *, nodes=3, on_gns
     """
     rng = np.random.default_rng(seed)
     sat_clock = 1e5 * rng.uniform(-1.0, 1.0, 24)
-    count = int(round(duration))
+    count = round(duration)
     pps = np.arange(1, count + 1)
-    lat_samples = int(round(rx.latency / dt))
+    lat_samples = round(rx.latency / dt)
     edges = np.concatenate([[0], np.round(pps / dt).astype(np.int64) + lat_samples])
     lever = np.asarray(rx.lever_arm, dtype=float)
     chunks = imu_stream(truth, errors, dt, edges, rng, nodes=nodes)
@@ -105,6 +125,10 @@ def epoch_stream(truth, base, errors, dt, duration, rx, seed, *, nodes=3, on_gns
         if on_gnss is not None:
             epoch = on_gnss(k, epoch)
         mat, vel, lla = truth.state([t])
-        yield EpochInput(dtheta, dv, int(round(t / dt)) - int(edges[k]), epoch,
-                         TruthEpoch(mat[0], vel[0], lla[0], rx.clock_bias + rx.clock_drift * t,
-                                    rx.clock_drift))
+        yield EpochInput(
+            dtheta,
+            dv,
+            round(t / dt) - int(edges[k]),
+            epoch,
+            TruthEpoch(mat[0], vel[0], lla[0], rx.clock_bias + rx.clock_drift * t, rx.clock_drift),
+        )

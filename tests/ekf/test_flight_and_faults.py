@@ -5,37 +5,56 @@ import math
 
 import numpy as np
 import pytest
-
 from ekf_sim import Receiver, epoch_stream
+
 from inins.core import earth, imu, rotation, strapdown
 from inins.core.units import ARCSEC, DEG, DPH, UG
 from inins.ekf.config import Coupling, FilterConfig, InitialSigma, Model
 from inins.ekf.filter import run_filter
-from inins.ekf.flight import (Dither, FlightPlan, Leg, LegKind, dither_window,
-                              flight_trajectory, gyrocompass_attitude)
+from inins.ekf.flight import (
+    Dither,
+    FlightPlan,
+    Leg,
+    LegKind,
+    dither_window,
+    flight_trajectory,
+    gyrocompass_attitude,
+)
 from inins.exceptions import InputError
 
 DT = 0.005
 
 
-@pytest.mark.parametrize(("leg", "key"), [
-    (Leg(LegKind.STRAIGHT, -5.0), "legs.2.duration"),
-    (Leg(LegKind.TURN, bank=90 * DEG, angle=1.0), "legs.2.bank"),
-    (Leg(LegKind.TURN, bank=30 * DEG, angle=1.0, turn_rate=10 * DEG), "legs.2.turn_rate"),
-])
+@pytest.mark.parametrize(
+    ("leg", "key"),
+    [
+        (Leg(LegKind.STRAIGHT, -5.0), "legs.2.duration"),
+        (Leg(LegKind.TURN, bank=90 * DEG, angle=1.0), "legs.2.bank"),
+        (Leg(LegKind.TURN, bank=30 * DEG, angle=1.0, turn_rate=10 * DEG), "legs.2.turn_rate"),
+    ],
+)
 def test_impossible_flight_names_the_key(leg, key):
     legs = (Leg(LegKind.WAIT, 10), Leg(LegKind.TAKEOFF, 40, speed=80.0), leg)
     with pytest.raises(InputError) as info:
-        FlightPlan(0.6, 2.0, 0.0, math.pi, legs).duration
+        _ = FlightPlan(0.6, 2.0, 0.0, math.pi, legs).duration
     assert info.value.key == key
 
 
 def test_turn_is_coordinated_and_ends_on_heading():
-    plan = FlightPlan(0.6, 2.0, 100.0, math.pi, (
-        Leg(LegKind.WAIT, 10), Leg(LegKind.TAKEOFF, 40, speed=80.0),
-        Leg(LegKind.TURN, bank=30 * DEG, angle=90 * DEG), Leg(LegKind.STRAIGHT, 30)))
+    plan = FlightPlan(
+        0.6,
+        2.0,
+        100.0,
+        math.pi,
+        (
+            Leg(LegKind.WAIT, 10),
+            Leg(LegKind.TAKEOFF, 40, speed=80.0),
+            Leg(LegKind.TURN, bank=30 * DEG, angle=90 * DEG),
+            Leg(LegKind.STRAIGHT, 30),
+        ),
+    )
     traj = flight_trajectory(plan)
-    mat, vel, _ = traj.state(np.array([5.0, plan.duration]))
+    mat, _, _ = traj.state(np.array([5.0, plan.duration]))
     euler = rotation.euler_from_mat(mat)
     assert euler[0, 2] == pytest.approx(math.pi, abs=1e-12)  # aligned south on the ground
     assert euler[1, 2] == pytest.approx(1.5 * math.pi, abs=1e-6)  # 180 + 90 deg
@@ -49,8 +68,9 @@ def test_gyrocompass_heading_error_closed_form():
     """-eps_E / (W cos L) (003 eq. 10) and tilts b / g from the aligned attitude."""
     lat = 37 * DEG
     mat_nb = rotation.mat_from_euler(0.0, 2 * DEG, math.pi)
-    errors = imu.SensorErrors(gyro_bias=np.array([0.01, -0.02, 0.03]) * DPH,
-                              accel_bias=np.array([50.0, -40.0, 0.0]) * UG)
+    errors = imu.SensorErrors(
+        gyro_bias=np.array([0.01, -0.02, 0.03]) * DPH, accel_bias=np.array([50.0, -40.0, 0.0]) * UG
+    )
     aligned = gyrocompass_attitude(mat_nb, lat, 0.0, errors)
     phi = -rotation.rotvec_from_mat(aligned @ mat_nb.T)
     eps_e = (mat_nb @ errors.gyro_bias)[1]
@@ -69,21 +89,32 @@ def test_dither_window_spans_whole_periods():
 
 @pytest.fixture(scope="module")
 def short_flight():
-    plan = FlightPlan(37 * DEG, 127 * DEG, 100.0, math.pi, (
-        Leg(LegKind.WAIT, 30), Leg(LegKind.TAKEOFF, 40, speed=80.0), Leg(LegKind.STRAIGHT, 80)))
+    plan = FlightPlan(
+        37 * DEG,
+        127 * DEG,
+        100.0,
+        math.pi,
+        (Leg(LegKind.WAIT, 30), Leg(LegKind.TAKEOFF, 40, speed=80.0), Leg(LegKind.STRAIGHT, 80)),
+    )
     traj = flight_trajectory(plan)
     errors = imu.SensorErrors(gyro_bias=0.01 * DPH, accel_bias=50 * UG)
     rx = Receiver()
     mat0, vel0, lla0 = traj.state([0.0])
     initial = strapdown.NavState.from_attitude(
-        gyrocompass_attitude(mat0[0], lla0[0, 0], lla0[0, 2], errors), vel0[0], lla0[0])
+        gyrocompass_attitude(mat0[0], lla0[0, 0], lla0[0, 2], errors), vel0[0], lla0[0]
+    )
     return plan, traj, errors, rx, initial
 
 
 def _config(rx, **extra):
-    return FilterConfig(Model.EKF1, Coupling.FB, DT, lever_arm=rx.lever_arm,
-                        initial_sigma=InitialSigma(heading=0.1 * DEG, gyro_bias=0.02 * DPH),
-                        **extra)
+    return FilterConfig(
+        Model.EKF1,
+        Coupling.FB,
+        DT,
+        lever_arm=rx.lever_arm,
+        initial_sigma=InitialSigma(heading=0.1 * DEG, gyro_bias=0.02 * DPH),
+        **extra,
+    )
 
 
 def test_faulty_pseudoranges_are_rejected(short_flight):
@@ -92,8 +123,9 @@ def test_faulty_pseudoranges_are_rejected(short_flight):
 
     def inject(k, epoch):
         if k in faulty:
-            object.__setattr__(epoch, "pseudorange", epoch.pseudorange + np.r_[100.0, 0.0 *
-                               epoch.pseudorange[1:]])
+            object.__setattr__(
+                epoch, "pseudorange", epoch.pseudorange + np.r_[100.0, 0.0 * epoch.pseudorange[1:]]
+            )
         return epoch
 
     epochs = epoch_stream(traj, traj, errors, DT, plan.duration, rx, seed=2, on_gnss=inject)

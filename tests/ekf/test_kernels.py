@@ -23,9 +23,16 @@ def test_system_and_noise_match_core(layout):
         arw, vrw = np.array([1e-6, 2e-6, 3e-6]), np.array([1e-4, 2e-4, 3e-4])
         Q = np.zeros_like(F)
         kernels.noise26(mat_nb, arw, vrw, np.full(3, 1e-7), np.full(3, 1e-9), 0.1, 0.01, Q)
-        ref = error_model.noise_matrix(layout, mat_nb, arw, vrw, accel_bias_rw=1e-7,
-                                       gyro_bias_rw=1e-9, clock_bias_psd=0.1,
-                                       clock_drift_psd=0.01)
+        ref = error_model.noise_matrix(
+            layout,
+            mat_nb,
+            arw,
+            vrw,
+            accel_bias_rw=1e-7,
+            gyro_bias_rw=1e-9,
+            clock_bias_psd=0.1,
+            clock_drift_psd=0.01,
+        )
         np.testing.assert_allclose(Q, ref, rtol=1e-12, atol=1e-25)
 
 
@@ -35,10 +42,12 @@ def test_discretisation_close_to_van_loan():
     mat_nb = rotation.mat_from_euler(30 * DEG, 2 * DEG, 1.0)
     f_b = mat_nb.T @ np.array([0.0, 5.6, -9.8])
     F, Q = np.zeros((26, 26)), np.zeros((26, 26))
-    kernels.system_matrix26(0.6, 3000.0, np.array([130.0, 75.0, 0.0]), f_b, mat_nb,
-                            np.array([0.0, 0.026, 0.045]), F)
-    kernels.noise26(mat_nb, np.full(3, 1e-6), np.full(3, 2e-4), np.zeros(3), np.zeros(3), 0.1,
-                    0.01, Q)
+    kernels.system_matrix26(
+        0.6, 3000.0, np.array([130.0, 75.0, 0.0]), f_b, mat_nb, np.array([0.0, 0.026, 0.045]), F
+    )
+    kernels.noise26(
+        mat_nb, np.full(3, 1e-6), np.full(3, 2e-4), np.zeros(3), np.zeros(3), 0.1, 0.01, Q
+    )
     Phi, Qd = np.empty_like(F), np.empty_like(F)
     kernels.discretize(F, Q, 1.0, Phi, Qd)
     Phi_ref, Qd_ref = kalman.discretize(F, Q, 1.0)

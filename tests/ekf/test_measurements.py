@@ -20,8 +20,18 @@ def _epoch(lla):
     pos = r + 2.2e7 * dirs
     vel = rng.normal(scale=2500.0, size=(4, 3))
     k = 4
-    return GnssEpoch(0.0, np.arange(1, 5), pos, vel, np.zeros(k), np.zeros(k), np.zeros(k),
-                     np.zeros(k), np.ones(k), np.ones(k))
+    return GnssEpoch(
+        0.0,
+        np.arange(1, 5),
+        pos,
+        vel,
+        np.zeros(k),
+        np.zeros(k),
+        np.zeros(k),
+        np.zeros(k),
+        np.ones(k),
+        np.ones(k),
+    )
 
 
 def _measure(x, lla, vel_n, mat_nb, omega_eb_b, lever_b, epoch):
@@ -46,17 +56,28 @@ def test_rows_match_finite_difference(lever_b):
     zhat = np.empty(8)
     j_v = np.empty((3, 3))
     kernels.earth_jacobians(lla[0], lla[2], vel_n, j_v, *np.empty((3, 3, 3)))
-    kernels.pseudorange_rows(r, v, earth.mat_en(lla[0], lla[1]).T, j_v, mat_nb @ lever_b,
-                             mat_nb @ np.cross(omega_eb_b, lever_b), epoch.sat_pos,
-                             epoch.sat_vel, H, zhat)
+    kernels.pseudorange_rows(
+        r,
+        v,
+        earth.mat_en(lla[0], lla[1]).T,
+        j_v,
+        mat_nb @ lever_b,
+        mat_nb @ np.cross(omega_eb_b, lever_b),
+        epoch.sat_pos,
+        epoch.sat_vel,
+        H,
+        zhat,
+    )
     z0 = _measure(np.zeros(17), lla, vel_n, mat_nb, omega_eb_b, lever_b, epoch)
     np.testing.assert_allclose(zhat, z0, rtol=0, atol=1e-6)
     steps = np.array([1.0] * 3 + [0.01] * 3 + [1e-3] * 3 + [1.0] * 8)  # FD above rounding
     for j in [0, 1, 2, 3, 4, 5, 6, 7, 8, 15, 16]:
         dx = np.zeros(17)
         dx[j] = steps[j]
-        fd = (_measure(dx, lla, vel_n, mat_nb, omega_eb_b, lever_b, epoch)
-              - _measure(-dx, lla, vel_n, mat_nb, omega_eb_b, lever_b, epoch)) / (2 * steps[j])
+        fd = (
+            _measure(dx, lla, vel_n, mat_nb, omega_eb_b, lever_b, epoch)
+            - _measure(-dx, lla, vel_n, mat_nb, omega_eb_b, lever_b, epoch)
+        ) / (2 * steps[j])
         # Unmodelled: the lever arm turning with the local NED frame of the displaced
         # position, |l| / R ~ 6e-7 per metre (a 1 km position error moves the
         # antenna by 0.6 mm); its velocity alike, |u| / R ~ 1.5e-7 m/s per metre.
@@ -68,10 +89,22 @@ def test_rows_match_finite_difference(lever_b):
 
 def test_bad_epoch_names_the_key():
     with pytest.raises(InputError) as info:
-        GnssEpoch(0.0, [1], np.zeros((1, 3)), np.zeros((1, 3)), [0.0], [0.0], [0.0], [0.0],
-                  [0.0], [1.0])
+        GnssEpoch(
+            0.0, [1], np.zeros((1, 3)), np.zeros((1, 3)), [0.0], [0.0], [0.0], [0.0], [0.0], [1.0]
+        )
     assert info.value.key == "sigma"
     with pytest.raises(InputError) as info:
-        GnssEpoch(1.0, [1], np.zeros((1, 3)), np.zeros((1, 3)), [0.0], [0.0], [0.0], [0.0],
-                  [1.0], [1.0], arrival=0.5)
+        GnssEpoch(
+            1.0,
+            [1],
+            np.zeros((1, 3)),
+            np.zeros((1, 3)),
+            [0.0],
+            [0.0],
+            [0.0],
+            [0.0],
+            [1.0],
+            [1.0],
+            arrival=0.5,
+        )
     assert info.value.key == "arrival"

@@ -8,21 +8,32 @@ heading error stays well below EKF1-FF's (003 Fig. 12: about one fifth).
 
 import numpy as np
 import pytest
-
 from ekf_sim import Receiver, epoch_stream
+
 from inins.core import imu, strapdown
 from inins.core.units import ARCSEC, DEG, DEG_RTH, DPH, UG
 from inins.ekf.config import Coupling, FilterConfig, InitialSigma, Model
 from inins.ekf.filter import run_filter
-from inins.ekf.flight import (Dither, Dithered, FlightPlan, Leg, LegKind, dither_window,
-                              flight_trajectory, gyrocompass_attitude)
+from inins.ekf.flight import (
+    Dither,
+    Dithered,
+    FlightPlan,
+    Leg,
+    LegKind,
+    dither_window,
+    flight_trajectory,
+    gyrocompass_attitude,
+)
 
 DT = 0.005
 ERRORS = imu.SensorErrors(
-    gyro_bias=np.array([0.01, -0.01, 0.0]) * DPH, accel_bias=np.array([50, -40, 30]) * UG,
+    gyro_bias=np.array([0.01, -0.01, 0.0]) * DPH,
+    accel_bias=np.array([50, -40, 30]) * UG,
     gyro_misalignment=np.array([-30, 20, 50, 200, -40, 200]) * 1e-6,  # m_yz + m_zy = 400 urad
-    accel_misalignment=np.array([20, -30, 10]) * 1e-6, gyro_arw=0.002 * DEG_RTH,
-    accel_vrw=20 * UG)
+    accel_misalignment=np.array([20, -30, 10]) * 1e-6,
+    gyro_arw=0.002 * DEG_RTH,
+    accel_vrw=20 * UG,
+)
 DITHER = Dither(60 * ARCSEC, 40.0)
 TURNS_FROM = 290.0  # s: first turn starts after the wait, take-off, climb and a straight
 
@@ -31,15 +42,21 @@ def _plan():
     """Wait 120 s at heading 180, take-off, climb, six alternating 360-deg turns at 30 deg
     bank (4 deg/s at 80 m/s) with a descent after the third: 1064 s. (A 690 s version
     with five turns left mg_xz at 2.0 sigma: the flight length sets the observability.)"""
-    legs = [Leg(LegKind.WAIT, 120), Leg(LegKind.TAKEOFF, 40, speed=80.0),
-            Leg(LegKind.CLIMB, 100, climb_rate=5.0)]
+    legs = [
+        Leg(LegKind.WAIT, 120),
+        Leg(LegKind.TAKEOFF, 40, speed=80.0),
+        Leg(LegKind.CLIMB, 100, climb_rate=5.0),
+    ]
     for i in range(6):
-        legs += [Leg(LegKind.STRAIGHT, 30),
-                 Leg(LegKind.TURN, bank=30 * DEG, angle=(360 if i % 2 == 0 else -360) * DEG)]
+        legs += [
+            Leg(LegKind.STRAIGHT, 30),
+            Leg(LegKind.TURN, bank=30 * DEG, angle=(360 if i % 2 == 0 else -360) * DEG),
+        ]
         if i == 2:
             legs += [Leg(LegKind.CLIMB, 60, climb_rate=-4.0)]
-    return FlightPlan(37 * DEG, 127 * DEG, 100.0, 180 * DEG, (*legs, Leg(LegKind.STRAIGHT, 30)),
-                      aoa=2 * DEG)
+    return FlightPlan(
+        37 * DEG, 127 * DEG, 100.0, 180 * DEG, (*legs, Leg(LegKind.STRAIGHT, 30)), aoa=2 * DEG
+    )
 
 
 @pytest.fixture(scope="module")
@@ -52,17 +69,29 @@ def runs():
     mat0, vel0, lla0 = truth.state([0.0])
     mat_base, _, _ = base.state([0.0])
     aligned = gyrocompass_attitude(mat_base[0], lla0[0, 0], lla0[0, 2], ERRORS)
-    initial = strapdown.NavState.from_attitude(aligned @ mat_base[0].T @ mat0[0], vel0[0],
-                                               lla0[0])
+    initial = strapdown.NavState.from_attitude(aligned @ mat_base[0].T @ mat0[0], vel0[0], lla0[0])
     out = {}
-    for model, coupling in ((Model.EKF1, Coupling.FF), (Model.EKF2, Coupling.FF),
-                            (Model.EKF2, Coupling.FB)):
+    for model, coupling in (
+        (Model.EKF1, Coupling.FF),
+        (Model.EKF2, Coupling.FF),
+        (Model.EKF2, Coupling.FB),
+    ):
         config = FilterConfig(
-            model, coupling, DT, lever_arm=rx.lever_arm, arw=np.full(3, 0.002 * DEG_RTH),
-            vrw=np.full(3, 20 * UG), dither_window=dither_window(DITHER, DT),
-            initial_sigma=InitialSigma(heading=0.1 * DEG, gyro_bias=0.02 * DPH,
-                                       accel_bias=100 * UG, gyro_misalignment=300e-6,
-                                       accel_misalignment=100e-6))
+            model,
+            coupling,
+            DT,
+            lever_arm=rx.lever_arm,
+            arw=np.full(3, 0.002 * DEG_RTH),
+            vrw=np.full(3, 20 * UG),
+            dither_window=dither_window(DITHER, DT),
+            initial_sigma=InitialSigma(
+                heading=0.1 * DEG,
+                gyro_bias=0.02 * DPH,
+                accel_bias=100 * UG,
+                gyro_misalignment=300e-6,
+                accel_misalignment=100e-6,
+            ),
+        )
         out[model, coupling] = run_filter(config, initial, 0.0, epochs, ERRORS)
     return out
 
@@ -79,8 +108,11 @@ def test_ekf2_identifies_misalignment(runs, coupling):
     result = runs[Model.EKF2, coupling]
     est, sigma = result.series("bg_z")
     assert abs(est[-1]) < 2.0 * sigma[-1]
-    for name, true in zip(("mg_xy", "mg_xz", "mg_yx", "mg_yz", "mg_zx", "mg_zy"),
-                          ERRORS.gyro_misalignment, strict=True):
+    for name, true in zip(
+        ("mg_xy", "mg_xz", "mg_yx", "mg_yz", "mg_zx", "mg_zy"),
+        ERRORS.gyro_misalignment,
+        strict=True,
+    ):
         est, sigma = result.series(name)
         assert abs(est[-1] - true) < 2.0 * sigma[-1], name
     # the accumulating pair is resolved well below its prior (300 urad)
@@ -101,11 +133,17 @@ def test_fb_heading_error_a_fraction_of_ekf1_ff(runs):
 def test_ekf2_errors_consistent_with_sigma(runs):
     """Per-state RMS of error / sigma below 1.5 (pyins-style consistency)."""
     result = runs[Model.EKF2, Coupling.FB]
-    true = np.concatenate([ERRORS.accel_bias, ERRORS.gyro_bias, ERRORS.accel_misalignment,
-                           ERRORS.gyro_misalignment])
+    true = np.concatenate(
+        [ERRORS.accel_bias, ERRORS.gyro_bias, ERRORS.accel_misalignment, ERRORS.gyro_misalignment]
+    )
     sens = np.r_[9:15, 17:26]
-    z = np.concatenate([result.nav_error / result.sigma[:, :9],
-                        (result.state[:, sens] - true) / result.sigma[:, sens]], axis=1)
+    z = np.concatenate(
+        [
+            result.nav_error / result.sigma[:, :9],
+            (result.state[:, sens] - true) / result.sigma[:, sens],
+        ],
+        axis=1,
+    )
     assert np.all(np.sqrt(np.mean(z**2, axis=0)) < 1.5)
     summary = result.summary()
     assert 0.8 < summary.nis_mean < 1.2
