@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 from ekf_sim import Receiver, epoch_stream
 
-from inins.core import earth, imu, rotation, strapdown
+from inins.core import earth, error_model, imu, rotation, strapdown
 from inins.core.units import ARCSEC, DEG, DPH, UG
 from inins.ekf.config import Coupling, FilterConfig, InitialSigma, Model
 from inins.ekf.filter import run_filter
@@ -147,3 +147,20 @@ def test_outage_is_coasted_and_reported(short_flight):
     before = (result.time >= 60) & (result.time < 90)
     assert err[inside].max() > 1.5 * err[before].max()  # drifts while coasting
     assert err[-1] < 5.0  # and recovers
+
+
+def test_pps_storage_pairs_measurements_with_the_right_state(short_flight):
+    """003 §2.1: data arrive 0.15 s after the 1PPS; pairing them with the INS state at
+    arrival puts the solution 80 m/s x 0.15 s = 12 m behind (north, flying south)."""
+    plan, traj, errors, rx, initial = short_flight
+    cruise = None
+    errors_n = {}
+    for pps in (True, False):
+        epochs = epoch_stream(traj, traj, errors, DT, plan.duration, rx, seed=4)
+        result = run_filter(_config(rx, pps_storage=pps), initial, 0.0, epochs)
+        cruise = (result.time >= 90.0) & (result.time <= 150.0)
+        stamp = result.time[cruise] + (0.0 if pps else rx.latency)  # when the state holds
+        _, _, lla_true = traj.state(stamp)
+        errors_n[pps] = error_model.position_error_ned(result.lla[cruise], lla_true)
+    assert np.all(np.abs(errors_n[True].mean(axis=0)) < 1.5)
+    assert 10.0 < errors_n[False][:, 0].mean() < 14.0

@@ -21,6 +21,7 @@ def test_strapdown_chunks_equal_integrate():
         _, (quat, vel, lla) = nav.run(dtheta[lo:hi], dv[lo:hi], 0.005)
         if hi > lo:
             np.testing.assert_array_equal(quat, series.quat_nb[lo:hi])
+            np.testing.assert_array_equal(vel, series.vel_n[lo:hi])
             np.testing.assert_array_equal(lla, series.lla[lo:hi])
     got = nav.state()
     np.testing.assert_array_equal(got.quat_nb, end.quat_nb)
