@@ -234,7 +234,10 @@ def _log_epoch(log, run, index, ep, out, update, true_sensor):
     if ep.truth is not None and true_sensor is not None:
         e = _truth_error(ep.truth, out, estimate, true_sensor)
         log["err"].append(e[:9])
-        log["nees"].append(float(kalman.nees(e, run.P)))
+        # the navigation states estimate the INS error, so their estimation error is
+        # minus the output error; sensor and clock states estimate the quantity itself
+        e_state = np.concatenate([-e[:9], e[9:]])
+        log["nees"].append(float(kalman.nees(e_state, run.P)))
         heading = rotation.euler_from_mat(rotation.mat_from_quat(out[0]))[2]
         true_heading = rotation.euler_from_mat(ep.truth.mat_nb)[2]
         log["heading_err"].append(float(rotation.wrap_angle(heading - true_heading)))

@@ -215,7 +215,7 @@ def flight_velocity(plan):
         np.zeros(3),
         np.array([r[0] for r in rows]),
         np.array([r[1] for r in rows]),
-        np.array([r[2] for r in rows]),
+        np.array([r[2] for r in rows]).reshape(-1, 3),
     )
     return velocity, starts
 
