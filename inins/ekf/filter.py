@@ -33,6 +33,7 @@ from inins.core import error_model, kalman, rotation, strapdown
 from inins.ekf import step
 from inins.ekf.config import Coupling
 from inins.ekf.result import EkfResult
+from inins.exceptions import InputError
 
 _NAV = slice(0, 9)
 
@@ -264,6 +265,11 @@ def run_filter(config, initial, t0, epochs, true_sensor=None):
     Returns
     -------
     inins.ekf.result.EkfResult
+
+    Raises
+    ------
+    inins.exceptions.InputError
+        If no epoch had a satellite (nothing to couple with).
     """
     cfg, run = config, _Run(config, initial, t0)
     fb = cfg.coupling is Coupling.FB
@@ -349,4 +355,6 @@ def run_filter(config, initial, t0, epochs, true_sensor=None):
         ):
             log[key].append(value)
     wall = _time.perf_counter() - start_wall
+    if log["n_sats"] and max(log["n_sats"]) == 0:
+        raise InputError("no satellites above the mask in any epoch of the run", key="gnss")
     return EkfResult.from_logs(cfg, log, t_end - t0, wall)

@@ -164,3 +164,44 @@ def test_pps_storage_pairs_measurements_with_the_right_state(short_flight):
         errors_n[pps] = error_model.position_error_ned(result.lla[cruise], lla_true)
     assert np.all(np.abs(errors_n[True].mean(axis=0)) < 1.5)
     assert 10.0 < errors_n[False][:, 0].mean() < 14.0
+
+
+def test_no_satellites_at_all_is_bad_input(short_flight):
+    _, traj, errors, rx, initial = short_flight
+    blind = Receiver(mask=math.radians(89.9))
+    epochs = epoch_stream(traj, traj, errors, DT, 5.0, blind, seed=0)
+    with pytest.raises(InputError) as info:
+        run_filter(_config(rx), initial, 0.0, epochs)
+    assert info.value.key == "gnss"
+
+
+def test_dither_moving_average_recovers_the_airframe_rates():
+    """003 §2.2: one sample of a dithered IMU carries the dither rate (~0.07 rad/s here);
+    the average over whole dither periods leaves the airframe rate and force."""
+    from inins.core import trajectory
+    from inins.ekf import step
+    from inins.ekf.flight import Dithered
+
+    plan = FlightPlan(
+        0.6,
+        2.0,
+        100.0,
+        math.pi,
+        (
+            Leg(LegKind.WAIT, 10),
+            Leg(LegKind.TAKEOFF, 40, speed=80.0),
+            Leg(LegKind.TURN, bank=30 * DEG, angle=90 * DEG),
+        ),
+    )
+    base = flight_trajectory(plan)
+    dither = Dither(60 * ARCSEC, 40.0)
+    edges = 60.0 + DT * np.arange(201)
+    dtheta, dv = trajectory.ideal_increments(Dithered(base, dither), edges)
+    omega0, force0 = base.rates(np.array([edges[100]]))
+    window = dither_window(dither, DT)
+    filtered, raw = np.zeros((2, 3)), np.zeros((2, 3))
+    step.mean_rates(dtheta, dv, 100, window, DT, filtered)
+    step.mean_rates(dtheta, dv, 100, 1, DT, raw)
+    assert np.abs(raw[0] - omega0[0]).max() > 0.02  # rad/s
+    np.testing.assert_allclose(filtered[0], omega0[0], atol=2e-4)  # turn rate ~0.07 rad/s
+    np.testing.assert_allclose(filtered[1], force0[0], atol=0.05)  # m/s^2, of ~11
