@@ -117,6 +117,7 @@ def _config(rx, **extra):
     )
 
 
+@pytest.mark.slow
 def test_faulty_pseudoranges_are_rejected(short_flight):
     plan, traj, errors, rx, initial = short_flight
     faulty = {20, 60, 100}
@@ -136,6 +137,7 @@ def test_faulty_pseudoranges_are_rejected(short_flight):
     assert result.summary().pos_err_rms_m < 3.0
 
 
+@pytest.mark.slow
 def test_outage_is_coasted_and_reported(short_flight):
     plan, traj, errors, rx, initial = short_flight
     epochs = epoch_stream(traj, traj, errors, DT, plan.duration, rx, seed=3)
@@ -149,6 +151,7 @@ def test_outage_is_coasted_and_reported(short_flight):
     assert err[-1] < 5.0  # and recovers
 
 
+@pytest.mark.slow
 def test_pps_storage_pairs_measurements_with_the_right_state(short_flight):
     """003 §2.1: data arrive 0.15 s after the 1PPS; pairing them with the INS state at
     arrival puts the solution 80 m/s x 0.15 s = 12 m behind (north, flying south)."""
