@@ -306,7 +306,9 @@ def run_filter(config, initial, t0, epochs, true_sensor=None):
     for index, ep in enumerate(epochs):
         dth, dv = step.compensate(ep.dtheta, ep.dv, cfg.dt, run.comp) if fb else (ep.dtheta, ep.dv)
         start, series = run.nav.run(dth, dv, cfg.dt)
-        t_k, tau = ep.gnss.time, ep.gnss.arrival - ep.gnss.time
+        t_k = ep.gnss.time
+        # naive pairing updates the state at arrival itself: nothing to carry over
+        tau = ep.gnss.arrival - t_k if cfg.pps_storage else 0.0
         t_end = ep.gnss.arrival
         p = ep.pps_index if cfg.pps_storage else dth.shape[0]
         mid = max(p - round(0.5 * (t_k - run.t_prev) / cfg.dt), 0)
