@@ -2,7 +2,7 @@
 
 ``run()`` simulates one hour of a bank-turn flight (200 Hz IMU with the sensor
 error model and RLG dither, 1 Hz pseudoranges and range rates from the nominal
-Walker constellation of the test helper, 8-12 satellites with a 5 deg mask),
+Walker constellation of the test helper, 30/6/1: 8-12 satellites above 5 deg),
 warms the JIT up, then times :func:`inins.ekf.filter.run_filter` over the
 stored hour (target < 2 s, >= 1800x real time) and reports the per-epoch cost.
 A child process then streams a 4-hour flight through the filter (simulation
@@ -52,7 +52,7 @@ ERRORS = imu.SensorErrors(
     accel_vrw=20 * UG,
 )
 DITHER = Dither(60 * ARCSEC, 40.0)
-RECEIVER = Receiver(mask=5 * DEG)
+RECEIVER = Receiver(mask=5 * DEG, per_plane=5)  # Walker 30/6/1: 8-12 in view
 
 
 def _plan(hours):

@@ -20,12 +20,14 @@ A_ORBIT = 26_559_700.0
 INCLINATION = math.radians(55.0)
 
 
-def walker(time):
-    """ECEF positions (24, 3) m and velocities (24, 3) m/s of the Walker 24/6/1 satellites."""
-    plane, slot = np.divmod(np.arange(24), 4)
+def walker(time, per_plane=4):
+    """ECEF positions (m) and velocities (m/s), each (6 per_plane, 3), of a Walker
+    constellation of 6 planes (24/6/1 by default; 30/6/1 with ``per_plane=5``)."""
+    total = 6 * per_plane
+    plane, slot = np.divmod(np.arange(total), per_plane)
     raan = np.radians(60.0) * plane
     n = math.sqrt(earth.GM / A_ORBIT**3)
-    u = np.radians(90.0) * slot + np.radians(15.0) * plane + n * time
+    u = 2.0 * np.pi * (slot / per_plane + plane / total) + n * time
     cu, su, co, so, ci, si = (
         np.cos(u),
         np.sin(u),
@@ -62,15 +64,17 @@ class Receiver:
     clock_bias: float = 3000.0
     clock_drift: float = 0.5
     latency: float = 0.15
+    per_plane: int = 4
 
 
 def gnss_epoch(t, r_ant, v_ant, rx, rng, sat_clock):
     """Measurements of the visible satellites at receive time ``t`` (:class:`GnssEpoch`)."""
-    tau = np.full(24, 0.075)
+    total = 6 * rx.per_plane
+    tau = np.full(total, 0.075)
     for _ in range(3):
-        pos, _ = walker(t - tau)
+        pos, _ = walker(t - tau, rx.per_plane)
         tau = np.linalg.norm(pos - r_ant, axis=1) / C_LIGHT
-    pos, vel = walker(t - tau)
+    pos, vel = walker(t - tau, rx.per_plane)
     pos, vel = _rot_z(pos, earth.RATE * tau), _rot_z(vel, earth.RATE * tau)
     d = pos - r_ant
     rho = np.linalg.norm(d, axis=1)
@@ -80,11 +84,11 @@ def gnss_epoch(t, r_ant, v_ant, rx, rng, sat_clock):
     visible = e @ up > math.sin(rx.mask)
     k = int(visible.sum())
     b = rx.clock_bias + rx.clock_drift * t
-    pr = rho + b - sat_clock + rx.sigma_pr * rng.standard_normal(24)
+    pr = rho + b - sat_clock + rx.sigma_pr * rng.standard_normal(total)
     rr = (
         np.einsum("ij,ij->i", vel - v_ant, e)
         + rx.clock_drift
-        + rx.sigma_rr * rng.standard_normal(24)
+        + rx.sigma_rr * rng.standard_normal(total)
     )
     return GnssEpoch(
         t,
@@ -108,7 +112,7 @@ def epoch_stream(truth, base, errors, dt, duration, rx, seed, *, nodes=3, on_gns
     ``on_gnss(index, epoch)`` may alter an epoch (fault injection) and returns it.
     """
     rng = np.random.default_rng(seed)
-    sat_clock = 1e5 * rng.uniform(-1.0, 1.0, 24)
+    sat_clock = 1e5 * rng.uniform(-1.0, 1.0, 6 * rx.per_plane)
     count = round(duration)
     pps = np.arange(1, count + 1)
     lat_samples = round(rx.latency / dt)
