@@ -2,14 +2,15 @@
 
 Per epoch ``k`` (1PPS time ``t_k``, data arriving at ``t_k + tau``):
 
-1. Strapdown (:func:`inins.core.strapdown.integrate`, numba) over the IMU chunk up
-   to the arrival; in FB the increments are first compensated with the
+1. Strapdown (the compiled kernel of :func:`inins.core.strapdown.integrate`) over the
+   IMU chunk up to the arrival; in FB the increments are first compensated with the
    cumulative sensor estimates, ``omega = (I - M_g) (omega_meas - b_g)`` (and alike
    for the accelerometers). The INS state after ``pps_index`` samples is the one
    stored at the PPS (003 §2.1).
 2. Propagation once per epoch: ``F`` at the state in the middle of
    ``[t_{k-1}, t_k]`` with ``f_b``, ``omega_b`` moving-averaged over the dither
-   window (003 §2.2, ``f_n = C_nb f_b`` eq. 6); third-order ``Phi``, trapezoidal ``Qd``.
+   window (003 §2.2, ``f_n = C_nb f_b`` eq. 6); third-order ``Phi``, series ``Qd``
+   (:func:`inins.ekf.kernels.discretize`).
 3. Update at ``t_k`` with the stored state: scalar Joseph updates per pseudorange
    and range rate, each gated on chi-square(1) (:func:`inins.ekf.kernels.sequential_update`).
    The measurement is predicted at the corrected INS state ``nav (-) x``; epochs
@@ -22,6 +23,10 @@ Per epoch ``k`` (1PPS time ``t_k``, data arriving at ``t_k + tau``):
 ``nav (-) dx``: ``lat - dr_N / (R_N + h)``, ``lon - dr_E / ((R_E + h) cos lat)``,
 ``h + dr_D``, ``v - dv``, ``mat_nb <- exp([phi x]) mat_nb`` (the phi-angle error
 ``mat_nb_est = (I - [phi x]) mat_nb_true`` of :mod:`inins.core.error_model`).
+
+With truth (simulation) each epoch also gets the output error, the heading error
+and the NEES of all states; the navigation states estimate the INS error, so
+their estimation error is minus the output error.
 """
 
 import time as _time
@@ -122,20 +127,23 @@ def _state_at(start, series, index):
 
 
 def _truth_error(truth, out, estimate, true_sensor):
-    """Estimation error (estimate - truth) of the output and of the sensor and clock states."""
+    """Error (estimate - truth) of the output and, with ``true_sensor``, of the sensor and
+    clock states (else zeros there), shape (n,)."""
     quat, vel, lla = out
     n = estimate.size
-    true = np.concatenate(
-        [
-            np.zeros(9),
-            true_sensor.accel_bias,
-            true_sensor.gyro_bias,
-            [truth.clock_bias, truth.clock_drift],
-            true_sensor.accel_misalignment,
-            true_sensor.gyro_misalignment,
-        ]
-    )
-    e = estimate - true[:n]
+    e = np.zeros(n)
+    if true_sensor is not None:
+        true = np.concatenate(
+            [
+                np.zeros(9),
+                true_sensor.accel_bias,
+                true_sensor.gyro_bias,
+                [truth.clock_bias, truth.clock_drift],
+                true_sensor.accel_misalignment,
+                true_sensor.gyro_misalignment,
+            ]
+        )
+        e = estimate - true[:n]
     e[0:3] = error_model.position_error_ned(lla, truth.lla)
     e[3:6] = vel - truth.vel_n
     e[6:9] = error_model.attitude_error(rotation.mat_from_quat(quat), truth.mat_nb)
@@ -232,13 +240,14 @@ def _log_epoch(log, run, index, ep, out, update, true_sensor):
             ("i_accepted", acc),
         ):
             log[key].append(value)
-    if ep.truth is not None and true_sensor is not None:
+    if ep.truth is not None:
         e = _truth_error(ep.truth, out, estimate, true_sensor)
         log["err"].append(e[:9])
-        # the navigation states estimate the INS error, so their estimation error is
-        # minus the output error; sensor and clock states estimate the quantity itself
-        e_state = np.concatenate([-e[:9], e[9:]])
-        log["nees"].append(float(kalman.nees(e_state, run.P)))
+        if true_sensor is not None:
+            # the navigation states estimate the INS error, so their estimation error
+            # is minus the output error; sensor and clock states estimate the quantity
+            e_state = np.concatenate([-e[:9], e[9:]])
+            log["nees"].append(float(kalman.nees(e_state, run.P)))
         heading = rotation.euler_from_mat(rotation.mat_from_quat(out[0]))[2]
         true_heading = rotation.euler_from_mat(ep.truth.mat_nb)[2]
         log["heading_err"].append(float(rotation.wrap_angle(heading - true_heading)))

@@ -208,7 +208,7 @@ class EkfResult:
             ),
             gyro_bias_z_est_dph=float(bz[-1] / DPH),
             gyro_bias_z_sigma_dph=float(sz[-1] / DPH),
-            nees_mean=float(np.mean(self.nees[sel])) if has_truth else np.nan,
+            nees_mean=float(np.mean(self.nees[sel])) if self.nees.size == sel.size else np.nan,
             nis_mean=float(np.mean(self.innovations.nis[used])) if used.any() else np.nan,
             rejected_measurements=int(np.sum(self.n_rejected)),
             coasted_epochs=int(np.sum(self.coasted)),
