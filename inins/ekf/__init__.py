@@ -1,4 +1,16 @@
 """Tightly coupled INS/GPS extended Kalman filters of paper 003 (run-ekf).
 
-Pure numerics: imports only ``inins.core`` and ``inins.gnss``.
+Pure numerics: imports only ``inins.core`` (and ``inins.gnss`` once it exists).
+
+- :mod:`inins.ekf.flight` — flight plans (ground wait, take-off, climbs, straight
+  legs, coordinated bank turns) as analytic truth, RLG dither, the IMU stream
+  through the sensor error model, the gyrocompass initial attitude.
+- :mod:`inins.ekf.measurements` — :class:`~inins.ekf.measurements.GnssEpoch`, the
+  per-epoch input from the GNSS layer, and the nonlinear measurement model.
+- :mod:`inins.ekf.config` — :class:`~inins.ekf.config.FilterConfig` (EKF1/EKF2,
+  FF/FB, noise, gating, dither window, outages), :class:`~inins.ekf.config.EpochInput`.
+- :mod:`inins.ekf.filter` — :func:`~inins.ekf.filter.run_filter`, the streaming run.
+- :mod:`inins.ekf.result` — :class:`~inins.ekf.result.EkfResult`,
+  :class:`~inins.ekf.result.EkfSummary`.
+- :mod:`inins.ekf.kernels`, :mod:`inins.ekf.step` — compiled per-epoch numerics.
 """

@@ -1,0 +1,170 @@
+"""Tightly coupled EKF speed and memory (issue 11): EKF2 (26 states), feedback, 1 h and 4 h.
+
+``run()`` simulates one hour of a bank-turn flight (200 Hz IMU with the sensor
+error model and RLG dither, 1 Hz pseudoranges and range rates from the nominal
+Walker constellation of the test helper, 30/6/1: 8-12 satellites above 5 deg),
+warms the JIT up, then times :func:`inins.ekf.filter.run_filter` over the
+stored hour (target < 2 s, >= 1800x real time) and reports the per-epoch cost.
+A child process then streams a 4-hour flight through the filter (simulation
+and filter chunk by chunk) and reports its peak RSS (target < 1 GB, flat in
+flight length: the 1-hour child figure is given beside it).
+
+Run alone: ``python -m benchmarks.bench_ekf`` (``--rss-hours H`` runs one
+streamed flight of H hours and prints its peak RSS).
+"""
+
+import argparse
+import json
+import resource
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+from inins.core import imu, strapdown
+from inins.core.units import ARCSEC, DEG, DEG_RTH, DPH, UG
+from inins.ekf.config import Coupling, EpochInput, FilterConfig, InitialSigma, Model
+from inins.ekf.filter import run_filter
+from inins.ekf.flight import (
+    Dither,
+    Dithered,
+    FlightPlan,
+    Leg,
+    LegKind,
+    dither_window,
+    flight_trajectory,
+    gyrocompass_attitude,
+)
+
+ROOT = Path(__file__).resolve().parent.parent
+sys.path.insert(0, str(ROOT / "tests" / "ekf"))  # Walker stand-in until the GNSS layer lands
+from ekf_sim import Receiver, epoch_stream  # noqa: E402
+
+DT = 0.005
+ERRORS = imu.SensorErrors(
+    gyro_bias=np.array([0.01, -0.01, 0.0]) * DPH,
+    accel_bias=np.array([50, -40, 30]) * UG,
+    gyro_misalignment=np.array([-30, 20, 50, 200, -40, 200]) * 1e-6,
+    accel_misalignment=np.array([20, -30, 10]) * 1e-6,
+    gyro_arw=0.002 * DEG_RTH,
+    accel_vrw=20 * UG,
+)
+DITHER = Dither(60 * ARCSEC, 40.0)
+RECEIVER = Receiver(mask=5 * DEG, per_plane=5)  # Walker 30/6/1: 8-12 in view
+
+
+def _plan(hours):
+    """Wait, take-off, climb, then blocks of alternating 360-deg turns, climbs and descents."""
+    legs = [
+        Leg(LegKind.WAIT, 120),
+        Leg(LegKind.TAKEOFF, 40, speed=80.0),
+        Leg(LegKind.CLIMB, 100, climb_rate=5.0),
+    ]
+    pattern = [
+        Leg(LegKind.STRAIGHT, 60),
+        Leg(LegKind.TURN, bank=30 * DEG, angle=360 * DEG),
+        Leg(LegKind.CLIMB, 60, climb_rate=4.0),
+        Leg(LegKind.TURN, bank=25 * DEG, angle=-360 * DEG),
+        Leg(LegKind.CLIMB, 60, climb_rate=-4.0),
+    ]
+    plan = FlightPlan(37 * DEG, 127 * DEG, 100.0, 180 * DEG, tuple(legs))
+    while plan.duration < 3600.0 * hours + 60.0:
+        plan = FlightPlan(37 * DEG, 127 * DEG, 100.0, 180 * DEG, plan.legs + tuple(pattern))
+    return plan
+
+
+def _setup(hours):
+    plan = _plan(hours)
+    base = flight_trajectory(plan)
+    truth = Dithered(base, DITHER)
+    mat0, vel0, lla0 = truth.state([0.0])
+    mat_base, _, _ = base.state([0.0])
+    aligned = gyrocompass_attitude(mat_base[0], lla0[0, 0], lla0[0, 2], ERRORS)
+    initial = strapdown.NavState.from_attitude(aligned @ mat_base[0].T @ mat0[0], vel0[0], lla0[0])
+    config = FilterConfig(
+        Model.EKF2,
+        Coupling.FB,
+        DT,
+        lever_arm=RECEIVER.lever_arm,
+        arw=np.full(3, 0.002 * DEG_RTH),
+        vrw=np.full(3, 20 * UG),
+        dither_window=dither_window(DITHER, DT),
+        initial_sigma=InitialSigma(heading=0.1 * DEG, gyro_bias=0.02 * DPH),
+    )
+    stream = epoch_stream(truth, base, ERRORS, DT, 3600.0 * hours, RECEIVER, seed=5, nodes=2)
+    # the filter's own cost: no truth comparison per epoch
+    stream = (EpochInput(e.dtheta, e.dv, e.pps_index, e.gnss) for e in stream)
+    return config, initial, stream
+
+
+def _peak_rss_mb():
+    scale = 1.0 if sys.platform == "darwin" else 1024.0
+    return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss * scale / 2**20
+
+
+def _streamed(hours):
+    """Peak RSS (MB) of one streamed flight of ``hours`` in a child process."""
+    code = [sys.executable, "-m", "benchmarks.bench_ekf", "--rss-hours", str(hours)]
+    out = subprocess.run(code, check=True, capture_output=True, text=True, cwd=ROOT)
+    return json.loads(out.stdout.strip().splitlines()[-1])
+
+
+def run():
+    """Time one stored hour of EKF2-FB; stream 1 h and 4 h for peak RSS. Flat dict of figures."""
+    config, initial, stream = _setup(1.0)
+    epochs = list(stream)
+    start = time.perf_counter()
+    run_filter(config, initial, 0.0, epochs[:5])
+    warmup = time.perf_counter() - start
+    walls, result = [], None
+    for _ in range(3):
+        start = time.perf_counter()
+        result = run_filter(config, initial, 0.0, epochs)
+        walls.append(time.perf_counter() - start)
+    hour = min(walls)
+    one, four = _streamed(1.0), _streamed(4.0)
+    return {
+        "jit_warmup_s": warmup,
+        "hour_epochs": len(epochs),
+        "hour_sats_mean": float(np.mean(result.n_sats)),
+        "hour_sats_min": int(np.min(result.n_sats)),
+        "hour_sats_max": int(np.max(result.n_sats)),
+        "hour_ekf2_fb_s": hour,
+        "hour_realtime_factor": 3600.0 / hour,
+        "epoch_ms_mean": 1e3 * hour / len(epochs),
+        "epoch_update_ms_mean": 1e3 * float(np.mean(result.update_time)),
+        "epoch_update_ms_max": 1e3 * float(np.max(result.update_time)),
+        "stream_1h_peak_rss_mb": one["peak_rss_mb"],
+        "stream_4h_peak_rss_mb": four["peak_rss_mb"],
+        "stream_4h_wall_s": four["wall_s"],
+    }
+
+
+def _rss_child(hours):
+    config, initial, stream = _setup(hours)
+    start = time.perf_counter()
+    result = run_filter(config, initial, 0.0, stream)
+    figures = {
+        "peak_rss_mb": _peak_rss_mb(),
+        "wall_s": time.perf_counter() - start,
+        "epochs": len(result.time),
+        "coasted": int(result.summary().coasted_epochs),
+    }
+    print(json.dumps(figures))
+
+
+def _main():
+    parser = argparse.ArgumentParser(prog="python -m benchmarks.bench_ekf")
+    parser.add_argument("--rss-hours", type=float, help="stream one flight, print peak RSS")
+    args = parser.parse_args()
+    if args.rss_hours:
+        _rss_child(args.rss_hours)
+        return
+    for key, value in run().items():
+        print(f"{key:28s} {value:.6g}")
+
+
+if __name__ == "__main__":
+    _main()

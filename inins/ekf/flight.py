@@ -1,0 +1,409 @@
+"""Simulated flight for run-ekf (003 §3.2-3.3): legs, RLG dither, IMU stream, alignment.
+
+A flight is a list of :class:`Leg` (ground wait, take-off roll, climbs and
+descents, straight legs, coordinated bank turns). :func:`flight_trajectory`
+turns it into an :class:`inins.core.trajectory.Analytic` truth: the NED
+velocity is a :class:`inins.core.flight.SmoothVelocity` (logistic steps, closed
+form position and derivatives), the heading is the track of that velocity, the
+roll the coordinated bank ``atan(V chi' / g)`` and the pitch the flight-path angle
+plus a constant angle of attack. A turn of angle ``A`` at bank ``phi`` and speed
+``V`` turns at ``r = g tan(phi) / V`` (coordinated) for ``|A| / r``.
+
+In a coordinated bank turn (roll ``phi``, level) the body rate is
+``omega_b = r [0, sin phi, cos phi]`` and the heading error grows at
+``phi_D' = -r sin(phi) cos(phi) (m_yz + m_zy) - r (s_y sin^2 phi + s_z cos^2 phi)``
+for gyro misalignments ``m_ij`` and scale factors ``s_i``: ``r`` and ``phi`` change
+sign together between left and right turns, so the symmetric misalignment part
+accumulates in every turn while the scale-factor part cancels in alternating turns
+(003 §1, §3.3.1).
+
+:class:`Dithered` adds the mechanical dither of a monolithic RLG triad: a single
+angular vibration ``theta(t) = A sin(2 pi f t + p)`` of the sensor block about a
+fixed body axis ``u`` (the triad diagonal by default), ``mat_nb = mat_nb0 exp(theta [u x])``.
+For a rotation about a fixed axis the body rate is exact,
+``omega_ib_b = exp(-theta [u x]) omega_ib_b0 + theta' u``; the accelerometers, a
+lever ``r`` from the pivot, see ``f_b = exp(-theta [u x]) f_b0 + theta'' u x r +
+theta' u x (theta' u x r)`` (sculling through the rotated ``f_b0`` and lever-arm
+acceleration). Dropped: the cross term ``2 omega_0 x (theta' u x r)``
+(zero mean, < 1e-3 m/s^2 in turns) and the accelerometer displacement
+``(exp(theta [u x]) - I) r`` (< 0.1 mm); the truth velocity includes the dither
+velocity ``mat_nb theta' u x r``.
+"""
+
+import itertools
+import math
+from dataclasses import dataclass, field
+from enum import Enum
+
+import numpy as np
+
+from inins.core import earth, imu, rotation, trajectory
+from inins.core.flight import SmoothVelocity
+from inins.core.trajectory import Analytic
+from inins.core.units import DEG
+from inins.exceptions import InputError
+
+_SPEED_FLOOR = 1e-3  # m/s: keeps the track defined at rest (bias < 1e-10 rad in flight)
+TURN_STEP = 15.0 * DEG
+"""A turn is built from track steps of at most this angle (rad)."""
+
+
+class LegKind(Enum):
+    """Kind of a flight leg."""
+
+    WAIT = "wait"
+    TAKEOFF = "takeoff"
+    STRAIGHT = "straight"
+    CLIMB = "climb"
+    TURN = "turn"
+
+
+@dataclass(frozen=True)
+class Leg:
+    """One leg of a flight plan (SI units).
+
+    Attributes
+    ----------
+    kind : LegKind
+    duration : float
+        Leg length (s); for a turn, 0 means "as long as the angle needs".
+    speed : float
+        Ground speed to reach (m/s): required for ``TAKEOFF``; for ``STRAIGHT``
+        and ``CLIMB`` a change of speed (NaN keeps the current speed).
+    climb_rate : float
+        ``CLIMB``: vertical speed during the leg (m/s, negative descends); level again at its end.
+    bank : float
+        ``TURN``: bank angle (rad), in (0, 90 deg).
+    angle : float
+        ``TURN``: heading change (rad), positive to the right.
+    turn_rate : float
+        ``TURN``: stated turn rate (rad/s, > 0), checked against the coordinated
+        ``g tan(bank) / V`` (5 %); NaN takes the coordinated rate.
+    """
+
+    kind: LegKind
+    duration: float = 0.0
+    speed: float = math.nan
+    climb_rate: float = 0.0
+    bank: float = 0.0
+    angle: float = 0.0
+    turn_rate: float = math.nan
+
+
+@dataclass(frozen=True)
+class FlightPlan:
+    """Origin, initial heading and legs of a flight.
+
+    Attributes
+    ----------
+    lat, lon, height : float
+        Start position (rad, rad, m).
+    heading : float
+        Heading on the ground (rad); 003 aligns at 180 deg.
+    legs : tuple of Leg
+    aoa : float
+        Angle of attack added to pitch (rad), also on the ground.
+    """
+
+    lat: float
+    lon: float
+    height: float
+    heading: float
+    legs: tuple[Leg, ...]
+    aoa: float = 0.0
+
+    @property
+    def duration(self):
+        """Total flight time (s)."""
+        return sum(_leg_durations(self))
+
+
+def _leg_durations(plan):
+    """Duration (s) of each leg, turns from their angle and rate; validates the plan."""
+    speed, out = 0.0, []
+    for i, leg in enumerate(plan.legs):
+        key = f"legs.{i}"
+        if not isinstance(leg.kind, LegKind):
+            raise InputError(f"unknown leg kind {leg.kind!r}", key=f"{key}.kind")
+        if not (math.isfinite(leg.duration) and leg.duration >= 0.0):
+            raise InputError(f"duration must be >= 0 s, got {leg.duration}", key=f"{key}.duration")
+        if not math.isnan(leg.speed) and not 0.0 < leg.speed < 400.0:
+            raise InputError(f"speed must be in (0, 400) m/s, got {leg.speed}", key=f"{key}.speed")
+        if leg.kind is LegKind.TAKEOFF and math.isnan(leg.speed):
+            raise InputError("a take-off needs the speed to reach", key=f"{key}.speed")
+        if leg.kind in (LegKind.CLIMB, LegKind.TURN) and speed == 0.0:
+            raise InputError(f"a {leg.kind.value} needs speed: take off first", key=f"{key}.kind")
+        if leg.kind is not LegKind.WAIT and not math.isnan(leg.speed):
+            speed = leg.speed
+        duration = leg.duration
+        if leg.kind is LegKind.CLIMB and duration < 40.0:
+            raise InputError(f"a climb lasts >= 40 s, got {duration}", key=f"{key}.duration")
+        if leg.kind is LegKind.CLIMB and not abs(leg.climb_rate) < 0.5 * speed:
+            raise InputError(
+                f"climb rate {leg.climb_rate} m/s too steep for {speed} m/s",
+                key=f"{key}.climb_rate",
+            )
+        if leg.kind is LegKind.TURN:
+            duration = _turn_duration(leg, speed, key)
+        if leg.kind is not LegKind.TURN and duration <= 0.0:
+            raise InputError(f"duration must be > 0 s, got {leg.duration}", key=f"{key}.duration")
+        out.append(duration)
+    return out
+
+
+def _turn_duration(leg, speed, key):
+    if not 0.0 < leg.bank < 0.5 * math.pi:
+        raise InputError(
+            f"bank must be in (0, 90) deg, got {leg.bank / DEG:.6g}", key=f"{key}.bank"
+        )
+    if leg.angle == 0.0 or not math.isfinite(leg.angle):
+        raise InputError("a turn needs a non-zero heading change", key=f"{key}.angle")
+    rate = earth.GAMMA_E * math.tan(leg.bank) / speed
+    if not math.isnan(leg.turn_rate) and not abs(leg.turn_rate / rate - 1.0) < 0.05:
+        raise InputError(
+            f"turn rate {leg.turn_rate / DEG:.4g} deg/s cannot be flown coordinated at bank "
+            f"{leg.bank / DEG:.4g} deg and {speed:.4g} m/s (needs {rate / DEG:.4g} deg/s)",
+            key=f"{key}.turn_rate",
+        )
+    need = abs(leg.angle) / rate
+    if leg.duration and leg.duration < need:
+        raise InputError(
+            f"duration {leg.duration} s shorter than the turn ({need:.4g} s)", key=f"{key}.duration"
+        )
+    return max(leg.duration, need)
+
+
+def flight_velocity(plan):
+    """:class:`SmoothVelocity` of a plan and the leg start times (s), shape (legs + 1,).
+
+    Speed changes use ``tau`` = duration / 8 (take-off) or 4 s, climb-rate changes
+    4 s; a turn is ``ceil(|A| / 15 deg)`` track steps spread over its duration with
+    ``tau`` a third of their spacing (as :func:`inins.core.flight.flight_velocity`).
+    """
+    durations = _leg_durations(plan)
+    starts = np.concatenate([[0.0], np.cumsum(durations)])
+    speed, climb, track = 0.0, 0.0, plan.heading
+    current, rows = np.zeros(3), []
+
+    def step(centre, tau):
+        nonlocal current
+        new = np.array([speed * math.cos(track), speed * math.sin(track), -climb])
+        rows.append((centre, tau, new - current))
+        current = new
+
+    for leg, start, duration in zip(plan.legs, starts, durations, strict=False):
+        if not math.isnan(leg.speed) and leg.kind is not LegKind.WAIT:
+            speed = leg.speed
+            if leg.kind is LegKind.TAKEOFF:
+                step(start + 0.5 * duration, duration / 8.0)
+            else:
+                step(start + 10.0, 4.0)
+        if leg.kind is LegKind.CLIMB:
+            climb = leg.climb_rate
+            step(start + 10.0, 4.0)
+            climb = 0.0
+            step(start + duration - 10.0, 4.0)
+        if leg.kind is LegKind.TURN:
+            count = math.ceil(abs(leg.angle) / TURN_STEP - 1e-9)
+            need = abs(leg.angle) / (earth.GAMMA_E * math.tan(leg.bank) / speed)
+            spacing = need / count
+            first = start + 0.5 * (duration - need)
+            for j in range(count):
+                track += leg.angle / count
+                step(first + (j + 0.5) * spacing, spacing / 3.0)
+    velocity = SmoothVelocity(
+        np.zeros(3),
+        np.array([r[0] for r in rows]),
+        np.array([r[1] for r in rows]),
+        np.array([r[2] for r in rows]).reshape(-1, 3),
+    )
+    return velocity, starts
+
+
+def _position(velocity, origin, scale, index, order, time):
+    offset = origin[index] if order < 0 else 0.0
+    return offset + scale[index] * velocity(time, order)[..., index]
+
+
+def _attitude(velocity, aoa, index, time):
+    """Roll (coordinated bank), pitch (flight path + aoa) or heading (track), complex-safe."""
+    vel = velocity(time, 0)
+    v_n, v_e = vel[..., 0], vel[..., 1]
+    ground = np.sqrt(v_n * v_n + v_e * v_e + _SPEED_FLOOR**2)
+    if index == 0:
+        acc = velocity(time, 1)
+        return np.arctan((v_n * acc[..., 1] - v_e * acc[..., 0]) / ground / earth.GAMMA_E)
+    if index == 1:
+        return np.arctan(-vel[..., 2] / ground) + aoa
+    north = 2.0 * np.arctan(v_e / (ground + v_n))  # track, branch by the real velocity
+    south = np.pi + 2.0 * np.arctan(-v_e / (ground - v_n))
+    return np.where(np.real(v_n) > 0.0, north, south)
+
+
+def flight_trajectory(plan):
+    """Analytic truth of a :class:`FlightPlan` (module docstring); position as in
+    :func:`inins.core.flight.aircraft_trajectory`:
+    ``lat = lat0 + p_N / (R_N0 + h0)``, ``lon = lon0 + p_E / ((R_E0 + h0) cos lat0)``,
+    ``h = h0 - p_D``."""
+    velocity, _ = flight_velocity(plan)
+    rn, re = earth.principal_radii(plan.lat)
+    origin = (plan.lat, plan.lon, plan.height)
+    scale = (1.0 / (rn + plan.height), 1.0 / ((re + plan.height) * math.cos(plan.lat)), -1.0)
+    pos = [lambda t, i=i: _position(velocity, origin, scale, i, -1, t) for i in range(3)]
+    rate = [lambda t, i=i: _position(velocity, origin, scale, i, 0, t) for i in range(3)]
+    angles = [lambda t, i=i: _attitude(velocity, plan.aoa, i, t) for i in range(3)]
+    return Analytic(*angles, *pos, *rate)
+
+
+@dataclass(frozen=True)
+class Dither:
+    """RLG mechanical dither: ``theta(t) = amplitude sin(2 pi frequency t + phase)`` about ``axis``.
+
+    Attributes
+    ----------
+    amplitude : float
+        Peak angle (rad).
+    frequency : float
+        Hz; :func:`dither_window` averages over whole periods of it.
+    axis : ndarray, shape (3,)
+        Unit dither axis in body axes (default the triad diagonal).
+    lever : ndarray, shape (3,)
+        Accelerometer position relative to the dither pivot, body axes (m).
+    phase : float
+        rad.
+    """
+
+    amplitude: float
+    frequency: float
+    axis: np.ndarray = field(default_factory=lambda: np.ones(3) / math.sqrt(3.0))
+    lever: np.ndarray = field(default_factory=lambda: np.array([0.03, -0.02, 0.04]))
+    phase: float = 0.3
+
+    def angles(self, time):
+        """``theta``, ``theta'``, ``theta''`` (rad, rad/s, rad/s^2), each (n,)."""
+        w = 2.0 * math.pi * self.frequency
+        arg = w * np.asarray(time, dtype=float) + self.phase
+        s, c = np.sin(arg), np.cos(arg)
+        return self.amplitude * s, self.amplitude * w * c, -self.amplitude * w * w * s
+
+
+@dataclass(frozen=True)
+class Dithered:
+    """A trajectory with the sensor block dithered (module docstring); :class:`Trajectory`."""
+
+    base: object
+    dither: Dither
+
+    @property
+    def breakpoints(self):
+        """Those of the base trajectory (s)."""
+        return self.base.breakpoints
+
+    def _rot(self, time):
+        theta, rate, acc = self.dither.angles(time)
+        axis = np.asarray(self.dither.axis, dtype=float)
+        return rotation.mat_from_rotvec(theta[:, None] * axis), rate, acc, axis
+
+    def state(self, time):
+        """Attitude (n, 3, 3), NED velocity (n, 3) of the accelerometers, lla (n, 3)."""
+        time = np.atleast_1d(np.asarray(time, dtype=float))
+        mat_nb0, vel_n, lla = self.base.state(time)
+        mat_d, rate, _, axis = self._rot(time)
+        mat_nb = mat_nb0 @ mat_d
+        lever_vel = rate[:, None] * np.cross(axis, self.dither.lever)
+        return mat_nb, vel_n + np.einsum("nij,nj->ni", mat_nb, lever_vel), lla
+
+    def rates(self, time):
+        """``omega_ib_b`` (n, 3) rad/s and ``f_b`` (n, 3) m/s^2 at the accelerometers."""
+        time = np.atleast_1d(np.asarray(time, dtype=float))
+        omega0, force0 = self.base.rates(time)
+        mat_d, rate, acc, axis = self._rot(time)
+        omega = np.einsum("nji,nj->ni", mat_d, omega0) + rate[:, None] * axis
+        u_r = np.cross(axis, self.dither.lever)
+        force = (
+            np.einsum("nji,nj->ni", mat_d, force0)
+            + acc[:, None] * u_r
+            + (rate * rate)[:, None] * np.cross(axis, u_r)
+        )
+        return omega, force
+
+
+def dither_window(dither, dt):
+    """Moving-average length (samples) spanning whole dither periods (003 §2.2).
+
+    The smallest ``n`` with ``n dt f`` within 1 % of an integer (at most 1 s of
+    samples); 1 without dither.
+    """
+    if dither is None or dither.amplitude == 0.0:
+        return 1
+    for n in range(1, round(1.0 / dt) + 1):
+        cycles = n * dt * dither.frequency
+        if cycles >= 1.0 and abs(cycles - round(cycles)) < 0.01:
+            return n
+    return round(1.0 / dt)
+
+
+def imu_stream(truth, errors, dt, edges_index, rng, *, nodes=3):
+    """Measured increments in consecutive chunks: a generator (memory flat in flight length).
+
+    Parameters
+    ----------
+    truth : Trajectory
+        E.g. ``Dithered(flight_trajectory(plan), dither)``.
+    errors : inins.core.imu.SensorErrors
+    dt : float
+        Sample interval (s); sample ``k`` spans ``[k dt, (k + 1) dt]``.
+    edges_index : array_like of int, shape (m + 1,)
+        Chunk boundaries as sample indices, increasing.
+    rng : numpy.random.Generator
+    nodes : int
+        Gauss-Legendre nodes per sample (:func:`inins.core.trajectory.ideal_increments`).
+
+    Yields
+    ------
+    dtheta, dv : ndarray, shape (n_chunk, 3)
+        Gyro (rad) and accelerometer (m/s) increments through the sensor error model.
+    """
+    state = None
+    edges_index = np.asarray(edges_index, dtype=np.int64)
+    for lo, hi in itertools.pairwise(edges_index):
+        if hi == lo:
+            yield np.zeros((0, 3)), np.zeros((0, 3))
+            continue
+        ideal = trajectory.ideal_increments(truth, np.arange(lo, hi + 1) * dt, nodes=nodes)
+        dtheta, dv, state, _ = imu.apply_errors(*ideal, dt, errors, rng, state)
+        yield dtheta, dv
+
+
+def gyrocompass_attitude(mat_nb, lat, height, errors):
+    """Attitude a stationary levelling + gyrocompass alignment gives for a unit with ``errors``.
+
+    The window means of the sensors are ``omega_b = M_g mat_bn omega_ie_n + b_g`` and
+    ``f_b = M_a (-mat_bn g_n) + b_a`` (dither and white noise average out); then the
+    closed forms of :mod:`inins.calibration.alignment`: ``roll = atan2(-f_y, -f_z)``,
+    ``pitch = atan2(f_x, hypot(f_y, f_z))``, ``heading = atan2(-omega_L[1], omega_L[0])``
+    with ``omega_L = Ry(pitch) Rx(roll) omega_b``. To first order the heading error is
+    ``-eps_E / (W cos L)`` (003 eq. 10) and the tilts ``phi_E = -b_N / g``, ``phi_N = b_E / g``
+    (levelling leaves ``b_n = phi x f_n``).
+
+    Parameters
+    ----------
+    mat_nb : array_like, shape (3, 3)
+        True attitude on the ground.
+    lat, height : float
+        rad, m.
+    errors : inins.core.imu.SensorErrors
+
+    Returns
+    -------
+    ndarray, shape (3, 3)
+        Aligned (erroneous) ``mat_nb``.
+    """
+    mat_nb = np.asarray(mat_nb, dtype=float)
+    omega_b = errors.gyro_matrix() @ (mat_nb.T @ earth.rate_ie_n(lat)) + errors.gyro_bias
+    f_b = errors.accel_matrix() @ (-mat_nb.T @ earth.gravity_n(lat, height)) + errors.accel_bias
+    roll = math.atan2(-f_b[1], -f_b[2])
+    pitch = math.atan2(f_b[0], math.hypot(f_b[1], f_b[2]))
+    level = rotation.mat_from_euler(roll, pitch, 0.0)
+    omega_l = level @ omega_b
+    return rotation.axis_rotation(2, math.atan2(-omega_l[1], omega_l[0])) @ level

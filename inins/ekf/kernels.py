@@ -1,0 +1,251 @@
+"""Compiled per-epoch filter numerics: error model, discretisation, measurements, update.
+
+The filter runs these once per GPS epoch, where the numpy reference functions
+(:func:`inins.core.error_model.system_matrix`, :func:`~inins.core.error_model.noise_matrix`,
+:func:`inins.core.kalman.discretize`, :func:`inins.core.kalman.update`) would cost
+~0.5 ms of interpreter overhead per epoch. They are the same equations:
+``tests/ekf/test_kernels.py`` checks :func:`system_matrix26` and :func:`noise26`
+against the core to rounding and the discretisation against van Loan.
+
+State order is :data:`inins.core.error_model.EKF26`; :data:`~inins.core.error_model.EKF17`
+is its first 17 states, so every function takes the size ``n`` (17 or 26) and
+uses the leading block.
+"""
+
+import math
+
+import numba
+import numpy as np
+
+from inins.core import earth
+
+_gravity = numba.njit(cache=True)(earth.gravity)
+_radii = numba.njit(cache=True)(earth.principal_radii)
+
+POS, VEL, ATT, BA, BG, CLK, MA, MG = 0, 3, 6, 9, 12, 15, 17, 20
+"""First index of each group in EKF26 (clock: bias then drift)."""
+_MA_PAIRS = ((1, 0), (2, 0), (2, 1))  # ma_yx, ma_zx, ma_zy
+_MG_PAIRS = ((0, 1), (0, 2), (1, 0), (1, 2), (2, 0), (2, 1))  # mg_xy ... mg_zy
+
+
+@numba.njit(cache=True)
+def _skew(out, r, c, sign, x, y, z):
+    """``out[r:r+3, c:c+3] += sign [v x]``."""
+    out[r, c + 1] -= sign * z
+    out[r, c + 2] += sign * y
+    out[r + 1, c] += sign * z
+    out[r + 1, c + 2] -= sign * x
+    out[r + 2, c] -= sign * y
+    out[r + 2, c + 1] += sign * x
+
+
+@numba.njit(cache=True)
+def earth_jacobians(lat, h, vel, j_v, jie, jen, jg):
+    """Fill ``J_v``, ``d w_ie/dr``, ``d w_en/dr``, ``d g/dr`` (each (3, 3)), as the core does."""
+    rn, re = _radii(lat)
+    rn_h, re_h = rn + h, re + h
+    s, c = math.sin(lat), math.cos(lat)
+    t = s / c
+    w2 = 1.0 - earth.E2 * s * s
+    drn = 3.0 * rn * earth.E2 * s * c / w2
+    dre = re * earth.E2 * s * c / w2
+    vn, ve = vel[0], vel[1]
+    j_v.fill(0.0)
+    jie.fill(0.0)
+    jen.fill(0.0)
+    jg.fill(0.0)
+    j_v[0, 1] = 1.0 / re_h
+    j_v[1, 0] = -1.0 / rn_h
+    j_v[2, 1] = -t / re_h
+    jen[0, 0] = -ve * dre / re_h**2 / rn_h
+    jen[1, 0] = vn * drn / rn_h**2 / rn_h
+    jen[2, 0] = (-ve / (c * c * re_h) + ve * t * dre / re_h**2) / rn_h
+    jen[0, 2] = ve / re_h**2
+    jen[1, 2] = -vn / rn_h**2
+    jen[2, 2] = -ve * t / re_h**2
+    jie[0, 0] = -earth.RATE * s / rn_h
+    jie[2, 0] = -earth.RATE * c / rn_h
+    dg_dh = 0.5 * (_gravity(lat, h + 1.0) - _gravity(lat, h - 1.0))
+    dg_dlat = (_gravity(lat + 1e-5, h) - _gravity(lat - 1e-5, h)) / 2e-5
+    jg[2, 0] = dg_dlat / rn_h
+    jg[2, 2] = -dg_dh
+    return rn_h, re_h
+
+
+@numba.njit(cache=True)
+def system_matrix26(lat, h, vel, f_b, mat_nb, omega_b, F):
+    """Fill ``F`` (n, n), n = 17 or 26, with the error model of :mod:`inins.core.error_model`.
+
+    Parameters: latitude (rad), height (m), NED velocity (3) m/s, body specific
+    force (3) m/s^2 and angular rate (3) rad/s (dither-filtered, 003 §2.2),
+    ``mat_nb`` (3, 3). ``f_n = mat_nb f_b`` (003 eq. 6).
+    """
+    n = F.shape[0]
+    F.fill(0.0)
+    j_v, jie, jen, jg = np.empty((3, 3)), np.empty((3, 3)), np.empty((3, 3)), np.empty((3, 3))
+    rn_h, re_h = earth_jacobians(lat, h, vel, j_v, jie, jen, jg)
+    w = earth.RATE
+    wie = (w * math.cos(lat), 0.0, -w * math.sin(lat))
+    wen = (vel[1] / re_h, -vel[0] / rn_h, -vel[1] * math.tan(lat) / re_h)
+    f_n = mat_nb @ f_b
+    vx = np.zeros((3, 3))
+    _skew(vx, 0, 0, 1.0, vel[0], vel[1], vel[2])
+    vjv = vx @ j_v
+    vjr = vx @ (2.0 * jie + jen) + jg
+    _skew(F, POS, POS, -1.0, wen[0], wen[1], wen[2])
+    _skew(F, VEL, VEL, -1.0, 2 * wie[0] + wen[0], 2 * wie[1] + wen[1], 2 * wie[2] + wen[2])
+    _skew(F, VEL, ATT, 1.0, f_n[0], f_n[1], f_n[2])
+    _skew(F, ATT, ATT, -1.0, wie[0] + wen[0], wie[1] + wen[1], wie[2] + wen[2])
+    for i in range(3):
+        F[POS + i, VEL + i] = 1.0
+        for j in range(3):
+            F[POS + i, POS + j] -= vjv[i, j]
+            F[VEL + i, POS + j] += vjr[i, j]
+            F[VEL + i, VEL + j] += vjv[i, j]
+            F[VEL + i, BA + j] = mat_nb[i, j]
+            F[ATT + i, POS + j] = jie[i, j] + jen[i, j]
+            F[ATT + i, VEL + j] = j_v[i, j]
+            F[ATT + i, BG + j] = -mat_nb[i, j]
+    F[CLK, CLK + 1] = 1.0
+    if n > MA:
+        for k in range(3):
+            a, b = _MA_PAIRS[k]
+            for i in range(3):
+                F[VEL + i, MA + k] = mat_nb[i, a] * f_b[b]
+        for k in range(6):
+            a, b = _MG_PAIRS[k]
+            for i in range(3):
+                F[ATT + i, MG + k] = -mat_nb[i, a] * omega_b[b]
+
+
+@numba.njit(cache=True)
+def noise26(mat_nb, arw, vrw, ba_rw, bg_rw, clock_bias_psd, clock_drift_psd, Q):
+    """Fill ``Q`` (n, n) with ``Qc`` of :func:`inins.core.error_model.noise_matrix`."""
+    Q.fill(0.0)
+    for i in range(3):
+        for j in range(3):
+            sv = 0.0
+            sa = 0.0
+            for k in range(3):
+                sv += mat_nb[i, k] * vrw[k] ** 2 * mat_nb[j, k]
+                sa += mat_nb[i, k] * arw[k] ** 2 * mat_nb[j, k]
+            Q[VEL + i, VEL + j] = sv
+            Q[ATT + i, ATT + j] = sa
+        Q[BA + i, BA + i] = ba_rw[i] ** 2
+        Q[BG + i, BG + i] = bg_rw[i] ** 2
+    Q[CLK, CLK] = clock_bias_psd
+    Q[CLK + 1, CLK + 1] = clock_drift_psd
+
+
+@numba.njit(cache=True)
+def discretize(F, Qc, dt, Phi, Qd):
+    """Third-order transition and process noise series (in place).
+
+    ``Phi = I + A + A^2/2 + A^3/6`` with ``A = F dt``,
+    ``Qd = Qc dt + (F Qc + Qc F^T) dt^2/2 + F Qc F^T dt^3/3`` (the Taylor series of
+    ``int expm(F s) Qc expm(F s)^T ds``, exact for the position <- velocity and
+    clock chains);
+    for the INS model at 1 s (``|A|`` ~ 1e-3 apart from the kinematic couplings)
+    this agrees with van Loan's exact form to ~1e-5 of the largest entry (tested).
+    """
+    n = F.shape[0]
+    A = F * dt
+    A2 = A @ A
+    Phi[:, :] = A + 0.5 * A2 + (A2 @ A) / 6.0
+    for i in range(n):
+        Phi[i, i] += 1.0
+    FQ = F @ Qc
+    Qd[:, :] = Qc * dt + (FQ + FQ.T) * (0.5 * dt * dt) + (FQ @ F.T) * (dt**3 / 3.0)
+
+
+@numba.njit(cache=True)
+def predict(x, P, Phi, Qd):
+    """``x = Phi x``, ``P = Phi P Phi^T + Qd``, symmetrised (in place)."""
+    x[:] = Phi @ x
+    M = Phi @ P @ Phi.T + Qd
+    P[:, :] = 0.5 * (M + M.T)
+
+
+@numba.njit(cache=True)
+def pseudorange_rows(r_ant, v_ant, mat_ne, j_v, lever_n, lever_vel_n, sat_pos, sat_vel, H, zhat):
+    """Predicted pseudorange and range rate and their rows of ``H`` (003 eq. 7, spec §6a).
+
+    Rows ``2 i`` (pseudorange) and ``2 i + 1`` (range rate) of satellite ``i``;
+    ``zhat`` without clock terms. ``H`` is ``dz / dx`` for the true measurement
+    ``z = h(nav (-) x)``: the navigation states are errors (estimate minus true), so
+    their columns are minus the sensitivity of ``h`` at the estimate; the clock
+    states are the clock values (+1). With ``e`` the unit line of sight (NED),
+    ``dv = v_sat - v_ant``, ``rho`` the range, ``l_n`` the lever arm,
+    ``u_n = mat_nb (omega_eb_b x l_b)`` its velocity and ``G = -dv^T (I - e e^T) / rho``,
+    the sensitivities at the estimate are::
+
+        rho   : pos -e^T,  att -e^T [l_n x]
+        rhodot: pos e^T [v_ant x] J_v + G,  vel -e^T,  att -e^T [u_n x] + G [l_n x]
+
+    from ``dr_ant = dr + [l_n x] phi`` and ``dv_ant = dv - [v_ant x] J_v dr + [u_n x] phi``
+    (the estimated NED frame is turned by ``J_v dr``).
+    """
+    H.fill(0.0)
+    for i in range(sat_pos.shape[0]):
+        d = sat_pos[i] - r_ant
+        rho = math.sqrt(d[0] ** 2 + d[1] ** 2 + d[2] ** 2)
+        e = mat_ne @ (d / rho)
+        dv = mat_ne @ (sat_vel[i] - v_ant)
+        zhat[2 * i] = rho
+        zhat[2 * i + 1] = 0.0
+        for k in range(3):
+            zhat[2 * i + 1] += dv[k] * e[k]
+        edv = zhat[2 * i + 1]
+        g = -(dv - edv * e) / rho
+        va = mat_ne @ v_ant
+        # a^T [b x] phi = a . (b x phi) = (a x b) . phi: the row of a^T [b x] is a x b
+        h_att_pr = np.cross(lever_n, e)  # -e^T [l x]
+        h_att_rr = np.cross(lever_vel_n, e) + np.cross(g, lever_n)  # -e^T [u x] + G [l x]
+        evj = np.cross(e, va) @ j_v  # e^T [v x] J_v
+        for k in range(3):
+            H[2 * i, POS + k] = e[k]
+            H[2 * i, ATT + k] = -h_att_pr[k]
+            H[2 * i + 1, POS + k] = -evj[k] - g[k]
+            H[2 * i + 1, VEL + k] = e[k]
+            H[2 * i + 1, ATT + k] = -h_att_rr[k]
+        H[2 * i, CLK] = 1.0
+        H[2 * i + 1, CLK + 1] = 1.0
+
+
+@numba.njit(cache=True)
+def sequential_update(x, P, H, y0, r, threshold, accepted, y_out, s_out):
+    """Scalar Joseph-form updates in turn, each gated on its own chi-square(1) NIS.
+
+    For row ``i``: ``y = y0_i - H_i dx`` (``dx`` the correction so far), ``s = H_i P H_i^T + r_i``;
+    rejected when ``y^2 / s > threshold``; else ``k = P H_i^T / s``, ``dx += k y`` and
+    ``P = (I - k H_i) P (I - k H_i)^T + k r_i k^T = P - k (P H_i^T)^T - (P H_i^T) k^T + s k k^T``
+    (Joseph form, exact for any gain, O(n^2)). Independent rows (diagonal ``R``) make
+    the sequence equal to the batch update of :func:`inins.core.kalman.update`.
+
+    Returns the number of accepted rows; ``x``, ``P``, ``accepted``, ``y_out``,
+    ``s_out`` (innovation and its variance, per row) are written in place.
+    """
+    n = x.shape[0]
+    dx = np.zeros(n)
+    count = 0
+    for i in range(H.shape[0]):
+        h = H[i]
+        ph = P @ h
+        s = h @ ph + r[i]
+        y = y0[i] - h @ dx
+        y_out[i] = y
+        s_out[i] = s
+        if y * y > threshold * s:
+            accepted[i] = False
+            continue
+        accepted[i] = True
+        count += 1
+        k = ph / s
+        dx += k * y
+        for a in range(n):
+            for b in range(a, n):
+                v = P[a, b] - k[a] * ph[b] - ph[a] * k[b] + s * k[a] * k[b]
+                P[a, b] = v
+                P[b, a] = v
+    x += dx
+    return count

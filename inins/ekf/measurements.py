@@ -1,0 +1,127 @@
+"""Per-epoch GNSS measurement input of the tightly coupled filter, and its nonlinear model.
+
+The GNSS layer (or a recording) delivers, per 1PPS epoch, one :class:`GnssEpoch`.
+Models (spec §6a, clock terms in metres)::
+
+    rho    = |r_sat - r_ant| + b - sat_clock + delay + noise
+    rhodot = (v_sat - v_ant) . e + d - sat_clock_drift + noise,   e = (r_sat - r_ant) / |.|
+
+with the receiver clock bias ``b`` (m) and drift ``d`` (m/s), the antenna at
+``r_ant = r_imu + mat_en mat_nb l_b`` and moving at
+``v_ant = mat_en (v_n + mat_nb (omega_eb_b x l_b))`` (003 eqs. 8-9).
+"""
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from inins.core import earth
+from inins.exceptions import InputError
+
+C_LIGHT = 299792458.0
+"""Speed of light (m/s)."""
+
+
+def _array(name, value, shape):
+    arr = np.ascontiguousarray(value, dtype=float)
+    if arr.shape != shape or not np.all(np.isfinite(arr)):
+        raise InputError(f"expected finite values of shape {shape}, got {arr.shape}", key=name)
+    arr.setflags(write=False)
+    return arr
+
+
+@dataclass(frozen=True, eq=False)
+class GnssEpoch:
+    """Measurements of ``k`` satellites at one receiver epoch (the 1PPS instant).
+
+    Attributes
+    ----------
+    time : float
+        Receiver time of the epoch on the IMU time axis (s).
+    prn : ndarray, shape (k,)
+        Satellite numbers (int).
+    sat_pos, sat_vel : ndarray, shape (k, 3)
+        Satellite ECEF position (m) and velocity (m/s) at transmit time, already
+        rotated into the ECEF frame of the receive time (Sagnac).
+    sat_clock : ndarray, shape (k,)
+        ``c dt_sat`` (m), relativistic term and TGD included.
+    sat_clock_drift : ndarray, shape (k,)
+        ``c dt_sat'`` (m/s).
+    pseudorange : ndarray, shape (k,)
+        m.
+    range_rate : ndarray, shape (k,)
+        m/s, positive when the range grows (``-lambda_L1 * Doppler_Hz``).
+    sigma_pr, sigma_rr : ndarray, shape (k,)
+        1-sigma noise of each (m, m/s).
+    delay : ndarray, shape (k,)
+        Modelled ionosphere + troposphere delay (m), default zero.
+    arrival : float
+        Time the data reach the INS (s), ``>= time``; the filter updates at
+        ``time`` with the INS state stored at the 1PPS (003 §2.1).
+    """
+
+    time: float
+    prn: np.ndarray
+    sat_pos: np.ndarray
+    sat_vel: np.ndarray
+    sat_clock: np.ndarray
+    sat_clock_drift: np.ndarray
+    pseudorange: np.ndarray
+    range_rate: np.ndarray
+    sigma_pr: np.ndarray
+    sigma_rr: np.ndarray
+    delay: np.ndarray = field(default=None)
+    arrival: float = field(default=None)
+
+    def __post_init__(self):
+        prn = np.asarray(self.prn, dtype=np.int64).reshape(-1)
+        k = prn.size
+        object.__setattr__(self, "prn", prn)
+        for name in ("sat_pos", "sat_vel"):
+            object.__setattr__(self, name, _array(name, getattr(self, name), (k, 3)))
+        if self.delay is None:
+            object.__setattr__(self, "delay", np.zeros(k))
+        for name in (
+            "sat_clock",
+            "sat_clock_drift",
+            "pseudorange",
+            "range_rate",
+            "sigma_pr",
+            "sigma_rr",
+            "delay",
+        ):
+            object.__setattr__(self, name, _array(name, getattr(self, name), (k,)))
+        if np.any(self.sigma_pr <= 0.0) or np.any(self.sigma_rr <= 0.0):
+            raise InputError("measurement sigmas must be > 0", key="sigma")
+        arrival = self.time if self.arrival is None else float(self.arrival)
+        if not arrival >= self.time:
+            raise InputError(f"arrival {arrival} s before the epoch {self.time} s", key="arrival")
+        object.__setattr__(self, "time", float(self.time))
+        object.__setattr__(self, "arrival", arrival)
+
+    def __len__(self):
+        return self.prn.size
+
+
+def antenna(lla, vel_n, mat_nb, omega_eb_b, lever_b):
+    """Antenna ECEF position (m) and velocity (m/s), each (3,), from the IMU state.
+
+    ``r_ant = r_imu + mat_en mat_nb l_b``, ``v_ant = mat_en (v_n + mat_nb (omega_eb_b x l_b))``.
+    """
+    mat_en = earth.mat_en(lla[0], lla[1])
+    lever_n = mat_nb @ lever_b
+    r = earth.ecef_from_llh(lla[0], lla[1], lla[2]) + mat_en @ lever_n
+    v = mat_en @ (vel_n + mat_nb @ np.cross(omega_eb_b, lever_b))
+    return r, v
+
+
+def predict(epoch, r_ant, v_ant, clock_bias, clock_drift):
+    """Predicted pseudoranges (m) and range rates (m/s), each (k,), of an epoch."""
+    d = epoch.sat_pos - r_ant
+    rho = np.linalg.norm(d, axis=1)
+    e = d / rho[:, None]
+    rr = np.einsum("ij,ij->i", epoch.sat_vel - v_ant, e)
+    return (
+        rho + clock_bias - epoch.sat_clock + epoch.delay,
+        rr + clock_drift - epoch.sat_clock_drift,
+    )

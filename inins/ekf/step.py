@@ -1,0 +1,215 @@
+"""One filter epoch in compiled code: propagation, update at the 1PPS state, FB feedback.
+
+:func:`inins.ekf.filter.run_filter` calls :func:`epoch` and (FB) :func:`feedback` once
+per GPS epoch with preallocated arrays, so that an epoch costs tens of
+microseconds besides the strapdown. The equations are those of
+:mod:`inins.ekf.filter` (module docstring) and :mod:`inins.ekf.kernels`; the
+navigation helpers here are the scalar forms of :func:`inins.core.earth.mat_en`,
+:func:`~inins.core.earth.ecef_from_llh`, :func:`inins.core.rotation.mat_from_quat`
+and :func:`inins.ekf.measurements.antenna` (tested equal in ``tests/ekf/test_step.py``).
+"""
+
+import math
+
+import numba
+import numpy as np
+
+from inins.core import earth
+from inins.ekf import kernels
+
+_radii = numba.njit(cache=True)(earth.principal_radii)
+
+
+@numba.njit(cache=True)
+def mat_from_quat(q):
+    """``mat_nb`` (3, 3) of a unit quaternion ``[w, x, y, z]``."""
+    w, x, y, z = q[0], q[1], q[2], q[3]
+    return np.array(
+        [
+            [1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y)],
+            [2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x)],
+            [2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)],
+        ]
+    )
+
+
+@numba.njit(cache=True)
+def mat_en(lat, lon):
+    """NED to ECEF (3, 3)."""
+    sl, cl, so, co = math.sin(lat), math.cos(lat), math.sin(lon), math.cos(lon)
+    return np.array([[-sl * co, -so, -cl * co], [-sl * so, co, -cl * so], [cl, 0.0, -sl]])
+
+
+@numba.njit(cache=True)
+def ecef(lla):
+    """ECEF position (3,) m of ``[lat, lon, h]``."""
+    _, re = _radii(lla[0])
+    cl = math.cos(lla[0])
+    return np.array(
+        [
+            (re + lla[2]) * cl * math.cos(lla[1]),
+            (re + lla[2]) * cl * math.sin(lla[1]),
+            (re * (1.0 - earth.E2) + lla[2]) * math.sin(lla[0]),
+        ]
+    )
+
+
+@numba.njit(cache=True)
+def correct(quat, vel, lla, dx, out_quat, out_vel, out_lla):
+    """``nav (-) dx`` (first 9 states) into the ``out_`` arrays (may alias the inputs)."""
+    rn, re = _radii(lla[0])
+    lat = lla[0] - dx[0] / (rn + lla[2])
+    lon = lla[1] - dx[1] / ((re + lla[2]) * math.cos(lla[0]))
+    out_lla[2] = lla[2] + dx[2]
+    out_lla[0], out_lla[1] = lat, lon
+    for i in range(3):
+        out_vel[i] = vel[i] - dx[3 + i]
+    a2 = dx[6] ** 2 + dx[7] ** 2 + dx[8] ** 2
+    a = math.sqrt(a2)
+    c = math.cos(0.5 * a)
+    k = 0.5 - a2 / 48.0 if a < 1e-4 else math.sin(0.5 * a) / a
+    p0, p1, p2, p3 = c, k * dx[6], k * dx[7], k * dx[8]
+    q0, q1, q2, q3 = quat[0], quat[1], quat[2], quat[3]
+    r0 = p0 * q0 - p1 * q1 - p2 * q2 - p3 * q3
+    r1 = p0 * q1 + p1 * q0 + p2 * q3 - p3 * q2
+    r2 = p0 * q2 - p1 * q3 + p2 * q0 + p3 * q1
+    r3 = p0 * q3 + p1 * q2 - p2 * q1 + p3 * q0
+    norm = math.sqrt(r0 * r0 + r1 * r1 + r2 * r2 + r3 * r3)
+    out_quat[0], out_quat[1], out_quat[2], out_quat[3] = r0 / norm, r1 / norm, r2 / norm, r3 / norm
+
+
+@numba.njit(cache=True)
+def propagate(x, P, F, Qc, Phi, Qd, quat, vel, lla, omega_b, f_b, dt_k, noise):
+    """Model at the mid-interval state, discretise, predict (``dt_k`` > 0)."""
+    mat_nb = mat_from_quat(quat)
+    kernels.system_matrix26(lla[0], lla[2], vel, f_b, mat_nb, omega_b, F)
+    if dt_k <= 0.0:
+        return
+    kernels.noise26(
+        mat_nb, noise[0:3], noise[3:6], noise[6:9], noise[9:12], noise[12], noise[13], Qc
+    )
+    kernels.discretize(F, Qc, dt_k, Phi, Qd)
+    kernels.predict(x, P, Phi, Qd)
+
+
+@numba.njit(cache=True)
+def update(
+    x,
+    P,
+    quat,
+    vel,
+    lla,
+    omega_b,
+    lever_b,
+    sat_pos,
+    sat_vel,
+    meas,
+    threshold,
+    use_rr,
+    init_clock,
+    acc,
+    y,
+    s,
+):
+    """Measurement update at the PPS state.
+
+    ``meas`` (6, k): pseudorange (m), satellite clock (m), delay (m), range rate
+    (m/s), satellite clock drift (m/s), and per-row variances are built from
+    ``meas`` rows 6-7 (sigma_pr, sigma_rr) of an (8, k) array. Rows are
+    pseudorange, range rate per satellite (range rates skipped unless ``use_rr``).
+    Returns the number of accepted rows; ``acc``, ``y``, ``s`` per used row.
+    """
+    n, k = x.shape[0], sat_pos.shape[0]
+    cq, cv, cl = np.empty(4), np.empty(3), np.empty(3)
+    correct(quat, vel, lla, x, cq, cv, cl)
+    mat_nb = mat_from_quat(cq)
+    w = earth.RATE
+    w_ie = np.array([w * math.cos(cl[0]), 0.0, -w * math.sin(cl[0])])
+    omega_eb = omega_b - mat_nb.T @ w_ie
+    m_en = mat_en(cl[0], cl[1])
+    lever_n = mat_nb @ lever_b
+    lever_vel = mat_nb @ np.cross(omega_eb, lever_b)
+    r_ant = ecef(cl) + m_en @ lever_n
+    v_ant = m_en @ (cv + lever_vel)
+    j_v = np.empty((3, 3))
+    kernels.earth_jacobians(
+        cl[0], cl[2], cv, j_v, np.empty((3, 3)), np.empty((3, 3)), np.empty((3, 3))
+    )
+    H = np.zeros((2 * k, n))
+    zhat = np.empty(2 * k)
+    kernels.pseudorange_rows(
+        r_ant, v_ant, m_en.T, j_v, lever_n, lever_vel, sat_pos, sat_vel, H, zhat
+    )
+    z = np.empty(2 * k)
+    r = np.empty(2 * k)
+    for i in range(k):
+        z[2 * i] = meas[0, i] + meas[1, i] - meas[2, i]
+        z[2 * i + 1] = meas[3, i] + meas[4, i]
+        r[2 * i] = meas[5, i] ** 2
+        r[2 * i + 1] = meas[6, i] ** 2
+    if init_clock:  # receiver clock from the first epoch's residuals
+        x[kernels.CLK] = np.median(z[0::2] - zhat[0::2])
+        x[kernels.CLK + 1] = np.median(z[1::2] - zhat[1::2])
+    step = 1 if use_rr else 2
+    m = (2 * k + step - 1) // step
+    y0, Hs, rs = np.empty(m), np.empty((m, n)), np.empty(m)
+    for j in range(m):
+        i = j * step
+        y0[j] = z[i] - zhat[i] - x[kernels.CLK + i % 2]
+        Hs[j] = H[i]
+        rs[j] = r[i]
+    return kernels.sequential_update(x, P, Hs, y0, rs, threshold, acc, y, s)
+
+
+@numba.njit(cache=True)
+def mean_rates(dtheta, dv, centre, window, dt, out):
+    """Moving average of ``omega_b``, ``f_b`` over ``window`` samples centred at ``centre``
+    (003 §2.2), into ``out`` (2, 3); unchanged for an empty chunk."""
+    n = dtheta.shape[0]
+    if n == 0:
+        return
+    lo = min(max(centre - window // 2, 0), max(n - window, 0))
+    hi = min(lo + window, n)
+    out.fill(0.0)
+    for k in range(lo, hi):
+        for i in range(3):
+            out[0, i] += dtheta[k, i]
+            out[1, i] += dv[k, i]
+    out /= (hi - lo) * dt
+
+
+@numba.njit(cache=True)
+def feedback(x, F, tau, quat, vel, lla, comp, cum, sens):
+    """FB: ``nav (-) (I + F tau) x`` in place, sensor estimates into ``comp``, states reset."""
+    delta = x + tau * (F @ x)
+    correct(quat, vel, lla, delta, quat, vel, lla)
+    for i in range(9):
+        cum[i] += x[i]
+        x[i] = 0.0
+    for j in range(sens.size):
+        comp[j] += x[sens[j]]
+        x[sens[j]] = 0.0
+
+
+@numba.njit(cache=True)
+def compensate(dtheta, dv, dt, comp):
+    """Increments with the cumulative sensor estimates removed (new arrays).
+
+    ``comp = [ba (3), bg (3), ma (3), mg (6)]``; ``omega = (I - M_g) (omega_meas - b_g)``,
+    ``f = (I - M_a) (f_meas - b_a)`` with ``M`` the misalignment matrices of 003 eqs. 2-3.
+    """
+    mg, ma = comp[9:15], comp[6:9]
+    m_g = np.array([[1.0, -mg[0], -mg[1]], [-mg[2], 1.0, -mg[3]], [-mg[4], -mg[5], 1.0]])
+    m_a = np.array([[1.0, 0.0, 0.0], [-ma[0], 1.0, 0.0], [-ma[1], -ma[2], 1.0]])
+    n = dtheta.shape[0]
+    out_t, out_v = np.empty((n, 3)), np.empty((n, 3))
+    for k in range(n):
+        for i in range(3):
+            a = 0.0
+            b = 0.0
+            for j in range(3):
+                a += m_g[i, j] * (dtheta[k, j] - comp[3 + j] * dt)
+                b += m_a[i, j] * (dv[k, j] - comp[j] * dt)
+            out_t[k, i] = a
+            out_v[k, i] = b
+    return out_t, out_v
