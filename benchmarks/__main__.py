@@ -17,7 +17,14 @@ import time
 from pathlib import Path
 
 HERE = Path(__file__).parent
-MODULES = ("bench_strapdown", "bench_imu", "bench_table", "bench_gnss", "bench_observability")
+MODULES = (
+    "bench_strapdown",
+    "bench_imu",
+    "bench_table",
+    "bench_gnss",
+    "bench_observability",
+    "bench_ekf",
+)
 
 
 def _module(name):
