@@ -1,0 +1,178 @@
+"""First-run cost: numba compile time of every kernel from a cold cache.
+
+Each measurement runs in a child process whose ``NUMBA_CACHE_DIR`` is a fresh
+temporary directory, so the real on-disk cache (``__pycache__`` next to the
+sources) is never read, written or destroyed. The child listens to numba's
+``numba:compile`` events (emitted only for a real compilation, never for a cache
+load) and runs the shipped ``calibrate-bias`` scenario (which simulates its
+table record first), then ``simulate-table``. A second child on the now warm
+cache gives the warm wall time.
+
+Per kernel it reports the *exclusive* compile time (its own typing, lowering and
+LLVM optimisation; the kernels it calls, compiled while it is typed, are
+counted under their own names) and the number of specialisations.
+
+``run()`` (``make bench``) measures the working tree. Run as a script,
+``python -m benchmarks.bench_compile --against REV`` also measures the tree of
+git revision ``REV`` (exported to a temporary directory) in the same run and
+prints both side by side::
+
+    python -m benchmarks.bench_compile --against 6ee7f1a
+"""
+
+import argparse
+import json
+import os
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+HERE = Path(__file__).parent
+ROOT = HERE.parent
+WORKLOADS = (("calibrate-bias",), ("simulate-table",))
+
+_CHILD = r"""
+import json, sys, time
+start = time.perf_counter()
+from numba.core import event
+
+stack, rows = [], []
+
+class Listener(event.Listener):
+    def on_start(self, ev):
+        stack.append([ev.data["dispatcher"], time.perf_counter(), 0.0])
+
+    def on_end(self, ev):
+        disp, t0, children = stack.pop()
+        total = time.perf_counter() - t0
+        if stack:
+            stack[-1][2] += total
+        name = disp.py_func.__module__ + "." + disp.py_func.__qualname__
+        rows.append((name, str(ev.data["args"]), total - children, total))
+
+event.register("numba:compile", Listener())
+from inins.cli import app
+
+phases = {}
+for args in json.loads(sys.argv[1]):
+    t0 = time.perf_counter()
+    try:
+        app(args=args, prog_name="inins")
+        code = 0
+    except SystemExit as exc:
+        code = exc.code or 0
+    phases[args[0]] = {"wall_s": time.perf_counter() - t0, "exit": code}
+print(json.dumps({"wall_s": time.perf_counter() - start, "phases": phases, "kernels": rows}))
+"""
+
+
+def _child(src, cache_dir, outdir):
+    """Run the workloads in a child with its own numba cache; its JSON figures."""
+    workloads = [[*w, "-o", str(Path(outdir) / w[0])] for w in WORKLOADS]
+    env = dict(os.environ, NUMBA_CACHE_DIR=str(cache_dir), PYTHONPATH=str(src))
+    start = time.perf_counter()
+    out = subprocess.run([sys.executable, "-c", _CHILD, json.dumps(workloads)], env=env,
+                         cwd=src, capture_output=True, text=True)
+    wall = time.perf_counter() - start
+    if out.returncode != 0:
+        raise RuntimeError(f"compile bench child failed:\n{out.stderr[-4000:]}")
+    figures = json.loads(out.stdout.strip().splitlines()[-1])
+    figures["process_wall_s"] = wall
+    return figures
+
+
+def measure(src=ROOT):
+    """Cold-cache and warm-cache figures of the ``inins`` tree at ``src``.
+
+    Returns
+    -------
+    dict
+        ``cold``: child figures with an empty cache (``kernels``: rows of
+        name, signature, exclusive s, inclusive s); ``warm``: the same
+        workloads again on the cache the cold run filled.
+    """
+    with tempfile.TemporaryDirectory() as tmp:
+        cache = Path(tmp) / "numba-cache"
+        cache.mkdir()
+        cold = _child(src, cache, Path(tmp) / "cold")
+        warm = _child(src, cache, Path(tmp) / "warm")
+    return {"cold": cold, "warm": warm}
+
+
+def per_kernel(kernels):
+    """``{name: (exclusive s, specialisations)}`` summed over signatures."""
+    out = {}
+    for name, _, exclusive, _ in kernels:
+        seconds, count = out.get(name, (0.0, 0))
+        out[name] = (seconds + exclusive, count + 1)
+    return out
+
+
+def _summary(figures):
+    cold, warm = figures["cold"], figures["warm"]
+    kernels = per_kernel(cold["kernels"])
+    result = {
+        "compile_total_s": sum(s for s, _ in kernels.values()),
+        "compiled_functions": len(kernels),
+        "specialisations": sum(c for _, c in kernels.values()),
+    }
+    for phase in cold["phases"]:
+        result[f"{phase}_cold_wall_s"] = cold["phases"][phase]["wall_s"]
+        result[f"{phase}_warm_wall_s"] = warm["phases"][phase]["wall_s"]
+    result["cold_process_wall_s"] = cold["process_wall_s"]
+    result["warm_process_wall_s"] = warm["process_wall_s"]
+    return result
+
+
+def run():
+    """Cold-cache compile figures of the working tree (flat dict, unit in each key)."""
+    return _summary(measure())
+
+
+def _export(rev, dest):
+    """Write the ``inins`` package of git revision ``rev`` under ``dest``."""
+    archive = subprocess.run(["git", "archive", rev, "inins", "configs", "data"], cwd=ROOT,
+                             check=True, capture_output=True).stdout
+    subprocess.run(["tar", "-x", "-C", str(dest)], input=archive, check=True)
+
+
+def _print_side_by_side(columns):
+    names = sorted({n for figs in columns.values() for n in per_kernel(figs["cold"]["kernels"])},
+                   key=lambda n: -max(per_kernel(f["cold"]["kernels"]).get(n, (0, 0))[0]
+                                      for f in columns.values()))
+    labels = list(columns)
+    print(f"{'kernel (exclusive compile s, specialisations)':60s}"
+          + "".join(f"{label:>18s}" for label in labels))
+    for name in names:
+        cells = []
+        for label in labels:
+            s, c = per_kernel(columns[label]["cold"]["kernels"]).get(name, (0.0, 0))
+            cells.append(f"{s:12.3f} ({c:2d})" if c else f"{'-':>18s}")
+        print(f"{name[:60]:60s}" + "".join(cells))
+    print()
+    summaries = {label: _summary(figs) for label, figs in columns.items()}
+    for key in summaries[labels[0]]:
+        print(f"{key:60s}" + "".join(f"{summaries[lb].get(key, float('nan')):18.3f}"
+                                     for lb in labels))
+
+
+def main():
+    parser = argparse.ArgumentParser(prog="python -m benchmarks.bench_compile")
+    parser.add_argument("--against", metavar="REV", help="also measure git revision REV")
+    parser.add_argument("--json", type=Path, help="also write the raw figures here")
+    args = parser.parse_args()
+    columns = {}
+    with tempfile.TemporaryDirectory() as tmp:
+        if args.against:
+            _export(args.against, tmp)
+            columns[args.against] = measure(Path(tmp))
+        columns["working tree"] = measure(ROOT)
+    _print_side_by_side(columns)
+    if args.json:
+        args.json.write_text(json.dumps(columns, indent=2))
+
+
+if __name__ == "__main__":
+    main()
