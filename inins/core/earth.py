@@ -43,18 +43,10 @@ def principal_radii(lat):
     rn, re : float or ndarray
         ``rn`` (north-south, meridian) and ``re`` (east-west, prime vertical).
     """
-    return radii_of_root(np.sqrt(1.0 - E2 * np.sin(lat) ** 2))
-
-
-def radii_of_root(root):
-    """:func:`principal_radii` from ``root = sqrt(1 - e^2 sin^2 lat)`` (same arithmetic).
-
-    ``re = a / root``, ``rn = re (1 - e^2) / root^2``. For callers that already hold
-    ``sin lat`` (the strapdown kernel compiles this function with numba, so the
-    source is shared).
-    """
-    re = A / root
-    rn = re * (1.0 - E2) / (root * root)
+    s2 = np.sin(lat) ** 2
+    w = np.sqrt(1.0 - E2 * s2)
+    re = A / w
+    rn = re * (1.0 - E2) / (w * w)
     return rn, re
 
 

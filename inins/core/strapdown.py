@@ -55,20 +55,25 @@ import numpy as np
 
 from inins.core import earth, rotation
 
-_gravity = numba.njit(cache=True)(earth.gravity_of_sin2)
-_radii = numba.njit(cache=True)(earth.radii_of_root)
+_jit = numba.njit(cache=True, error_model="numpy")
+_gravity = _jit(earth.gravity_of_sin2)
 _R_EXTRAPOLATE = 6.371e6
 """Radius (m) used only to extrapolate the mid-interval latitude."""
 _FREE, _FIXED_HEIGHT, _FIXED_POSITION, _ZERO_VELOCITY = 0, 1, 2, 3
+_TWELFTH = 1.0 / 12.0
+_GRID = 2.0**-10
+"""Spacing (rad) of the reference latitudes of :func:`_sincos_near`."""
+_A_POLAR = earth.A * (1.0 - earth.E2)
+"""``R_N root^3``: the meridian radius is ``a (1 - e^2) / root^3`` (m)."""
 
 
-@numba.njit(cache=True)
+@_jit
 def _quat_of_rotvec(x, y, z):
     """Unit quaternion of the rotation vector ``[x, y, z]`` (rad); series below 0.01 rad."""
     a2 = x * x + y * y + z * z
     if a2 < 1e-4:  # truncation < 3e-17
-        c = 1.0 - a2 / 8.0 + a2 * a2 / 384.0
-        k = 0.5 - a2 / 48.0 + a2 * a2 / 3840.0
+        c = 1.0 - a2 * 0.125 + a2 * a2 * (1.0 / 384.0)
+        k = 0.5 - a2 * (1.0 / 48.0) + a2 * a2 * (1.0 / 3840.0)
     else:
         a = math.sqrt(a2)
         c = math.cos(0.5 * a)
@@ -76,7 +81,7 @@ def _quat_of_rotvec(x, y, z):
     return c, k * x, k * y, k * z
 
 
-@numba.njit(cache=True)
+@_jit
 def _quat_mul(a0, a1, a2, a3, b0, b1, b2, b3):
     """Hamilton product ``a * b``."""
     return (a0 * b0 - a1 * b1 - a2 * b2 - a3 * b3,
@@ -85,7 +90,7 @@ def _quat_mul(a0, a1, a2, a3, b0, b1, b2, b3):
             a0 * b3 + a1 * b2 - a2 * b1 + a3 * b0)
 
 
-@numba.njit(cache=True)
+@_jit
 def _rotate(q0, q1, q2, q3, x, y, z):
     """``mat_from_quat(q) @ [x, y, z]``: ``v + w t + r x t`` with ``t = 2 r x v``."""
     tx = 2.0 * (q2 * z - q3 * y)
@@ -96,12 +101,12 @@ def _rotate(q0, q1, q2, q3, x, y, z):
             z + q0 * tz + q1 * ty - q2 * tx)
 
 
-@numba.njit(cache=True)
+@_jit
 def _cross(ax, ay, az, bx, by, bz):
     return ay * bz - az * by, az * bx - ax * bz, ax * by - ay * bx
 
 
-@numba.njit(cache=True)
+@_jit
 def _body_terms(th, dv, prev, coning, sculling):
     """Coning-corrected rotation vector and compensated velocity increment (body).
 
@@ -113,39 +118,54 @@ def _body_terms(th, dv, prev, coning, sculling):
     sx, sy, sz = dv[0] + 0.5 * rx, dv[1] + 0.5 * ry, dv[2] + 0.5 * rz
     if coning:
         cx, cy, cz = _cross(prev[0], prev[1], prev[2], th[0], th[1], th[2])
-        px, py, pz = px + cx / 12.0, py + cy / 12.0, pz + cz / 12.0
+        px, py, pz = px + cx * _TWELFTH, py + cy * _TWELFTH, pz + cz * _TWELFTH
     if sculling:
         ax, ay, az = _cross(prev[0], prev[1], prev[2], dv[0], dv[1], dv[2])
         bx, by, bz = _cross(prev[3], prev[4], prev[5], th[0], th[1], th[2])
-        sx, sy, sz = sx + (ax + bx) / 12.0, sy + (ay + by) / 12.0, sz + (az + bz) / 12.0
+        sx = sx + (ax + bx) * _TWELFTH
+        sy = sy + (ay + by) * _TWELFTH
+        sz = sz + (az + bz) * _TWELFTH
     return (px, py, pz), (sx, sy, sz)
 
 
-@numba.njit(cache=True)
-def _earth_terms(lat, h):
-    """Earth terms at ``(lat, h)`` from one sine, cosine, tangent and square root.
+@_jit
+def _sincos_near(d, s0, c0):
+    """``sin, cos`` of ``L0 + d`` from ``s0, c0 = sin L0, cos L0``, ``|d| <= 2^-11`` rad.
 
-    Returns ``(omega_ie_N, omega_ie_D, R_N + h, R_E + h, tan lat, cos lat,
-    gravity)``: Earth rate ``[W cos L, 0, -W sin L]`` (rad/s), the radii of
-    :func:`earth.principal_radii` and the gravity of :func:`earth.gravity`,
-    bit-identical to those functions (the same arithmetic on the same ``sin lat``).
+    ``sin(L0 + d) = s0 cos d + c0 sin d`` with ``cos d = 1 - d^2/2 + d^4/24`` and
+    ``sin d = d - d^3/6``: truncation below 3e-19, rounding a few 1e-16 (libm: 1e-16).
     """
-    s, c = math.sin(lat), math.cos(lat)
+    d2 = d * d
+    cd = 1.0 - d2 * (0.5 - d2 * (1.0 / 24.0))
+    sd = d - d * d2 * (1.0 / 6.0)
+    return s0 * cd + c0 * sd, c0 * cd - s0 * sd
+
+
+@_jit
+def _earth_terms(s, c, h):
+    """Earth terms at latitude ``L`` (``s, c = sin L, cos L``) and height ``h`` (m).
+
+    Returns ``(omega_ie_N, omega_ie_D, 1 / (R_N + h), 1 / (R_E + h), tan L, gravity)``:
+    Earth rate ``[W cos L, 0, -W sin L]`` (rad/s), inverse radii (1/m) with
+    ``root = sqrt(1 - e^2 s^2)``, ``R_E = a / root``, ``R_N = a (1 - e^2) / root^3``
+    (one division each), gravity of :func:`earth.gravity` (the same source).
+    """
     s2 = s * s
     root = math.sqrt(1.0 - earth.E2 * s2)
-    rn, re = _radii(root)
+    cube = root * root * root
     w = earth.RATE
-    return w * c, -w * s, rn + h, re + h, math.tan(lat), c, _gravity(s2, root, h)
+    return (w * c, -w * s, cube / (_A_POLAR + h * cube), root / (earth.A + h * root), s / c,
+            _gravity(s2, root, h))
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, error_model="numpy", inline="always")
 def _velocity_step(vel, u, wie, terms, g, dt, mode):
     """Velocity change (3) and nav-frame rotation vector zeta (3), steps 2-3.
 
     ``wie``: Earth rate ``(N, D)`` (its east component is zero); ``terms``:
-    ``(R_N + h, R_E + h, tan lat)`` at mid-interval; ``vel``, ``u`` 3-tuples.
+    ``(1 / (R_N + h), 1 / (R_E + h), tan lat)`` at mid-interval; ``vel``, ``u`` 3-tuples.
     """
-    rn_h, re_h, tan_l = terms
+    irn, ire, tan_l = terms
     wn, wd = wie
     # zero velocity: the velocity is known to be zero, so no Coriolis acts and the
     # computed velocity is the open-loop velocity error (000 eq. 10)
@@ -153,14 +173,16 @@ def _velocity_step(vel, u, wie, terms, g, dt, mode):
     free = mode < _FIXED_POSITION
     ex, ey, ez = 0.0, 0.0, 0.0
     if free:  # transport rate omega_en_n at the start velocity
-        ex, ey, ez = vel[1] / re_h, -vel[0] / rn_h, -vel[1] * tan_l / re_h
+        ex, ey = vel[1] * ire, -vel[0] * irn
+        ez = -ex * tan_l
     cx, cy, cz = _cross(2.0 * wn + ex, ey, 2.0 * wd + ez,
                         known * vel[0], known * vel[1], known * vel[2])
     mx = vel[0] + 0.5 * (u[0] - cx * dt)
     my = vel[1] + 0.5 * (u[1] - cy * dt)
     mz = vel[2] + 0.5 * (u[2] + (g - cz) * dt)
     if free:  # and at the predicted mid velocity
-        ex, ey, ez = my / re_h, -mx / rn_h, -my * tan_l / re_h
+        ex, ey = my * ire, -mx * irn
+        ez = -ex * tan_l
     zx, zy, zz = (wn + ex) * dt, ey * dt, (wd + ez) * dt
     rx, ry, rz = _cross(zx, zy, zz, u[0], u[1], u[2])
     cx, cy, cz = _cross(2.0 * wn + ex, ey, 2.0 * wd + ez, known * mx, known * my, known * mz)
@@ -168,7 +190,7 @@ def _velocity_step(vel, u, wie, terms, g, dt, mode):
              u[2] - 0.5 * rz + (g - cz) * dt), (zx, zy, zz))
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, error_model="numpy", inline="always")
 def _attitude_step(q, phi, zeta):
     """``q(-zeta) * q * q(phi)``, renormalised to first order (step 4)."""
     b0, b1, b2, b3 = _quat_of_rotvec(phi[0], phi[1], phi[2])
@@ -179,7 +201,7 @@ def _attitude_step(q, phi, zeta):
     return q0 * s, q1 * s, q2 * s, q3 * s
 
 
-@numba.njit(cache=True, nogil=True)
+@numba.njit(cache=True, nogil=True, error_model="numpy")
 def _navigate(quat, vel, lla, prev, count, dtheta, dv, dt, mode, coning, sculling,
               decimation, home, out_index, out_quat, out_vel, out_lla):
     """Run the recursion over all samples; state arrays are updated in place.
@@ -192,9 +214,12 @@ def _navigate(quat, vel, lla, prev, count, dtheta, dv, dt, mode, coning, scullin
     lat, lon, h = lla[0], lla[1], lla[2]
     pre = prev[0], prev[1], prev[2], prev[3], prev[4], prev[5]
     free = mode < _FIXED_POSITION
-    # Earth rate (N, D), R_N + h, R_E + h, tan, cos, gravity: of the known position
-    # in fixed-position mode, else recomputed at mid-interval every step
-    wn, wd, rn_h, re_h, tan_l, cos_l, g = home[0], home[2], home[3], home[4], 0.0, 1.0, home[7]
+    half_dt = 0.5 * dt
+    # Earth rate (N, D), 1 / (R_N + h), 1 / (R_E + h), tan, gravity: of the known
+    # position in fixed-position mode, else recomputed at mid-interval every step
+    wn, wd, irn, ire, tan_l, g = home[0], home[2], 0.0, 0.0, 0.0, home[7]
+    c = 1.0
+    lo, ref, s0, c0 = math.inf, 0.0, 0.0, 1.0  # cell [lo, lo + _GRID) of _sincos_near
     left = decimation - count % decimation  # samples to the next output
     j = 0
     for k in range(dtheta.shape[0]):
@@ -203,16 +228,23 @@ def _navigate(quat, vel, lla, prev, count, dtheta, dv, dt, mode, coning, scullin
         phi, sf = _body_terms(th, dvk, pre, coning, sculling)
         u = _rotate(q[0], q[1], q[2], q[3], sf[0], sf[1], sf[2])
         if free:
-            lat_m = lat + 0.5 * dt * v[0] / (_R_EXTRAPOLATE + h)
-            h_m = h if mode == _FIXED_HEIGHT else h - 0.5 * dt * v[2]
-            wn, wd, rn_h, re_h, tan_l, cos_l, g = _earth_terms(lat_m, h_m)
-        dvn, zeta = _velocity_step(v, u, (wn, wd), (rn_h, re_h, tan_l), g, dt, mode)
+            lat_m = lat + half_dt * v[0] / (_R_EXTRAPOLATE + h)
+            h_m = h if mode == _FIXED_HEIGHT else h - half_dt * v[2]
+            # sin, cos from those of the nearest multiple L0 of _GRID, a pure function
+            # of lat_m (chunked calls stay bit-identical); libm only on a new cell
+            if not lo <= lat_m < lo + _GRID:
+                cell = math.floor(lat_m * (1.0 / _GRID) + 0.5)
+                lo, ref = (cell - 0.5) * _GRID, cell * _GRID
+                s0, c0 = math.sin(ref), math.cos(ref)
+            s, c = _sincos_near(lat_m - ref, s0, c0)
+            wn, wd, irn, ire, tan_l, g = _earth_terms(s, c, h_m)
+        dvn, zeta = _velocity_step(v, u, (wn, wd), (irn, ire, tan_l), g, dt, mode)
         q = _attitude_step(q, phi, zeta)
         mean_n, mean_e, mean_d = v[0] + 0.5 * dvn[0], v[1] + 0.5 * dvn[1], v[2] + 0.5 * dvn[2]
         v = v[0] + dvn[0], v[1] + dvn[1], v[2] + dvn[2]
         if free:
-            lat += mean_n * dt / rn_h
-            lon += mean_e * dt / (re_h * cos_l)
+            lat += mean_n * dt * irn
+            lon += mean_e * dt * ire / c
         if mode == _FREE:
             h -= mean_d * dt
         pre = th[0], th[1], th[2], dvk[0], dvk[1], dvk[2]
