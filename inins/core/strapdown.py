@@ -33,6 +33,15 @@ scheme is second order).
 
        h += -vbar_D dt,  lat += vbar_N dt / (R_N + h)_m,  lon += vbar_E dt / ((R_E + h) cos lat)_m
 
+The Earth terms (radii, gravity, Earth and transport rates) are evaluated once per
+step at the mid latitude from one ``sin, cos`` pair, taken by a series from the
+nearest multiple of 2^-10 rad (libm is called only when the latitude enters a new
+cell; within 1 ulp of libm), with ``tan = sin / cos`` and the inverse radii
+``1 / (R + h)`` by one division each. Against the direct evaluation (libm
+``sin, cos, tan`` and the radii of :func:`earth.principal_radii`) a 1-hour flight
+differs by 1e-14 rad, 1e-11 m/s and 6e-9 m; fixed-position mode does not use them
+and is unchanged to the last bit.
+
 With ``fixed_position=True`` (rate-table "stationary navigation", 000 eqs. 9-10)
 the position stays at its initial value, ``omega_en = 0``, and Earth rate and
 gravity are those of the known position; velocity is still integrated (step 3
@@ -60,7 +69,6 @@ _gravity = _jit(earth.gravity_of_sin2)
 _R_EXTRAPOLATE = 6.371e6
 """Radius (m) used only to extrapolate the mid-interval latitude."""
 _FREE, _FIXED_HEIGHT, _FIXED_POSITION, _ZERO_VELOCITY = 0, 1, 2, 3
-_TWELFTH = 1.0 / 12.0
 _GRID = 2.0**-10
 """Spacing (rad) of the reference latitudes of :func:`_sincos_near`."""
 _A_POLAR = earth.A * (1.0 - earth.E2)
@@ -72,8 +80,8 @@ def _quat_of_rotvec(x, y, z):
     """Unit quaternion of the rotation vector ``[x, y, z]`` (rad); series below 0.01 rad."""
     a2 = x * x + y * y + z * z
     if a2 < 1e-4:  # truncation < 3e-17
-        c = 1.0 - a2 * 0.125 + a2 * a2 * (1.0 / 384.0)
-        k = 0.5 - a2 * (1.0 / 48.0) + a2 * a2 * (1.0 / 3840.0)
+        c = 1.0 - a2 / 8.0 + a2 * a2 / 384.0
+        k = 0.5 - a2 / 48.0 + a2 * a2 / 3840.0
     else:
         a = math.sqrt(a2)
         c = math.cos(0.5 * a)
@@ -118,13 +126,11 @@ def _body_terms(th, dv, prev, coning, sculling):
     sx, sy, sz = dv[0] + 0.5 * rx, dv[1] + 0.5 * ry, dv[2] + 0.5 * rz
     if coning:
         cx, cy, cz = _cross(prev[0], prev[1], prev[2], th[0], th[1], th[2])
-        px, py, pz = px + cx * _TWELFTH, py + cy * _TWELFTH, pz + cz * _TWELFTH
+        px, py, pz = px + cx / 12.0, py + cy / 12.0, pz + cz / 12.0
     if sculling:
         ax, ay, az = _cross(prev[0], prev[1], prev[2], dv[0], dv[1], dv[2])
         bx, by, bz = _cross(prev[3], prev[4], prev[5], th[0], th[1], th[2])
-        sx = sx + (ax + bx) * _TWELFTH
-        sy = sy + (ay + by) * _TWELFTH
-        sz = sz + (az + bz) * _TWELFTH
+        sx, sy, sz = sx + (ax + bx) / 12.0, sy + (ay + by) / 12.0, sz + (az + bz) / 12.0
     return (px, py, pz), (sx, sy, sz)
 
 
