@@ -4,13 +4,16 @@ Each measurement runs in a child process whose ``NUMBA_CACHE_DIR`` is a fresh
 temporary directory, so the real on-disk cache (``__pycache__`` next to the
 sources) is never read, written or destroyed. The child listens to numba's
 ``numba:compile`` events (emitted only for a real compilation, never for a cache
-load) and runs the shipped ``calibrate-bias`` scenario (which simulates its
-table record first), then ``simulate-table``. A second child on the now warm
-cache gives the warm wall time.
+load) and runs one command with its shipped scenario: ``calibrate-bias`` (which
+simulates its table record first) or ``simulate-table``, each on its own empty
+cache. A second child on the cache the first one filled gives the warm figures.
 
-Per kernel it reports the *exclusive* compile time (its own typing, lowering and
-LLVM optimisation; the kernels it calls, compiled while it is typed, are
-counted under their own names) and the number of specialisations.
+Per kernel it reports the *exclusive* compile time in CPU seconds (its own
+typing, lowering and LLVM optimisation; the kernels it calls, compiled while it
+is typed, are counted under their own names; CPU time, so that other processes on
+a shared machine do not inflate it) and the number of specialisations. First-run
+and warm-run figures are whole processes (interpreter, imports, compile or cache
+load, the command), wall and CPU.
 
 ``run()`` (``make bench``) measures the working tree. Run as a script,
 ``python -m benchmarks.bench_compile --against REV`` also measures the tree of
@@ -35,18 +38,18 @@ WORKLOADS = (("calibrate-bias",), ("simulate-table",))
 
 _CHILD = r"""
 import json, sys, time
-start = time.perf_counter()
+start, start_cpu = time.perf_counter(), time.process_time()
 from numba.core import event
 
 stack, rows = [], []
 
 class Listener(event.Listener):
     def on_start(self, ev):
-        stack.append([ev.data["dispatcher"], time.perf_counter(), 0.0])
+        stack.append([ev.data["dispatcher"], time.process_time(), 0.0])
 
     def on_end(self, ev):
         disp, t0, children = stack.pop()
-        total = time.perf_counter() - t0
+        total = time.process_time() - t0
         if stack:
             stack[-1][2] += total
         name = disp.py_func.__module__ + "." + disp.py_func.__qualname__
@@ -57,23 +60,25 @@ from inins.cli import app
 
 phases = {}
 for args in json.loads(sys.argv[1]):
-    t0 = time.perf_counter()
+    t0, c0 = time.perf_counter(), time.process_time()
     try:
         app(args=args, prog_name="inins")
         code = 0
     except SystemExit as exc:
         code = exc.code or 0
-    phases[args[0]] = {"wall_s": time.perf_counter() - t0, "exit": code}
-print(json.dumps({"wall_s": time.perf_counter() - start, "phases": phases, "kernels": rows}))
+    phases[args[0]] = {"wall_s": time.perf_counter() - t0, "cpu_s": time.process_time() - c0,
+                       "exit": code}
+print(json.dumps({"wall_s": time.perf_counter() - start, "cpu_s": time.process_time() - start_cpu,
+                  "phases": phases, "kernels": rows}))
 """
 
 
-def _child(src, cache_dir, outdir):
-    """Run the workloads in a child with its own numba cache; its JSON figures."""
-    workloads = [[*w, "-o", str(Path(outdir) / w[0])] for w in WORKLOADS]
+def _child(src, cache_dir, outdir, workload):
+    """Run one workload in a child with its own numba cache; its JSON figures."""
+    args = [[*workload, "-o", str(Path(outdir) / workload[0])]]
     env = dict(os.environ, NUMBA_CACHE_DIR=str(cache_dir), PYTHONPATH=str(src))
     start = time.perf_counter()
-    out = subprocess.run([sys.executable, "-c", _CHILD, json.dumps(workloads)], env=env,
+    out = subprocess.run([sys.executable, "-c", _CHILD, json.dumps(args)], env=env,
                          cwd=src, capture_output=True, text=True)
     wall = time.perf_counter() - start
     if out.returncode != 0:
@@ -84,25 +89,28 @@ def _child(src, cache_dir, outdir):
 
 
 def measure(src=ROOT):
-    """Cold-cache and warm-cache figures of the ``inins`` tree at ``src``.
+    """Cold-cache and warm-cache figures of each workload on the ``inins`` tree at ``src``.
 
     Returns
     -------
     dict
-        ``cold``: child figures with an empty cache (``kernels``: rows of
-        name, signature, exclusive s, inclusive s); ``warm``: the same
-        workloads again on the cache the cold run filled.
+        Per workload name: ``cold``, the child's figures on an empty cache
+        (``kernels``: rows of name, signature, exclusive CPU s, inclusive CPU s),
+        and ``warm``, the same command again on the cache the cold run filled.
     """
-    with tempfile.TemporaryDirectory() as tmp:
-        cache = Path(tmp) / "numba-cache"
-        cache.mkdir()
-        cold = _child(src, cache, Path(tmp) / "cold")
-        warm = _child(src, cache, Path(tmp) / "warm")
-    return {"cold": cold, "warm": warm}
+    figures = {}
+    for workload in WORKLOADS:
+        with tempfile.TemporaryDirectory() as tmp:
+            cache = Path(tmp) / "numba-cache"
+            cache.mkdir()
+            cold = _child(src, cache, Path(tmp) / "cold", workload)
+            warm = _child(src, cache, Path(tmp) / "warm", workload)
+        figures[workload[0]] = {"cold": cold, "warm": warm}
+    return figures
 
 
 def per_kernel(kernels):
-    """``{name: (exclusive s, specialisations)}`` summed over signatures."""
+    """``{name: (exclusive CPU s, specialisations)}`` summed over signatures."""
     out = {}
     for name, _, exclusive, _ in kernels:
         seconds, count = out.get(name, (0.0, 0))
@@ -111,18 +119,17 @@ def per_kernel(kernels):
 
 
 def _summary(figures):
-    cold, warm = figures["cold"], figures["warm"]
-    kernels = per_kernel(cold["kernels"])
-    result = {
-        "compile_total_s": sum(s for s, _ in kernels.values()),
-        "compiled_functions": len(kernels),
-        "specialisations": sum(c for _, c in kernels.values()),
-    }
-    for phase in cold["phases"]:
-        result[f"{phase}_cold_wall_s"] = cold["phases"][phase]["wall_s"]
-        result[f"{phase}_warm_wall_s"] = warm["phases"][phase]["wall_s"]
-    result["cold_process_wall_s"] = cold["process_wall_s"]
-    result["warm_process_wall_s"] = warm["process_wall_s"]
+    result = {}
+    for name, runs in figures.items():
+        cold, warm = runs["cold"], runs["warm"]
+        kernels = per_kernel(cold["kernels"])
+        result[f"{name}_compile_cpu_s"] = sum(s for s, _ in kernels.values())
+        result[f"{name}_compiled_functions"] = len(kernels)
+        result[f"{name}_specialisations"] = sum(c for _, c in kernels.values())
+        result[f"{name}_first_run_wall_s"] = cold["process_wall_s"]
+        result[f"{name}_first_run_cpu_s"] = cold["cpu_s"]
+        result[f"{name}_warm_run_wall_s"] = warm["process_wall_s"]
+        result[f"{name}_warm_run_cpu_s"] = warm["cpu_s"]
     return result
 
 
@@ -138,19 +145,20 @@ def _export(rev, dest):
     subprocess.run(["tar", "-x", "-C", str(dest)], input=archive, check=True)
 
 
-def _print_side_by_side(columns):
-    names = sorted({n for figs in columns.values() for n in per_kernel(figs["cold"]["kernels"])},
-                   key=lambda n: -max(per_kernel(f["cold"]["kernels"]).get(n, (0, 0))[0]
-                                      for f in columns.values()))
+def _print_side_by_side(columns, workload="calibrate-bias"):
+    tables = {label: per_kernel(figs[workload]["cold"]["kernels"])
+              for label, figs in columns.items()}
+    names = sorted({n for table in tables.values() for n in table},
+                   key=lambda n: -max(table.get(n, (0.0, 0))[0] for table in tables.values()))
     labels = list(columns)
-    print(f"{'kernel (exclusive compile s, specialisations)':60s}"
-          + "".join(f"{label:>18s}" for label in labels))
+    print(f"{workload}, cold cache: compile CPU s per function (specialisations)")
+    print(f"{'function':60s}" + "".join(f"{label:>18s}" for label in labels))
     for name in names:
         cells = []
         for label in labels:
-            s, c = per_kernel(columns[label]["cold"]["kernels"]).get(name, (0.0, 0))
+            s, c = tables[label].get(name, (0.0, 0))
             cells.append(f"{s:12.3f} ({c:2d})" if c else f"{'-':>18s}")
-        print(f"{name[:60]:60s}" + "".join(cells))
+        print(f"{name[-60:]:60s}" + "".join(cells))
     print()
     summaries = {label: _summary(figs) for label, figs in columns.items()}
     for key in summaries[labels[0]]:

@@ -261,7 +261,7 @@ class BiasTruth(NamedTuple):
     accel: np.ndarray
 
 
-@numba.njit(cache=True, nogil=True)
+@numba.njit(cache=True, nogil=True, error_model="numpy")
 def _kernel(ideal_g, ideal_a, dt, mat_g, mat_a, par, temp, extra_g, extra_a, carry, gen, out,
             every):
     """One pass over the samples.
@@ -282,8 +282,8 @@ def _kernel(ideal_g, ideal_a, dt, mat_g, mat_a, par, temp, extra_g, extra_a, car
     noise = np.zeros(6)
     b = np.empty(6)
     y = np.empty(6)
-    truth_g[:, :] = 0.0
-    truth_a[:, :] = 0.0
+    truth_g.fill(0.0)
+    truth_a.fill(0.0)
     weight = 1.0 / every
     for k in range(n):
         row = k // every
@@ -453,3 +453,13 @@ def apply_errors(
     gm, resid = carry
     new_state = ImuState(gm[:3], gm[3:], resid[:3], resid[3:])
     return out[0], out[1], new_state, BiasTruth(out[2], out[3])
+
+
+def warm_up():
+    """Compile (or load from the on-disk cache) the error kernel on two samples.
+
+    Every call of :func:`apply_errors` passes the kernel the same argument types,
+    so that later calls run without compiling.
+    """
+    errors = SensorErrors(gyro_arw=1e-6, gyro_bias_instability=1e-7, gyro_bias_corr_time_s=1.0)
+    apply_errors(np.zeros((2, 3)), np.zeros((2, 3)), 0.01, errors, np.random.default_rng(0))

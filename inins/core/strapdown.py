@@ -496,3 +496,12 @@ def coning_drift_rate(half_angle, frequency, dt, corrected=True):
     if corrected:
         missing -= (2.0 * np.sin(x) - np.sin(2.0 * x)) / 12.0
     return np.sin(half_angle) ** 2 * missing / dt
+
+
+def warm_up():
+    """Compile (or load from the on-disk cache) the navigation kernel on two samples.
+
+    Every mode runs through the same compiled kernel (the mode is an argument).
+    """
+    state = NavState.from_attitude(np.eye(3), np.zeros(3), np.array([0.6, 2.2, 0.0]))
+    integrate(state, np.zeros((2, 3)), np.zeros((2, 3)), 0.01)

@@ -26,6 +26,7 @@ import numba
 import numpy as np
 
 from inins.core import earth, rotation
+from inins.table.program import Hold, compile_program
 
 GIMBAL_AXES = {"roll": 0, "pitch": 1, "yaw": 2}
 """Nominal gimbal axis names -> table axis index (x, y, z of the FRD table frame)."""
@@ -55,7 +56,10 @@ class MountRotation:
     smooth: bool = False
 
 
-_jit = numba.njit(cache=True, nogil=True)
+# numpy error model: no ZeroDivisionError branches (every divisor here is checked
+# non-zero before the kernel runs), which numba would otherwise compile and test
+_jit = numba.njit(cache=True, nogil=True, error_model="numpy")
+_inl = numba.njit(error_model="numpy", inline="always")
 
 
 @_jit
@@ -141,19 +145,18 @@ def _mount_state(t, m_axis, m_angle, m_start, m_duration, m_smooth, m, mdot):
     return moved
 
 
-@_jit
+@_inl
 def _platform(k, s, tau, seg_theta0, seg_rate0, seg_accel, axes, mat_n_base, mat_tb0,
-              omega_ie_n, f_n, angles_out, mat_nt, u_omega, u_force):
+              omega_ie_n, f_n, angles_out, mat_nt, u_omega, u_force, rot, tmp, w, v):
     """Gimbal chain at one time: mat_nt, and the platform terms seen by a mount at rest,
     u_omega = mat_tb0^T (mat_nt^T omega_ie_n + omega_nt_t), u_force = mat_tb0^T mat_nt^T f_n.
-    Returns True if a gimbal moves."""
-    rot = np.empty((3, 3))
-    tmp = np.empty((3, 3))
-    w = np.zeros(3)
-    w2 = np.empty(3)
-    v = np.empty(3)
+    ``rot``, ``tmp`` (3, 3) and ``w``, ``v`` (3,) are scratch. Returns True if a gimbal moves.
+    """
     moving = False
-    mat_nt[:, :] = mat_n_base
+    for i in range(3):
+        w[i] = 0.0
+        for j in range(3):
+            mat_nt[i, j] = mat_n_base[i, j]
     for g in range(axes.shape[0]):
         theta = seg_theta0[s, g] + tau * (seg_rate0[s, g] + 0.5 * tau * seg_accel[s, g])
         rate = seg_rate0[s, g] + seg_accel[s, g] * tau
@@ -161,10 +164,11 @@ def _platform(k, s, tau, seg_theta0, seg_rate0, seg_accel, axes, mat_n_base, mat
         angles_out[k, g] = theta
         _rodrigues(axes[g], theta, rot)
         _mm(mat_nt, rot, tmp)
-        mat_nt[:, :] = tmp
-        _mtv(rot, w, w2)
+        _mtv(rot, w, v)
         for i in range(3):
-            w[i] = w2[i] + axes[g, i] * rate
+            w[i] = v[i] + axes[g, i] * rate
+            for j in range(3):
+                mat_nt[i, j] = tmp[i, j]
     _mtv(mat_nt, omega_ie_n, v)
     for i in range(3):
         v[i] += w[i]
@@ -175,6 +179,20 @@ def _platform(k, s, tau, seg_theta0, seg_rate0, seg_accel, axes, mat_n_base, mat
 
 
 @_jit
+def _segment(seg_t0, t):
+    """Index of the last segment starting at or before t (0 if none): a bisection,
+    ``max(searchsorted(seg_t0, t, 'right') - 1, 0)``."""
+    lo, hi = 0, seg_t0.size
+    while lo < hi:
+        mid = (lo + hi) // 2
+        if seg_t0[mid] <= t:
+            lo = mid + 1
+        else:
+            hi = mid
+    return max(lo - 1, 0)
+
+
+@_jit
 def _kinematics_kernel(time, seg_t0, seg_theta0, seg_rate0, seg_accel, axes, mat_n_base,
                        mat_tb0, m_axis, m_angle, m_start, m_duration, m_smooth,
                        omega_ie_n, f_n, want_mat, omega_ib_b, f_b, mat_nb, angles_out):
@@ -182,23 +200,26 @@ def _kinematics_kernel(time, seg_t0, seg_theta0, seg_rate0, seg_accel, axes, mat
     mat_nt = np.empty((3, 3))
     mat_tb = np.empty((3, 3))
     exp_m = np.empty((3, 3))
+    rot = np.empty((3, 3))
     u_omega = np.empty(3)
     u_force = np.empty(3)
     m = np.empty(3)
     mdot = np.empty(3)
     v = np.empty(3)
+    w = np.empty(3)
     s, cached, moving = 0, -1, True
     for k in range(n):
         t = time[k]
         # segments are walked forward; a time earlier than the current segment searches
         if t < seg_t0[s]:
-            s = max(np.searchsorted(seg_t0, t, side="right") - 1, 0)
+            s = _segment(seg_t0, t)
         while s + 1 < n_seg and t >= seg_t0[s + 1]:
             s += 1
         tau = t - seg_t0[s]
         if moving or s != cached:  # a hold reuses the platform terms of its segment
             moving = _platform(k, s, tau, seg_theta0, seg_rate0, seg_accel, axes, mat_n_base,
-                               mat_tb0, omega_ie_n, f_n, angles_out, mat_nt, u_omega, u_force)
+                               mat_tb0, omega_ie_n, f_n, angles_out, mat_nt, u_omega, u_force,
+                               rot, exp_m, w, v)
             cached = s
         else:
             for g in range(n_gimbals):
@@ -225,7 +246,9 @@ def _kinematics_kernel(time, seg_t0, seg_theta0, seg_rate0, seg_accel, axes, mat
             _rodrigues_vec(m, a, b, exp_m)
             _mm(mat_tb0, exp_m, mat_tb)
             _mm(mat_nt, mat_tb, exp_m)
-            mat_nb[k] = exp_m
+            for i in range(3):
+                for j in range(3):
+                    mat_nb[k, i, j] = exp_m[i, j]
 
 
 @_jit
@@ -370,3 +393,17 @@ def gimbal_axes(names, nonorthogonality=None):
 def base_matrix(azimuth, tilt_roll=0.0, tilt_pitch=0.0):
     """``mat_n_base`` of a table base whose x axis points at ``azimuth`` (rad from north)."""
     return rotation.mat_from_euler(tilt_roll, tilt_pitch, azimuth)
+
+
+def warm_up():
+    """Compile (or load from the on-disk cache) the kinematics kernel on a tiny table.
+
+    The kernel gets the argument types every caller passes, so that a later
+    :meth:`TableTrajectory.rates` or ``state`` runs without compiling.
+    """
+    program = compile_program([Hold(1.0)], np.zeros(2))
+    table = TableTrajectory(program, gimbal_axes(["yaw", "pitch"]), base_matrix(0.0), np.eye(3),
+                            (MountRotation(np.array([0.0, 0.0, 1.0]), 0.1, 0.0, 1.0),),
+                            np.array([0.6, 2.2, 0.0]))
+    table.rates(np.array([0.5]))
+    table.state(np.array([0.5]))
