@@ -61,6 +61,7 @@ class MountRotation:
 # 3x3 matrices are 9-tuples (row-major) and vectors 3-tuples inside the kernel: tuple
 # arithmetic compiles in a fraction of the time of small-array indexing.
 _jit = numba.njit(cache=True, nogil=True, error_model="numpy")
+_inl = numba.njit(error_model="numpy", inline="always")
 
 
 @_jit
@@ -143,7 +144,7 @@ def _mount_state(t, m_axis, m_angle, m_start, m_duration, m_smooth):
     return moved, (mx, my, mz), (rx, ry, rz)
 
 
-@_jit
+@_inl
 def _platform(k, s, tau, seg_theta0, seg_rate0, seg_accel, axes, mat_n_base, mat_tb0,
               omega_ie_n, f_n, angles_out):
     """Gimbal chain at one time: ``mat_nt`` and the platform terms seen by a mount at rest,
