@@ -270,9 +270,10 @@ def _kernel(ideal_g, ideal_a, dt, mat_g, mat_a, par, temp, extra_g, extra_a, car
     channel (gyro x, y, z, accel x, y, z). ``carry`` (2, 6): GM value and
     quantization remainder, updated in place. ``out``: (n, 3) gyro and accel
     outputs and (n // every, 3) gyro and accel truth (means over ``every``
-    samples), filled in place. ``work`` (3, 6): zeros, scratch for the white noise,
-    the bias and the output of each channel (allocated by the caller: an allocation
-    inside the kernel compiles numba's array constructors too).
+    samples, accumulated into zeros), filled in place. ``work`` (3, 6): zeros,
+    scratch for the white noise, the bias and the output of each channel (allocated
+    by the caller: an allocation inside the kernel compiles numba's array
+    constructors too).
     """
     bias, white, rho, drive, k_temp, pulse = par[0], par[1], par[2], par[3], par[4], par[5]
     gm, resid = carry[0], carry[1]
@@ -282,8 +283,6 @@ def _kernel(ideal_g, ideal_a, dt, mat_g, mat_a, par, temp, extra_g, extra_a, car
     has_xg = extra_g.shape[0] == n
     has_xa = extra_a.shape[0] == n
     noise, b, y = work[0], work[1], work[2]
-    truth_g.fill(0.0)
-    truth_a.fill(0.0)
     weight = 1.0 / every
     for k in range(n):
         row = k // every
@@ -445,7 +444,7 @@ def apply_errors(
         ]
     )
     m = n // truth_every
-    out = (np.empty((n, 3)), np.empty((n, 3)), np.empty((m, 3)), np.empty((m, 3)))
+    out = (np.empty((n, 3)), np.empty((n, 3)), np.zeros((m, 3)), np.zeros((m, 3)))
     if n:
         mats = errors.gyro_matrix(), errors.accel_matrix()
         _kernel(dtheta, dv, dt, *mats, par, temp, extra_g, extra_a, carry, rng, out,

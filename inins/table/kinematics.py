@@ -20,6 +20,7 @@ rotation (no lever arm), so::
     f_b        = -mat_bn g_n
 """
 
+import math
 from dataclasses import dataclass
 
 import numba
@@ -135,8 +136,8 @@ def _mount_state(t, m_axis, m_angle, m_start, m_duration, m_smooth):
         if s >= 1.0:
             theta, rate = m_angle[j], 0.0
         elif m_smooth[j]:
-            theta = m_angle[j] * 0.5 * (1.0 - np.cos(np.pi * s))
-            rate = m_angle[j] * 0.5 * np.pi * np.sin(np.pi * s) / m_duration[j]
+            theta = m_angle[j] * 0.5 * (1.0 - math.cos(math.pi * s))
+            rate = m_angle[j] * 0.5 * math.pi * math.sin(math.pi * s) / m_duration[j]
         else:
             theta, rate = m_angle[j] * s, m_angle[j] / m_duration[j]
         mx, my, mz = mx + m_axis[j, 0] * theta, my + m_axis[j, 1] * theta, mz + m_axis[j, 2] * theta
@@ -179,7 +180,7 @@ def _segment(seg_t0, t):
             lo = mid + 1
         else:
             hi = mid
-    return max(lo - 1, 0)
+    return lo - 1 if lo > 0 else 0
 
 
 @_jit
