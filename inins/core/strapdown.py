@@ -64,8 +64,12 @@ import numpy as np
 
 from inins.core import earth, rotation
 
+# numpy error model: no ZeroDivisionError branches. Helpers called once are inlined
+# by numba (no separate compilation); the small ones called several times are
+# compiled once and inlined by LLVM, which compiles faster than inlining each copy.
 _jit = numba.njit(cache=True, error_model="numpy")
-_gravity = _jit(earth.gravity_of_sin2)
+_inline = numba.njit(error_model="numpy", inline="always")
+_gravity = _inline(earth.gravity_of_sin2)
 _R_EXTRAPOLATE = 6.371e6
 """Radius (m) used only to extrapolate the mid-interval latitude."""
 _FREE, _FIXED_HEIGHT, _FIXED_POSITION, _ZERO_VELOCITY = 0, 1, 2, 3
@@ -98,7 +102,7 @@ def _quat_mul(a0, a1, a2, a3, b0, b1, b2, b3):
             a0 * b3 + a1 * b2 - a2 * b1 + a3 * b0)
 
 
-@_jit
+@_inline
 def _rotate(q0, q1, q2, q3, x, y, z):
     """``mat_from_quat(q) @ [x, y, z]``: ``v + w t + r x t`` with ``t = 2 r x v``."""
     tx = 2.0 * (q2 * z - q3 * y)
@@ -114,7 +118,7 @@ def _cross(ax, ay, az, bx, by, bz):
     return ay * bz - az * by, az * bx - ax * bz, ax * by - ay * bx
 
 
-@_jit
+@_inline
 def _body_terms(th, dv, prev, coning, sculling):
     """Coning-corrected rotation vector and compensated velocity increment (body).
 
@@ -134,7 +138,7 @@ def _body_terms(th, dv, prev, coning, sculling):
     return (px, py, pz), (sx, sy, sz)
 
 
-@_jit
+@_inline
 def _sincos_near(d, s0, c0):
     """``sin, cos`` of ``L0 + d`` from ``s0, c0 = sin L0, cos L0``, ``|d| <= 2^-11`` rad.
 
@@ -147,7 +151,7 @@ def _sincos_near(d, s0, c0):
     return s0 * cd + c0 * sd, c0 * cd - s0 * sd
 
 
-@_jit
+@_inline
 def _earth_terms(s, c, h):
     """Earth terms at latitude ``L`` (``s, c = sin L, cos L``) and height ``h`` (m).
 
@@ -164,7 +168,7 @@ def _earth_terms(s, c, h):
             _gravity(s2, root, h))
 
 
-@numba.njit(cache=True, error_model="numpy", inline="always")
+@_inline
 def _velocity_step(vel, u, wie, terms, g, dt, mode):
     """Velocity change (3) and nav-frame rotation vector zeta (3), steps 2-3.
 
@@ -196,7 +200,7 @@ def _velocity_step(vel, u, wie, terms, g, dt, mode):
              u[2] - 0.5 * rz + (g - cz) * dt), (zx, zy, zz))
 
 
-@numba.njit(cache=True, error_model="numpy", inline="always")
+@_inline
 def _attitude_step(q, phi, zeta):
     """``q(-zeta) * q * q(phi)``, renormalised to first order (step 4)."""
     b0, b1, b2, b3 = _quat_of_rotvec(phi[0], phi[1], phi[2])

@@ -60,7 +60,9 @@ class MountRotation:
 # numpy error model: no ZeroDivisionError branches (every divisor here is checked
 # non-zero before the kernel runs), which numba would otherwise compile and test.
 # 3x3 matrices are 9-tuples (row-major) and vectors 3-tuples inside the kernel: tuple
-# arithmetic compiles in a fraction of the time of small-array indexing.
+# arithmetic compiles in a fraction of the time of small-array indexing. Helpers
+# called once per sample site are inlined by numba (_inl: no separate compilation);
+# the small ones called several times are compiled once and inlined by LLVM.
 _jit = numba.njit(cache=True, nogil=True, error_model="numpy")
 _inl = numba.njit(error_model="numpy", inline="always")
 
@@ -123,7 +125,7 @@ def _rotate_back(m, a, b, u):
             u[2] - a * c2 + b * (m[0] * c1 - m[1] * c0))
 
 
-@_jit
+@_inl
 def _mount_state(t, m_axis, m_angle, m_start, m_duration, m_smooth):
     """Mount rotation vector m (rad) and its rate (rad/s) at time t, and False if m = 0."""
     moved = False
@@ -169,7 +171,7 @@ def _platform(k, s, tau, seg_theta0, seg_rate0, seg_accel, axes, mat_n_base, mat
     return moving, mat_nt, u_omega, u_force
 
 
-@_jit
+@_inl
 def _segment(seg_t0, t):
     """Index of the last segment starting at or before t (0 if none): a bisection,
     ``max(searchsorted(seg_t0, t, 'right') - 1, 0)``."""
