@@ -15,6 +15,10 @@ a shared machine do not inflate it) and the number of specialisations. First-run
 and warm-run figures are whole processes (interpreter, imports, compile or cache
 load, the command), wall and CPU.
 
+Then the modules' ``warm_up()`` functions (:data:`WARM_UP`, what an install step
+would call) run on a fresh cache, and each command runs on the cache they filled:
+it should compile nothing (``*_after_warm_up_compiled``).
+
 ``run()`` (``make bench``) measures the working tree. Run as a script,
 ``python -m benchmarks.bench_compile --against REV`` also measures the tree of
 git revision ``REV`` (exported to a temporary directory) in the same run and
@@ -35,6 +39,8 @@ from pathlib import Path
 HERE = Path(__file__).parent
 ROOT = HERE.parent
 WORKLOADS = (("calibrate-bias",), ("simulate-table",))
+WARM_UP = ("inins.core.pulses", "inins.core.imu", "inins.core.strapdown", "inins.table.kinematics")
+"""Modules whose ``warm_up()`` compiles every kernel of the commands (an install step)."""
 
 _CHILD = r"""
 import json, sys, time
@@ -56,16 +62,21 @@ class Listener(event.Listener):
         rows.append((name, str(ev.data["args"]), total - children, total))
 
 event.register("numba:compile", Listener())
-from inins.cli import app
 
 phases = {}
 for args in json.loads(sys.argv[1]):
     t0, c0 = time.perf_counter(), time.process_time()
-    try:
-        app(args=args, prog_name="inins")
-        code = 0
-    except SystemExit as exc:
-        code = exc.code or 0
+    code = 0
+    if args[0] == "warm-up":
+        import importlib
+        for module in args[1:]:
+            importlib.import_module(module).warm_up()
+    else:
+        from inins.cli import app
+        try:
+            app(args=args, prog_name="inins")
+        except SystemExit as exc:
+            code = exc.code or 0
     phases[args[0]] = {"wall_s": time.perf_counter() - t0, "cpu_s": time.process_time() - c0,
                        "exit": code}
 print(json.dumps({"wall_s": time.perf_counter() - start, "cpu_s": time.process_time() - start_cpu,
@@ -75,7 +86,8 @@ print(json.dumps({"wall_s": time.perf_counter() - start, "cpu_s": time.process_t
 
 def _child(src, cache_dir, outdir, workload):
     """Run one workload in a child with its own numba cache; its JSON figures."""
-    args = [[*workload, "-o", str(Path(outdir) / workload[0])]]
+    args = [list(workload) if workload[0] == "warm-up"
+            else [*workload, "-o", str(Path(outdir) / workload[0])]]
     env = dict(os.environ, NUMBA_CACHE_DIR=str(cache_dir), PYTHONPATH=str(src))
     start = time.perf_counter()
     out = subprocess.run([sys.executable, "-c", _CHILD, json.dumps(args)], env=env,
@@ -88,7 +100,7 @@ def _child(src, cache_dir, outdir, workload):
     return figures
 
 
-def measure(src=ROOT):
+def measure(src=ROOT, warm_up=True):
     """Cold-cache and warm-cache figures of each workload on the ``inins`` tree at ``src``.
 
     Returns
@@ -97,6 +109,9 @@ def measure(src=ROOT):
         Per workload name: ``cold``, the child's figures on an empty cache
         (``kernels``: rows of name, signature, exclusive CPU s, inclusive CPU s),
         and ``warm``, the same command again on the cache the cold run filled.
+        With ``warm_up``, also ``warm-up``: the modules' ``warm_up()`` on an empty
+        cache, and ``after_warm_up``: each command on the cache it filled (what a
+        user sees after an install step that warms up).
     """
     figures = {}
     for workload in WORKLOADS:
@@ -106,6 +121,14 @@ def measure(src=ROOT):
             cold = _child(src, cache, Path(tmp) / "cold", workload)
             warm = _child(src, cache, Path(tmp) / "warm", workload)
         figures[workload[0]] = {"cold": cold, "warm": warm}
+    if warm_up:
+        with tempfile.TemporaryDirectory() as tmp:
+            cache = Path(tmp) / "numba-cache"
+            cache.mkdir()
+            figures["warm-up"] = {"cold": _child(src, cache, tmp, ("warm-up", *WARM_UP))}
+            for workload in WORKLOADS:
+                after = _child(src, cache, Path(tmp) / "after", workload)
+                figures[workload[0]]["after_warm_up"] = after
     return figures
 
 
@@ -121,6 +144,11 @@ def per_kernel(kernels):
 def _summary(figures):
     result = {}
     for name, runs in figures.items():
+        if name == "warm-up":
+            cold = runs["cold"]
+            result["warm_up_compile_cpu_s"] = sum(r[2] for r in cold["kernels"])
+            result["warm_up_wall_s"] = cold["process_wall_s"]
+            continue
         cold, warm = runs["cold"], runs["warm"]
         kernels = per_kernel(cold["kernels"])
         result[f"{name}_compile_cpu_s"] = sum(s for s, _ in kernels.values())
@@ -130,6 +158,10 @@ def _summary(figures):
         result[f"{name}_first_run_cpu_s"] = cold["cpu_s"]
         result[f"{name}_warm_run_wall_s"] = warm["process_wall_s"]
         result[f"{name}_warm_run_cpu_s"] = warm["cpu_s"]
+        if "after_warm_up" in runs:
+            after = runs["after_warm_up"]
+            result[f"{name}_after_warm_up_compiled"] = len(after["kernels"])
+            result[f"{name}_after_warm_up_wall_s"] = after["process_wall_s"]
     return result
 
 
@@ -161,7 +193,7 @@ def _print_side_by_side(columns, workload="calibrate-bias"):
         print(f"{name[-60:]:60s}" + "".join(cells))
     print()
     summaries = {label: _summary(figs) for label, figs in columns.items()}
-    for key in summaries[labels[0]]:
+    for key in summaries[labels[-1]]:
         print(f"{key:60s}" + "".join(f"{summaries[lb].get(key, float('nan')):18.3f}"
                                      for lb in labels))
 
@@ -175,7 +207,7 @@ def main():
     with tempfile.TemporaryDirectory() as tmp:
         if args.against:
             _export(args.against, tmp)
-            columns[args.against] = measure(Path(tmp))
+            columns[args.against] = measure(Path(tmp), warm_up=False)
         columns["working tree"] = measure(ROOT)
     _print_side_by_side(columns)
     if args.json:

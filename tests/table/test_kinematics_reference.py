@@ -12,6 +12,7 @@ import pytest
 
 from inins.core import rotation
 from inins.core.units import DEG
+from inins.table import kinematics
 from inins.table.kinematics import MountRotation, TableTrajectory, base_matrix, gimbal_axes
 from inins.table.program import Hold, Rotate, Spin, compile_program
 
@@ -40,3 +41,13 @@ def test_matches_previous_kernel_bit_for_bit(names):
         for a, b in zip(new, old, strict=True):
             assert a.shape == b.shape
             assert np.array_equal(a, b)
+
+
+def test_warm_up_compiles_the_one_specialisation_every_table_uses():
+    kinematics.warm_up()
+    program = compile_program([Rotate(2, 1.0, 0.5, 1.0)], np.zeros(3))
+    traj = TableTrajectory(program, gimbal_axes(["yaw", "pitch", "roll"]), base_matrix(1.0),
+                           np.eye(3), (), np.array([0.6, 2.2, 10.0]))
+    traj.rates([0.5, 1.0])
+    traj.state(np.float32(2.0))
+    assert len(kinematics._kinematics_kernel.signatures) == 1
