@@ -1,15 +1,25 @@
-"""Strapdown integrator throughput and memory.
+"""Strapdown integrator throughput and memory, side by side with its previous kernel and pyins.
 
-``run()`` warms up the JIT, times :func:`inins.core.strapdown.integrate` on one
-hour of 200 Hz increments in one call, then integrates 24 h at 200 Hz in
-1-minute chunks decimated to 1 Hz and reports the peak resident set size
-(which must stay below 1 GB: memory grows with what is kept, not with the
-record length).
+``run()`` warms up the JIT and times :func:`inins.core.strapdown.integrate` on one
+hour of 200 Hz increments in one call with outputs at 1 Hz, in free navigation and
+in fixed-position mode (best of three, CPU seconds, so that other processes on a
+shared machine count less). On the same increments and in the same run it times
+the previous kernel (the frozen copy ``tests/core/strapdown_v0.py``, when the
+tests are there) and, when ``python-ins`` is installed, pyins' numba kernel
+(outputs at every sample, no coning or sculling correction) and its pandas
+``Integrator``. Then it integrates 24 h at 200 Hz in 1-minute chunks decimated to
+1 Hz (CPU time: the kernel plus about 40 us of Python per call) and reports the
+peak resident set size (which must stay below 1 GB: memory
+grows with what is kept, not with the record length).
+
+Targets (issue 9): >= 12 M samples/s free, >= 20 M samples/s fixed position.
 """
 
+import importlib
 import resource
 import sys
 import time
+from pathlib import Path
 
 import numpy as np
 
@@ -18,6 +28,7 @@ from inins.core.units import DEG, DPH, UG
 
 RATE_HZ = 200.0
 LAT, LON, HEIGHT = 37.0 * DEG, 127.0 * DEG, 100.0
+TESTS_CORE = Path(__file__).parents[1] / "tests" / "core"
 
 
 def _increments(n, dt, seed=0):
@@ -36,6 +47,72 @@ def _peak_rss_mb():
     return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss * scale / 2**20
 
 
+def _best_cpu(func, repeat=3):
+    """Smallest CPU time (s) of ``repeat`` calls of ``func()``."""
+    times = []
+    for _ in range(repeat):
+        start = time.process_time()
+        func()
+        times.append(time.process_time() - start)
+    return min(times)
+
+
+def _previous_kernel():
+    """The frozen previous kernel module, or None outside a source checkout."""
+    if not (TESTS_CORE / "strapdown_v0.py").exists():
+        return None
+    sys.path.insert(0, str(TESTS_CORE))
+    try:
+        return importlib.import_module("strapdown_v0")
+    finally:
+        sys.path.remove(str(TESTS_CORE))
+
+
+def _kernels(mat_nb, dtheta, dv, dt):
+    """M samples/s of the current and previous kernels, free and fixed position."""
+    state = strapdown.NavState.from_attitude(mat_nb, [0.0, 0.0, 0.0], [LAT, LON, HEIGHT])
+    runs = {"": lambda **o: strapdown.integrate(state, dtheta, dv, dt,
+                                                decimation=int(RATE_HZ), **o)}
+    previous = _previous_kernel()
+    if previous is not None:
+        runs["previous_kernel_"] = lambda **o: previous.integrate(
+            state.quat_nb, state.vel_n, state.lla, dtheta, dv, dt, decimation=int(RATE_HZ), **o)
+    figures = {}
+    for prefix, call in runs.items():
+        call(fixed_position=False)  # compile or load from the cache
+        for mode, options in (("free", {}), ("fixed", {"fixed_position": True})):
+            seconds = _best_cpu(lambda c=call, o=options: c(**o))
+            figures[f"{prefix}{mode}_hour_200hz_msamples_per_s"] = dtheta.shape[0] / seconds / 1e6
+    return figures
+
+
+def _pyins(mat_nb, dtheta, dv, dt):
+    """M samples/s of pyins' numba kernel and Integrator on the same increments (if installed)."""
+    try:
+        import pandas as pd
+        from pyins import strapdown as pyins_strapdown
+        from pyins import transform
+        from pyins._numba_integrate import integrate as pyins_kernel
+    except ImportError:
+        return {}
+    n = dtheta.shape[0]
+    dts = np.full(n, dt)
+    lla, vel, mats = np.empty((n + 1, 3)), np.zeros((n + 1, 3)), np.empty((n + 1, 3, 3))
+    lla[0], mats[0] = [np.degrees(LAT), np.degrees(LON), HEIGHT], mat_nb
+    pyins_kernel(dts[:10], lla, vel, mats, dtheta[:10], dv[:10], 0, True)  # compile
+    kernel = _best_cpu(lambda: pyins_kernel(dts, lla, vel, mats, dtheta, dv, 0, True))
+    roll, pitch, heading = transform.mat_to_rph(mat_nb)
+    pva = pd.Series({"lat": np.degrees(LAT), "lon": np.degrees(LON), "alt": HEIGHT, "VN": 0.0,
+                     "VE": 0.0, "VD": 0.0, "roll": roll, "pitch": pitch, "heading": heading})
+    columns = {"dt": dts} | {f"theta_{a}": dtheta[:, i] for i, a in enumerate("xyz")}
+    columns |= {f"dv_{a}": dv[:, i] for i, a in enumerate("xyz")}
+    increments = pd.DataFrame(columns, index=pd.Index(np.arange(1, n + 1) * dt, name="time"))
+    integrator = _best_cpu(lambda: pyins_strapdown.Integrator(pva).integrate(increments),
+                           repeat=1)
+    return {"pyins_kernel_free_msamples_per_s": n / kernel / 1e6,
+            "pyins_integrator_free_msamples_per_s": n / integrator / 1e6}
+
+
 def run():
     """Time the integrator; return a flat dict of figures (unit in each key)."""
     dt = 1.0 / RATE_HZ
@@ -46,31 +123,23 @@ def run():
     start = time.perf_counter()
     strapdown.integrate(state, dtheta[:10], dv[:10], dt)
     warmup = time.perf_counter() - start
-
-    timings = []
-    for _ in range(3):
-        start = time.perf_counter()
-        strapdown.integrate(state, dtheta, dv, dt, decimation=int(RATE_HZ))
-        timings.append(time.perf_counter() - start)
-    hour = min(timings)
+    figures = {"jit_warmup_s": warmup, "hour_200hz_samples": n_hour}
+    figures |= _kernels(mat_nb, dtheta, dv, dt)
+    figures |= _pyins(mat_nb, dtheta, dv, dt)
 
     chunk = int(60 * RATE_HZ)
     minute_theta, minute_v = dtheta[:chunk].copy(), dv[:chunk].copy()
     del dtheta, dv
     kept, current = [], state
-    start = time.perf_counter()
+    start = time.process_time()
     for _ in range(24 * 60):
         current, series = strapdown.integrate(current, minute_theta, minute_v, dt,
                                               decimation=int(RATE_HZ))
         kept.append(series)
-    day = time.perf_counter() - start
+    day = time.process_time() - start
     joined = strapdown.NavSeries.concatenate(kept)
-    return {
-        "jit_warmup_s": warmup,
-        "hour_200hz_samples": n_hour,
-        "hour_200hz_s": hour,
-        "hour_200hz_msamples_per_s": n_hour / hour / 1e6,
-        "day_200hz_chunked_s": day,
+    return figures | {
+        "day_200hz_chunked_cpu_s": day,
         "day_200hz_msamples_per_s": current.count / day / 1e6,
         "day_outputs_1hz": len(joined),
         "peak_rss_mb": _peak_rss_mb(),
@@ -79,4 +148,4 @@ def run():
 
 if __name__ == "__main__":
     for key, value in run().items():
-        print(f"{key:28s} {value:.6g}")
+        print(f"{key:44s} {value:.6g}")

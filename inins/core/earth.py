@@ -3,7 +3,7 @@ geodetic <-> ECEF.
 
 Functions on scalars broadcast over arrays. They use only ufunc-style numpy so
 that :mod:`inins.core.strapdown` can compile the same source with numba
-(``njit(earth.gravity)``) instead of keeping a second copy.
+(``njit(earth.gravity_of_sin2)``) instead of keeping a second copy.
 
 References: NIMA TR8350.2 (WGS84) eqs. 4-1 and 4-3.
 """
@@ -59,7 +59,16 @@ def gravity(lat, height):
     body at rest on the Earth senses specific force ``-gravity`` along the down axis.
     """
     s2 = np.sin(lat) ** 2
-    gamma0 = GAMMA_E * (1.0 + _K_SOMIGLIANA * s2) / np.sqrt(1.0 - E2 * s2)
+    return gravity_of_sin2(s2, np.sqrt(1.0 - E2 * s2), height)
+
+
+def gravity_of_sin2(s2, root, height):
+    """:func:`gravity` from ``s2 = sin^2 lat`` and ``root = sqrt(1 - e^2 s2)`` (same arithmetic).
+
+    For callers that already hold ``sin lat`` and the root (the strapdown kernel
+    compiles this function with numba, so the source is shared).
+    """
+    gamma0 = GAMMA_E * (1.0 + _K_SOMIGLIANA * s2) / root
     return gamma0 * (1.0 - 2.0 / A * (1.0 + F + _M - 2.0 * F * s2) * height
                      + 3.0 * height * height / (A * A))
 

@@ -261,16 +261,19 @@ class BiasTruth(NamedTuple):
     accel: np.ndarray
 
 
-@numba.njit(cache=True, nogil=True)
+@numba.njit(cache=True, nogil=True, error_model="numpy")
 def _kernel(ideal_g, ideal_a, dt, mat_g, mat_a, par, temp, extra_g, extra_a, carry, gen, out,
-            every):
+            every, work):
     """One pass over the samples.
 
     ``par`` (6, 6) rows: bias, white sigma, rho, GM drive, k_T, pulse weight per
     channel (gyro x, y, z, accel x, y, z). ``carry`` (2, 6): GM value and
     quantization remainder, updated in place. ``out``: (n, 3) gyro and accel
     outputs and (n // every, 3) gyro and accel truth (means over ``every``
-    samples), filled in place.
+    samples, accumulated into zeros), filled in place. ``work`` (3, 6): zeros,
+    scratch for the white noise, the bias and the output of each channel (allocated
+    by the caller: an allocation inside the kernel compiles numba's array
+    constructors too).
     """
     bias, white, rho, drive, k_temp, pulse = par[0], par[1], par[2], par[3], par[4], par[5]
     gm, resid = carry[0], carry[1]
@@ -279,11 +282,7 @@ def _kernel(ideal_g, ideal_a, dt, mat_g, mat_a, par, temp, extra_g, extra_a, car
     has_temp = temp.shape[0] == n
     has_xg = extra_g.shape[0] == n
     has_xa = extra_a.shape[0] == n
-    noise = np.zeros(6)
-    b = np.empty(6)
-    y = np.empty(6)
-    truth_g[:, :] = 0.0
-    truth_a[:, :] = 0.0
+    noise, b, y = work[0], work[1], work[2]
     weight = 1.0 / every
     for k in range(n):
         row = k // every
@@ -445,11 +444,21 @@ def apply_errors(
         ]
     )
     m = n // truth_every
-    out = (np.empty((n, 3)), np.empty((n, 3)), np.empty((m, 3)), np.empty((m, 3)))
+    out = (np.empty((n, 3)), np.empty((n, 3)), np.zeros((m, 3)), np.zeros((m, 3)))
     if n:
         mats = errors.gyro_matrix(), errors.accel_matrix()
         _kernel(dtheta, dv, dt, *mats, par, temp, extra_g, extra_a, carry, rng, out,
-                truth_every)
+                truth_every, np.zeros((3, 6)))
     gm, resid = carry
     new_state = ImuState(gm[:3], gm[3:], resid[:3], resid[3:])
     return out[0], out[1], new_state, BiasTruth(out[2], out[3])
+
+
+def warm_up():
+    """Compile (or load from the on-disk cache) the error kernel on two samples.
+
+    Every call of :func:`apply_errors` passes the kernel the same argument types,
+    so that later calls run without compiling.
+    """
+    errors = SensorErrors(gyro_arw=1e-6, gyro_bias_instability=1e-7, gyro_bias_corr_time_s=1.0)
+    apply_errors(np.zeros((2, 3)), np.zeros((2, 3)), 0.01, errors, np.random.default_rng(0))

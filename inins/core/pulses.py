@@ -43,7 +43,7 @@ def counts_from_increments(values, pulse_weight):
     return counts
 
 
-@numba.njit(cache=True, nogil=True)
+@numba.njit(cache=True, nogil=True, error_model="numpy")
 def _counts_kernel(values, inv_weight, counts):
     """counts = rint(values / weight) in one pass; 1 if not integral, 2 if out of int32."""
     limit = 2147483647.0
@@ -77,3 +77,8 @@ def increments_from_counts(counts, pulse_weight):
     if not np.issubdtype(counts.dtype, np.integer):
         raise ValueError(f"counts: expected an integer array, got dtype {counts.dtype}")
     return counts.astype(np.float64) * _pulse_weight(pulse_weight)
+
+
+def warm_up():
+    """Compile (or load from the on-disk cache) the pulse-count kernel on one sample."""
+    counts_from_increments(np.zeros((1, 3)), 1.0)

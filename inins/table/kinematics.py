@@ -20,12 +20,14 @@ rotation (no lever arm), so::
     f_b        = -mat_bn g_n
 """
 
+import math
 from dataclasses import dataclass
 
 import numba
 import numpy as np
 
 from inins.core import earth, rotation
+from inins.table.program import Hold, compile_program
 
 GIMBAL_AXES = {"roll": 0, "pitch": 1, "yaw": 2}
 """Nominal gimbal axis names -> table axis index (x, y, z of the FRD table frame)."""
@@ -55,39 +57,46 @@ class MountRotation:
     smooth: bool = False
 
 
-_jit = numba.njit(cache=True, nogil=True)
+# numpy error model: no ZeroDivisionError branches (every divisor here is checked
+# non-zero before the kernel runs), which numba would otherwise compile and test.
+# 3x3 matrices are 9-tuples (row-major) and vectors 3-tuples inside the kernel: tuple
+# arithmetic compiles in a fraction of the time of small-array indexing. Helpers
+# called once per sample site are inlined by numba (_inl: no separate compilation);
+# the small ones called several times are compiled once and inlined by LLVM.
+_jit = numba.njit(cache=True, nogil=True, error_model="numpy")
+_inl = numba.njit(error_model="numpy", inline="always")
 
 
 @_jit
-def _mm(a, b, out):
-    """out = a @ b for 3x3 matrices, without allocating."""
-    for i in range(3):
-        for j in range(3):
-            out[i, j] = a[i, 0] * b[0, j] + a[i, 1] * b[1, j] + a[i, 2] * b[2, j]
+def _mm(a, b):
+    """``a @ b`` for 3x3 matrices as row-major 9-tuples."""
+    return (a[0] * b[0] + a[1] * b[3] + a[2] * b[6],
+            a[0] * b[1] + a[1] * b[4] + a[2] * b[7],
+            a[0] * b[2] + a[1] * b[5] + a[2] * b[8],
+            a[3] * b[0] + a[4] * b[3] + a[5] * b[6],
+            a[3] * b[1] + a[4] * b[4] + a[5] * b[7],
+            a[3] * b[2] + a[4] * b[5] + a[5] * b[8],
+            a[6] * b[0] + a[7] * b[3] + a[8] * b[6],
+            a[6] * b[1] + a[7] * b[4] + a[8] * b[7],
+            a[6] * b[2] + a[7] * b[5] + a[8] * b[8])
 
 
 @_jit
-def _mtv(a, v, out):
-    """out = a.T @ v for a 3x3 matrix, without allocating."""
-    for j in range(3):
-        out[j] = a[0, j] * v[0] + a[1, j] * v[1] + a[2, j] * v[2]
+def _mtv(a, v):
+    """``a.T @ v`` for a 3x3 matrix (9-tuple) and a 3-tuple."""
+    return (a[0] * v[0] + a[3] * v[1] + a[6] * v[2],
+            a[1] * v[0] + a[4] * v[1] + a[7] * v[2],
+            a[2] * v[0] + a[5] * v[1] + a[8] * v[2])
 
 
 @_jit
-def _rodrigues(axis, angle, out):
-    """out = exp(angle [axis x]) for a unit axis."""
+def _rodrigues(x, y, z, angle):
+    """``exp(angle [axis x])`` for a unit axis ``[x, y, z]``, as a 9-tuple."""
     s, c = np.sin(angle), np.cos(angle)
     v = 1.0 - c
-    x, y, z = axis[0], axis[1], axis[2]
-    out[0, 0] = c + v * x * x
-    out[0, 1] = v * x * y - s * z
-    out[0, 2] = v * x * z + s * y
-    out[1, 0] = v * x * y + s * z
-    out[1, 1] = c + v * y * y
-    out[1, 2] = v * y * z - s * x
-    out[2, 0] = v * x * z - s * y
-    out[2, 1] = v * y * z + s * x
-    out[2, 2] = c + v * z * z
+    return (c + v * x * x, v * x * y - s * z, v * x * z + s * y,
+            v * x * y + s * z, c + v * y * y, v * y * z - s * x,
+            v * x * z - s * y, v * y * z + s * x, c + v * z * z)
 
 
 @_jit
@@ -106,23 +115,21 @@ def _series(angle2):
 
 
 @_jit
-def _rotate_back(m, a, b, u, out):
-    """out = exp(-[m x]) @ u = u - a (m x u) + b m x (m x u)."""
+def _rotate_back(m, a, b, u):
+    """``exp(-[m x]) @ u = u - a (m x u) + b m x (m x u)`` (3-tuples)."""
     c0 = m[1] * u[2] - m[2] * u[1]
     c1 = m[2] * u[0] - m[0] * u[2]
     c2 = m[0] * u[1] - m[1] * u[0]
-    out[0] = u[0] - a * c0 + b * (m[1] * c2 - m[2] * c1)
-    out[1] = u[1] - a * c1 + b * (m[2] * c0 - m[0] * c2)
-    out[2] = u[2] - a * c2 + b * (m[0] * c1 - m[1] * c0)
+    return (u[0] - a * c0 + b * (m[1] * c2 - m[2] * c1),
+            u[1] - a * c1 + b * (m[2] * c0 - m[0] * c2),
+            u[2] - a * c2 + b * (m[0] * c1 - m[1] * c0))
 
 
-@_jit
-def _mount_state(t, m_axis, m_angle, m_start, m_duration, m_smooth, m, mdot):
-    """Mount rotation vector m (rad) and its rate (rad/s) at time t; False if m = 0."""
+@_inl
+def _mount_state(t, m_axis, m_angle, m_start, m_duration, m_smooth):
+    """Mount rotation vector m (rad) and its rate (rad/s) at time t, and False if m = 0."""
     moved = False
-    for i in range(3):
-        m[i] = 0.0
-        mdot[i] = 0.0
+    mx, my, mz, rx, ry, rz = 0.0, 0.0, 0.0, 0.0, 0.0, 0.0
     for j in range(m_angle.size):
         s = (t - m_start[j]) / m_duration[j]
         if s <= 0.0:
@@ -131,47 +138,61 @@ def _mount_state(t, m_axis, m_angle, m_start, m_duration, m_smooth, m, mdot):
         if s >= 1.0:
             theta, rate = m_angle[j], 0.0
         elif m_smooth[j]:
-            theta = m_angle[j] * 0.5 * (1.0 - np.cos(np.pi * s))
-            rate = m_angle[j] * 0.5 * np.pi * np.sin(np.pi * s) / m_duration[j]
+            theta = m_angle[j] * 0.5 * (1.0 - math.cos(math.pi * s))
+            rate = m_angle[j] * 0.5 * math.pi * math.sin(math.pi * s) / m_duration[j]
         else:
             theta, rate = m_angle[j] * s, m_angle[j] / m_duration[j]
-        for i in range(3):
-            m[i] += m_axis[j, i] * theta
-            mdot[i] += m_axis[j, i] * rate
-    return moved
+        mx, my, mz = mx + m_axis[j, 0] * theta, my + m_axis[j, 1] * theta, mz + m_axis[j, 2] * theta
+        rx, ry, rz = rx + m_axis[j, 0] * rate, ry + m_axis[j, 1] * rate, rz + m_axis[j, 2] * rate
+    return moved, (mx, my, mz), (rx, ry, rz)
 
 
-@_jit
+@_inl
 def _platform(k, s, tau, seg_theta0, seg_rate0, seg_accel, axes, mat_n_base, mat_tb0,
-              omega_ie_n, f_n, angles_out, mat_nt, u_omega, u_force):
-    """Gimbal chain at one time: mat_nt, and the platform terms seen by a mount at rest,
-    u_omega = mat_tb0^T (mat_nt^T omega_ie_n + omega_nt_t), u_force = mat_tb0^T mat_nt^T f_n.
-    Returns True if a gimbal moves."""
-    rot = np.empty((3, 3))
-    tmp = np.empty((3, 3))
-    w = np.zeros(3)
-    w2 = np.empty(3)
-    v = np.empty(3)
+              omega_ie_n, f_n, angles_out):
+    """Gimbal chain at one time: ``mat_nt`` and the platform terms seen by a mount at rest,
+    ``u_omega = mat_tb0^T (mat_nt^T omega_ie_n + omega_nt_t)``, ``u_force = mat_tb0^T
+    mat_nt^T f_n``; and True if a gimbal moves. Matrices are 9-tuples, vectors 3-tuples."""
     moving = False
-    mat_nt[:, :] = mat_n_base
+    mat_nt, w = mat_n_base, (0.0, 0.0, 0.0)
     for g in range(axes.shape[0]):
         theta = seg_theta0[s, g] + tau * (seg_rate0[s, g] + 0.5 * tau * seg_accel[s, g])
         rate = seg_rate0[s, g] + seg_accel[s, g] * tau
         moving = moving or seg_rate0[s, g] != 0.0 or seg_accel[s, g] != 0.0
         angles_out[k, g] = theta
-        _rodrigues(axes[g], theta, rot)
-        _mm(mat_nt, rot, tmp)
-        mat_nt[:, :] = tmp
-        _mtv(rot, w, w2)
-        for i in range(3):
-            w[i] = w2[i] + axes[g, i] * rate
-    _mtv(mat_nt, omega_ie_n, v)
-    for i in range(3):
-        v[i] += w[i]
-    _mtv(mat_tb0, v, u_omega)
-    _mtv(mat_nt, f_n, v)
-    _mtv(mat_tb0, v, u_force)
-    return moving
+        ax, ay, az = axes[g, 0], axes[g, 1], axes[g, 2]
+        rot = _rodrigues(ax, ay, az, theta)
+        mat_nt = _mm(mat_nt, rot)
+        v = _mtv(rot, w)
+        w = (v[0] + ax * rate, v[1] + ay * rate, v[2] + az * rate)
+    v = _mtv(mat_nt, omega_ie_n)
+    u_omega = _mtv(mat_tb0, (v[0] + w[0], v[1] + w[1], v[2] + w[2]))
+    u_force = _mtv(mat_tb0, _mtv(mat_nt, f_n))
+    return moving, mat_nt, u_omega, u_force
+
+
+@_inl
+def _segment(seg_t0, t):
+    """Index of the last segment starting at or before t (0 if none): a bisection,
+    ``max(searchsorted(seg_t0, t, 'right') - 1, 0)``."""
+    lo, hi = 0, seg_t0.size
+    while lo < hi:
+        mid = (lo + hi) // 2
+        if seg_t0[mid] <= t:
+            lo = mid + 1
+        else:
+            hi = mid
+    return lo - 1 if lo > 0 else 0
+
+
+@_jit
+def _rodrigues_vec(m, a, b):
+    """``exp([m x]) = I + a [m x] + b [m x]^2`` for a rotation vector m, as a 9-tuple."""
+    m2 = m[0] * m[0] + m[1] * m[1] + m[2] * m[2]
+    d = 1.0 - b * m2
+    return (b * m[0] * m[0] + d, b * m[0] * m[1] - a * m[2], b * m[0] * m[2] + a * m[1],
+            b * m[1] * m[0] + a * m[2], b * m[1] * m[1] + d, b * m[1] * m[2] - a * m[0],
+            b * m[2] * m[0] - a * m[1], b * m[2] * m[1] + a * m[0], b * m[2] * m[2] + d)
 
 
 @_jit
@@ -179,33 +200,35 @@ def _kinematics_kernel(time, seg_t0, seg_theta0, seg_rate0, seg_accel, axes, mat
                        mat_tb0, m_axis, m_angle, m_start, m_duration, m_smooth,
                        omega_ie_n, f_n, want_mat, omega_ib_b, f_b, mat_nb, angles_out):
     n, n_gimbals, n_seg = time.size, axes.shape[0], seg_t0.size
-    mat_nt = np.empty((3, 3))
-    mat_tb = np.empty((3, 3))
-    exp_m = np.empty((3, 3))
-    u_omega = np.empty(3)
-    u_force = np.empty(3)
-    m = np.empty(3)
-    mdot = np.empty(3)
-    v = np.empty(3)
+    base = (mat_n_base[0, 0], mat_n_base[0, 1], mat_n_base[0, 2], mat_n_base[1, 0],
+            mat_n_base[1, 1], mat_n_base[1, 2], mat_n_base[2, 0], mat_n_base[2, 1],
+            mat_n_base[2, 2])
+    tb0 = (mat_tb0[0, 0], mat_tb0[0, 1], mat_tb0[0, 2], mat_tb0[1, 0], mat_tb0[1, 1],
+           mat_tb0[1, 2], mat_tb0[2, 0], mat_tb0[2, 1], mat_tb0[2, 2])
+    w_ie = omega_ie_n[0], omega_ie_n[1], omega_ie_n[2]
+    f_ref = f_n[0], f_n[1], f_n[2]
+    mat_nt, u_omega, u_force = base, w_ie, f_ref
     s, cached, moving = 0, -1, True
     for k in range(n):
         t = time[k]
         # segments are walked forward; a time earlier than the current segment searches
         if t < seg_t0[s]:
-            s = max(np.searchsorted(seg_t0, t, side="right") - 1, 0)
+            s = _segment(seg_t0, t)
         while s + 1 < n_seg and t >= seg_t0[s + 1]:
             s += 1
         tau = t - seg_t0[s]
         if moving or s != cached:  # a hold reuses the platform terms of its segment
-            moving = _platform(k, s, tau, seg_theta0, seg_rate0, seg_accel, axes, mat_n_base,
-                               mat_tb0, omega_ie_n, f_n, angles_out, mat_nt, u_omega, u_force)
+            moving, mat_nt, u_omega, u_force = _platform(
+                k, s, tau, seg_theta0, seg_rate0, seg_accel, axes, base, tb0, w_ie, f_ref,
+                angles_out)
             cached = s
         else:
             for g in range(n_gimbals):
                 angles_out[k, g] = seg_theta0[s, g]
-        if _mount_state(t, m_axis, m_angle, m_start, m_duration, m_smooth, m, mdot):
+        moved, m, mdot = _mount_state(t, m_axis, m_angle, m_start, m_duration, m_smooth)
+        if moved:
             a, b, c = _series(m[0] * m[0] + m[1] * m[1] + m[2] * m[2])
-            _rotate_back(m, a, b, u_omega, v)
+            v = _rotate_back(m, a, b, u_omega)
             # omega_tb_b = J_r(m) mdot = mdot - b (m x mdot) + c m x (m x mdot)
             c0 = m[1] * mdot[2] - m[2] * mdot[1]
             c1 = m[2] * mdot[0] - m[0] * mdot[2]
@@ -213,35 +236,16 @@ def _kinematics_kernel(time, seg_t0, seg_theta0, seg_rate0, seg_accel, axes, mat
             omega_ib_b[k, 0] = v[0] + mdot[0] - b * c0 + c * (m[1] * c2 - m[2] * c1)
             omega_ib_b[k, 1] = v[1] + mdot[1] - b * c1 + c * (m[2] * c0 - m[0] * c2)
             omega_ib_b[k, 2] = v[2] + mdot[2] - b * c2 + c * (m[0] * c1 - m[1] * c0)
-            _rotate_back(m, a, b, u_force, v)
-            for i in range(3):
-                f_b[k, i] = v[i]
+            f_b[k, 0], f_b[k, 1], f_b[k, 2] = _rotate_back(m, a, b, u_force)
         else:
             a, b = 1.0, 0.5
-            for i in range(3):
-                omega_ib_b[k, i] = u_omega[i]
-                f_b[k, i] = u_force[i]
+            omega_ib_b[k, 0], omega_ib_b[k, 1], omega_ib_b[k, 2] = u_omega
+            f_b[k, 0], f_b[k, 1], f_b[k, 2] = u_force
         if want_mat:  # mat_nb = mat_nt mat_tb0 exp([m x])
-            _rodrigues_vec(m, a, b, exp_m)
-            _mm(mat_tb0, exp_m, mat_tb)
-            _mm(mat_nt, mat_tb, exp_m)
-            mat_nb[k] = exp_m
-
-
-@_jit
-def _rodrigues_vec(m, a, b, out):
-    """out = exp([m x]) = I + a [m x] + b [m x]^2 for a rotation vector m."""
-    m2 = m[0] * m[0] + m[1] * m[1] + m[2] * m[2]
-    for i in range(3):
-        for j in range(3):
-            out[i, j] = b * m[i] * m[j]
-        out[i, i] += 1.0 - b * m2
-    out[0, 1] -= a * m[2]
-    out[0, 2] += a * m[1]
-    out[1, 0] += a * m[2]
-    out[1, 2] -= a * m[0]
-    out[2, 0] -= a * m[1]
-    out[2, 1] += a * m[0]
+            r = _mm(mat_nt, _mm(tb0, _rodrigues_vec(m, a, b)))
+            mat_nb[k, 0, 0], mat_nb[k, 0, 1], mat_nb[k, 0, 2] = r[0], r[1], r[2]
+            mat_nb[k, 1, 0], mat_nb[k, 1, 1], mat_nb[k, 1, 2] = r[3], r[4], r[5]
+            mat_nb[k, 2, 0], mat_nb[k, 2, 1], mat_nb[k, 2, 2] = r[6], r[7], r[8]
 
 
 @dataclass(frozen=True)
@@ -370,3 +374,17 @@ def gimbal_axes(names, nonorthogonality=None):
 def base_matrix(azimuth, tilt_roll=0.0, tilt_pitch=0.0):
     """``mat_n_base`` of a table base whose x axis points at ``azimuth`` (rad from north)."""
     return rotation.mat_from_euler(tilt_roll, tilt_pitch, azimuth)
+
+
+def warm_up():
+    """Compile (or load from the on-disk cache) the kinematics kernel on a tiny table.
+
+    The kernel gets the argument types every caller passes, so that a later
+    :meth:`TableTrajectory.rates` or ``state`` runs without compiling.
+    """
+    program = compile_program([Hold(1.0)], np.zeros(2))
+    table = TableTrajectory(program, gimbal_axes(["yaw", "pitch"]), base_matrix(0.0), np.eye(3),
+                            (MountRotation(np.array([0.0, 0.0, 1.0]), 0.1, 0.0, 1.0),),
+                            np.array([0.6, 2.2, 0.0]))
+    table.rates(np.array([0.5]))
+    table.state(np.array([0.5]))

@@ -1,0 +1,222 @@
+"""Frozen copy of the table kinematics kernel before the compile-time rewrite.
+
+The kernel of ``inins.table.kinematics`` as it was at commit 6ee7f1a (verbatim),
+kept only so that ``test_kinematics_reference.py`` can check the current kernel
+against it. Not part of the package.
+"""
+
+import numba
+import numpy as np
+
+from inins.core import earth
+
+_jit = numba.njit(cache=True, nogil=True)
+
+
+@_jit
+def _mm(a, b, out):
+    """out = a @ b for 3x3 matrices, without allocating."""
+    for i in range(3):
+        for j in range(3):
+            out[i, j] = a[i, 0] * b[0, j] + a[i, 1] * b[1, j] + a[i, 2] * b[2, j]
+
+
+@_jit
+def _mtv(a, v, out):
+    """out = a.T @ v for a 3x3 matrix, without allocating."""
+    for j in range(3):
+        out[j] = a[0, j] * v[0] + a[1, j] * v[1] + a[2, j] * v[2]
+
+
+@_jit
+def _rodrigues(axis, angle, out):
+    """out = exp(angle [axis x]) for a unit axis."""
+    s, c = np.sin(angle), np.cos(angle)
+    v = 1.0 - c
+    x, y, z = axis[0], axis[1], axis[2]
+    out[0, 0] = c + v * x * x
+    out[0, 1] = v * x * y - s * z
+    out[0, 2] = v * x * z + s * y
+    out[1, 0] = v * x * y + s * z
+    out[1, 1] = c + v * y * y
+    out[1, 2] = v * y * z - s * x
+    out[2, 0] = v * x * z - s * y
+    out[2, 1] = v * y * z + s * x
+    out[2, 2] = c + v * z * z
+
+
+@_jit
+def _series(angle2):
+    """sin(x)/x, (1 - cos x)/x^2 and (x - sin x)/x^3 of x^2, exact in double for x < 1e-3."""
+    if angle2 < 1e-6:
+        a = 1.0 - angle2 / 6.0 * (1.0 - angle2 / 20.0)
+        b = 0.5 - angle2 / 24.0 * (1.0 - angle2 / 30.0)
+        c = 1.0 / 6.0 - angle2 / 120.0 * (1.0 - angle2 / 42.0)
+    else:
+        x = np.sqrt(angle2)
+        a = np.sin(x) / x
+        b = (1.0 - np.cos(x)) / angle2
+        c = (x - np.sin(x)) / (angle2 * x)
+    return a, b, c
+
+
+@_jit
+def _rotate_back(m, a, b, u, out):
+    """out = exp(-[m x]) @ u = u - a (m x u) + b m x (m x u)."""
+    c0 = m[1] * u[2] - m[2] * u[1]
+    c1 = m[2] * u[0] - m[0] * u[2]
+    c2 = m[0] * u[1] - m[1] * u[0]
+    out[0] = u[0] - a * c0 + b * (m[1] * c2 - m[2] * c1)
+    out[1] = u[1] - a * c1 + b * (m[2] * c0 - m[0] * c2)
+    out[2] = u[2] - a * c2 + b * (m[0] * c1 - m[1] * c0)
+
+
+@_jit
+def _mount_state(t, m_axis, m_angle, m_start, m_duration, m_smooth, m, mdot):
+    """Mount rotation vector m (rad) and its rate (rad/s) at time t; False if m = 0."""
+    moved = False
+    for i in range(3):
+        m[i] = 0.0
+        mdot[i] = 0.0
+    for j in range(m_angle.size):
+        s = (t - m_start[j]) / m_duration[j]
+        if s <= 0.0:
+            continue
+        moved = True
+        if s >= 1.0:
+            theta, rate = m_angle[j], 0.0
+        elif m_smooth[j]:
+            theta = m_angle[j] * 0.5 * (1.0 - np.cos(np.pi * s))
+            rate = m_angle[j] * 0.5 * np.pi * np.sin(np.pi * s) / m_duration[j]
+        else:
+            theta, rate = m_angle[j] * s, m_angle[j] / m_duration[j]
+        for i in range(3):
+            m[i] += m_axis[j, i] * theta
+            mdot[i] += m_axis[j, i] * rate
+    return moved
+
+
+@_jit
+def _platform(k, s, tau, seg_theta0, seg_rate0, seg_accel, axes, mat_n_base, mat_tb0,
+              omega_ie_n, f_n, angles_out, mat_nt, u_omega, u_force):
+    """Gimbal chain at one time: mat_nt, and the platform terms seen by a mount at rest,
+    u_omega = mat_tb0^T (mat_nt^T omega_ie_n + omega_nt_t), u_force = mat_tb0^T mat_nt^T f_n.
+    Returns True if a gimbal moves."""
+    rot = np.empty((3, 3))
+    tmp = np.empty((3, 3))
+    w = np.zeros(3)
+    w2 = np.empty(3)
+    v = np.empty(3)
+    moving = False
+    mat_nt[:, :] = mat_n_base
+    for g in range(axes.shape[0]):
+        theta = seg_theta0[s, g] + tau * (seg_rate0[s, g] + 0.5 * tau * seg_accel[s, g])
+        rate = seg_rate0[s, g] + seg_accel[s, g] * tau
+        moving = moving or seg_rate0[s, g] != 0.0 or seg_accel[s, g] != 0.0
+        angles_out[k, g] = theta
+        _rodrigues(axes[g], theta, rot)
+        _mm(mat_nt, rot, tmp)
+        mat_nt[:, :] = tmp
+        _mtv(rot, w, w2)
+        for i in range(3):
+            w[i] = w2[i] + axes[g, i] * rate
+    _mtv(mat_nt, omega_ie_n, v)
+    for i in range(3):
+        v[i] += w[i]
+    _mtv(mat_tb0, v, u_omega)
+    _mtv(mat_nt, f_n, v)
+    _mtv(mat_tb0, v, u_force)
+    return moving
+
+
+@_jit
+def _kinematics_kernel(time, seg_t0, seg_theta0, seg_rate0, seg_accel, axes, mat_n_base,
+                       mat_tb0, m_axis, m_angle, m_start, m_duration, m_smooth,
+                       omega_ie_n, f_n, want_mat, omega_ib_b, f_b, mat_nb, angles_out):
+    n, n_gimbals, n_seg = time.size, axes.shape[0], seg_t0.size
+    mat_nt = np.empty((3, 3))
+    mat_tb = np.empty((3, 3))
+    exp_m = np.empty((3, 3))
+    u_omega = np.empty(3)
+    u_force = np.empty(3)
+    m = np.empty(3)
+    mdot = np.empty(3)
+    v = np.empty(3)
+    s, cached, moving = 0, -1, True
+    for k in range(n):
+        t = time[k]
+        # segments are walked forward; a time earlier than the current segment searches
+        if t < seg_t0[s]:
+            s = max(np.searchsorted(seg_t0, t, side="right") - 1, 0)
+        while s + 1 < n_seg and t >= seg_t0[s + 1]:
+            s += 1
+        tau = t - seg_t0[s]
+        if moving or s != cached:  # a hold reuses the platform terms of its segment
+            moving = _platform(k, s, tau, seg_theta0, seg_rate0, seg_accel, axes, mat_n_base,
+                               mat_tb0, omega_ie_n, f_n, angles_out, mat_nt, u_omega, u_force)
+            cached = s
+        else:
+            for g in range(n_gimbals):
+                angles_out[k, g] = seg_theta0[s, g]
+        if _mount_state(t, m_axis, m_angle, m_start, m_duration, m_smooth, m, mdot):
+            a, b, c = _series(m[0] * m[0] + m[1] * m[1] + m[2] * m[2])
+            _rotate_back(m, a, b, u_omega, v)
+            # omega_tb_b = J_r(m) mdot = mdot - b (m x mdot) + c m x (m x mdot)
+            c0 = m[1] * mdot[2] - m[2] * mdot[1]
+            c1 = m[2] * mdot[0] - m[0] * mdot[2]
+            c2 = m[0] * mdot[1] - m[1] * mdot[0]
+            omega_ib_b[k, 0] = v[0] + mdot[0] - b * c0 + c * (m[1] * c2 - m[2] * c1)
+            omega_ib_b[k, 1] = v[1] + mdot[1] - b * c1 + c * (m[2] * c0 - m[0] * c2)
+            omega_ib_b[k, 2] = v[2] + mdot[2] - b * c2 + c * (m[0] * c1 - m[1] * c0)
+            _rotate_back(m, a, b, u_force, v)
+            for i in range(3):
+                f_b[k, i] = v[i]
+        else:
+            a, b = 1.0, 0.5
+            for i in range(3):
+                omega_ib_b[k, i] = u_omega[i]
+                f_b[k, i] = u_force[i]
+        if want_mat:  # mat_nb = mat_nt mat_tb0 exp([m x])
+            _rodrigues_vec(m, a, b, exp_m)
+            _mm(mat_tb0, exp_m, mat_tb)
+            _mm(mat_nt, mat_tb, exp_m)
+            mat_nb[k] = exp_m
+
+
+@_jit
+def _rodrigues_vec(m, a, b, out):
+    """out = exp([m x]) = I + a [m x] + b [m x]^2 for a rotation vector m."""
+    m2 = m[0] * m[0] + m[1] * m[1] + m[2] * m[2]
+    for i in range(3):
+        for j in range(3):
+            out[i, j] = b * m[i] * m[j]
+        out[i, i] += 1.0 - b * m2
+    out[0, 1] -= a * m[2]
+    out[0, 2] += a * m[1]
+    out[1, 0] += a * m[2]
+    out[1, 2] -= a * m[0]
+    out[2, 0] -= a * m[1]
+    out[2, 1] += a * m[0]
+
+
+def evaluate(traj, time, want_mat):
+    """``TableTrajectory._evaluate`` as it was: omega_ib_b, f_b, mat_nb, angles."""
+    time = np.ascontiguousarray(np.atleast_1d(time), dtype=float)
+    n = time.size
+    seg = traj.program.segments
+    n_mounts = len(traj.mounts)
+    m_axis = np.array([mr.axis for mr in traj.mounts], dtype=float).reshape(n_mounts, 3)
+    omega_ib_b, f_b = np.empty((n, 3)), np.empty((n, 3))
+    mat_nb = np.empty((n if want_mat else 1, 3, 3))
+    angles = np.empty((n, seg.theta0.shape[1]))
+    f_n = -earth.gravity_n(traj.lla[0], traj.lla[2])
+    _kinematics_kernel(
+        time, seg.t0, seg.theta0, seg.rate0, seg.accel, np.asarray(traj.axes, float),
+        np.asarray(traj.mat_n_base, float), np.asarray(traj.mat_tb0, float), m_axis,
+        np.array([mr.angle for mr in traj.mounts], dtype=float),
+        np.array([mr.start for mr in traj.mounts], dtype=float),
+        np.array([mr.duration for mr in traj.mounts], dtype=float),
+        np.array([mr.smooth for mr in traj.mounts], dtype=np.bool_),
+        earth.rate_ie_n(traj.lla[0]), f_n, want_mat, omega_ib_b, f_b, mat_nb, angles,
+    )
+    return omega_ib_b, f_b, mat_nb, angles
