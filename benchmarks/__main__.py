@@ -1,9 +1,12 @@
 """``make bench``: throughput, wall time and peak memory of the hot paths and commands.
 
 Each benchmark runs in its own child process so that its peak RSS is its own.
-Figures are printed as one table; ``--json FILE`` also writes them. ``--quick``
-skips the 24 h runs (about a minute on a slow machine). Command figures are whole
-processes: interpreter start-up, imports and loading the cached JIT code included.
+Figures are printed as one table, then every figure that has a target (the issues'
+speed and memory requirements, :data:`TARGETS`) against it, so a regression shows at
+once; ``--json FILE`` also writes them. ``--quick`` (``make bench-quick``) skips the
+24 h runs and the cold-cache compile measurement (about a minute). Command figures
+are whole processes: interpreter start-up, imports and loading the cached JIT code
+included.
 """
 
 import argparse
@@ -17,6 +20,26 @@ import time
 from pathlib import Path
 
 HERE = Path(__file__).parent
+SLOW_MODULES = ("bench_compile",)
+"""Left out by ``--quick``."""
+TARGETS = (  # (figure path, relation, target, what)
+    ("bench_strapdown.free_hour_200hz_msamples_per_s", ">=", 12.0, "strapdown free, M samples/s"),
+    ("bench_strapdown.fixed_hour_200hz_msamples_per_s", ">=", 20.0, "strapdown fixed, M samples/s"),
+    ("bench_imu.samples_per_s", ">=", 5e6, "sensor error model, samples/s"),
+    ("bench_gnss.states_32sat_1hz_24h_s", "<", 1.0, "32 satellites 24 h at 1 Hz, s"),
+    ("bench_gnss.spp_abpo_day_s", "<", 0.5, "SPP of the ABPO day, s"),
+    ("bench_gnss.read_obs_abpo_s", "<", 0.5, "read the ABPO observations, s"),
+    ("bench_observability.som_26x100_s", "<", 0.2, "26-state SOM over 100 segments, s"),
+    ("bench_observability.covariance_1h_1hz_s", "<", 1.0, "covariance 1 h at 1 Hz, s"),
+    ("bench_ekf.hour_ekf2_fb_s", "<", 2.0, "EKF2-FB one hour, s"),
+    ("bench_ekf.stream_4h_peak_rss_mb", "<", 1024.0, "EKF 4-h flight peak RSS, MB"),
+    ("inins_help.median_s", "<", 0.5, "inins --help, s"),
+    ("commands.calibrate_bias_2h_1khz.warm_s", "<", 2.0, "calibrate-bias 2 h at 1 kHz warm, s"),
+    ("commands.calibrate_bias_24h_1khz.peak_rss_mb", "<", 1024.0, "calibrate-bias 24 h RSS, MB"),
+    ("commands.simulate_table_24h_1khz.peak_rss_mb", "<", 1024.0, "simulate-table 24 h RSS, MB"),
+    ("commands.align_ett_10min.warm_s", "<", 0.5, "align-ett 10-min record warm, s"),
+    ("bench_compile.calibrate-bias_compile_cpu_s", "<", 5.0, "first calibrate-bias compile, CPU s"),
+)
 MODULES = (
     "bench_strapdown",
     "bench_imu",
@@ -103,7 +126,8 @@ def main():
     parser.add_argument("--quick", action="store_true", help="skip the 24 h runs")
     parser.add_argument("--json", type=Path, help="also write the figures here")
     args = parser.parse_args()
-    figures = {name: _module(name) for name in MODULES}
+    modules = MODULES if args.quick else MODULES + SLOW_MODULES
+    figures = {name: _module(name) for name in modules}
     figures["inins_help"] = _help_startup()
     with tempfile.TemporaryDirectory() as outdir:
         figures["commands"] = _table_commands(outdir, not args.quick)
@@ -113,8 +137,26 @@ def main():
         print(group)
         for key, value in _flat(values):
             print(f"  {key:32s} {value:12.6g}")
+    print()
+    print(targets_table(figures))
     if args.json:
         args.json.write_text(json.dumps(figures, indent=2))
+
+
+def targets_table(figures):
+    """Every figure that has a target: measured, target, ok (n/a where not run)."""
+    flat = dict(_flat(figures))
+    rows = [f"{'target':44s} {'measured':>12s} {'':2s} {'target':>10s}  ok"]
+    for path, relation, target, what in TARGETS:
+        value = flat.get(path)
+        if value is None:
+            rows.append(f"{what:44s} {'n/a':>12s} {relation:2s} {target:10.4g}  -")
+            continue
+        ok = value >= target if relation == ">=" else value < target
+        rows.append(
+            f"{what:44s} {value:12.4g} {relation:2s} {target:10.4g}  {'yes' if ok else 'NO'}"
+        )
+    return "\n".join(rows)
 
 
 def _flat(values, prefix=""):

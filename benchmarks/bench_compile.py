@@ -86,12 +86,20 @@ print(json.dumps({"wall_s": time.perf_counter() - start, "cpu_s": time.process_t
 
 def _child(src, cache_dir, outdir, workload):
     """Run one workload in a child with its own numba cache; its JSON figures."""
-    args = [list(workload) if workload[0] == "warm-up"
-            else [*workload, "-o", str(Path(outdir) / workload[0])]]
+    args = [
+        list(workload)
+        if workload[0] == "warm-up"
+        else [*workload, "-o", str(Path(outdir) / workload[0])]
+    ]
     env = dict(os.environ, NUMBA_CACHE_DIR=str(cache_dir), PYTHONPATH=str(src))
     start = time.perf_counter()
-    out = subprocess.run([sys.executable, "-c", _CHILD, json.dumps(args)], env=env,
-                         cwd=src, capture_output=True, text=True)
+    out = subprocess.run(
+        [sys.executable, "-c", _CHILD, json.dumps(args)],
+        env=env,
+        cwd=src,
+        capture_output=True,
+        text=True,
+    )
     wall = time.perf_counter() - start
     if out.returncode != 0:
         raise RuntimeError(f"compile bench child failed:\n{out.stderr[-4000:]}")
@@ -172,16 +180,23 @@ def run():
 
 def _export(rev, dest):
     """Write the ``inins`` package of git revision ``rev`` under ``dest``."""
-    archive = subprocess.run(["git", "archive", rev, "inins", "configs", "data"], cwd=ROOT,
-                             check=True, capture_output=True).stdout
+    archive = subprocess.run(
+        ["git", "archive", rev, "inins", "configs", "data"],
+        cwd=ROOT,
+        check=True,
+        capture_output=True,
+    ).stdout
     subprocess.run(["tar", "-x", "-C", str(dest)], input=archive, check=True)
 
 
 def _print_side_by_side(columns, workload="calibrate-bias"):
-    tables = {label: per_kernel(figs[workload]["cold"]["kernels"])
-              for label, figs in columns.items()}
-    names = sorted({n for table in tables.values() for n in table},
-                   key=lambda n: -max(table.get(n, (0.0, 0))[0] for table in tables.values()))
+    tables = {
+        label: per_kernel(figs[workload]["cold"]["kernels"]) for label, figs in columns.items()
+    }
+    names = sorted(
+        {n for table in tables.values() for n in table},
+        key=lambda n: -max(table.get(n, (0.0, 0))[0] for table in tables.values()),
+    )
     labels = list(columns)
     print(f"{workload}, cold cache: compile CPU s per function (specialisations)")
     print(f"{'function':60s}" + "".join(f"{label:>18s}" for label in labels))
@@ -194,8 +209,9 @@ def _print_side_by_side(columns, workload="calibrate-bias"):
     print()
     summaries = {label: _summary(figs) for label, figs in columns.items()}
     for key in summaries[labels[-1]]:
-        print(f"{key:60s}" + "".join(f"{summaries[lb].get(key, float('nan')):18.3f}"
-                                     for lb in labels))
+        print(
+            f"{key:60s}" + "".join(f"{summaries[lb].get(key, float('nan')):18.3f}" for lb in labels)
+        )
 
 
 def main():

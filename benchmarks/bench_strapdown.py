@@ -71,12 +71,14 @@ def _previous_kernel():
 def _kernels(mat_nb, dtheta, dv, dt):
     """M samples/s of the current and previous kernels, free and fixed position."""
     state = strapdown.NavState.from_attitude(mat_nb, [0.0, 0.0, 0.0], [LAT, LON, HEIGHT])
-    runs = {"": lambda **o: strapdown.integrate(state, dtheta, dv, dt,
-                                                decimation=int(RATE_HZ), **o)}
+    runs = {
+        "": lambda **o: strapdown.integrate(state, dtheta, dv, dt, decimation=int(RATE_HZ), **o)
+    }
     previous = _previous_kernel()
     if previous is not None:
         runs["previous_kernel_"] = lambda **o: previous.integrate(
-            state.quat_nb, state.vel_n, state.lla, dtheta, dv, dt, decimation=int(RATE_HZ), **o)
+            state.quat_nb, state.vel_n, state.lla, dtheta, dv, dt, decimation=int(RATE_HZ), **o
+        )
     figures = {}
     for prefix, call in runs.items():
         call(fixed_position=False)  # compile or load from the cache
@@ -102,15 +104,27 @@ def _pyins(mat_nb, dtheta, dv, dt):
     pyins_kernel(dts[:10], lla, vel, mats, dtheta[:10], dv[:10], 0, True)  # compile
     kernel = _best_cpu(lambda: pyins_kernel(dts, lla, vel, mats, dtheta, dv, 0, True))
     roll, pitch, heading = transform.mat_to_rph(mat_nb)
-    pva = pd.Series({"lat": np.degrees(LAT), "lon": np.degrees(LON), "alt": HEIGHT, "VN": 0.0,
-                     "VE": 0.0, "VD": 0.0, "roll": roll, "pitch": pitch, "heading": heading})
+    pva = pd.Series(
+        {
+            "lat": np.degrees(LAT),
+            "lon": np.degrees(LON),
+            "alt": HEIGHT,
+            "VN": 0.0,
+            "VE": 0.0,
+            "VD": 0.0,
+            "roll": roll,
+            "pitch": pitch,
+            "heading": heading,
+        }
+    )
     columns = {"dt": dts} | {f"theta_{a}": dtheta[:, i] for i, a in enumerate("xyz")}
     columns |= {f"dv_{a}": dv[:, i] for i, a in enumerate("xyz")}
     increments = pd.DataFrame(columns, index=pd.Index(np.arange(1, n + 1) * dt, name="time"))
-    integrator = _best_cpu(lambda: pyins_strapdown.Integrator(pva).integrate(increments),
-                           repeat=1)
-    return {"pyins_kernel_free_msamples_per_s": n / kernel / 1e6,
-            "pyins_integrator_free_msamples_per_s": n / integrator / 1e6}
+    integrator = _best_cpu(lambda: pyins_strapdown.Integrator(pva).integrate(increments), repeat=1)
+    return {
+        "pyins_kernel_free_msamples_per_s": n / kernel / 1e6,
+        "pyins_integrator_free_msamples_per_s": n / integrator / 1e6,
+    }
 
 
 def run():
@@ -133,8 +147,9 @@ def run():
     kept, current = [], state
     start = time.process_time()
     for _ in range(24 * 60):
-        current, series = strapdown.integrate(current, minute_theta, minute_v, dt,
-                                              decimation=int(RATE_HZ))
+        current, series = strapdown.integrate(
+            current, minute_theta, minute_v, dt, decimation=int(RATE_HZ)
+        )
         kept.append(series)
     day = time.process_time() - start
     joined = strapdown.NavSeries.concatenate(kept)

@@ -9,6 +9,7 @@ from pathlib import Path
 import numpy as np
 import yaml
 
+from inins.commands._table import table_simulation
 from inins.scenario.simulate_table import SimulateTableScenario
 from inins.table.simulate import simulation_chunks
 
@@ -18,8 +19,8 @@ SCENARIO = Path(__file__).parent / "scenarios" / "table1-2h-1khz.yaml"
 def run():
     """Simulate the 2 h, 1 kHz Table 1 sequence in memory-bounded chunks."""
     model = SimulateTableScenario.model_validate(yaml.safe_load(SCENARIO.read_text()))
-    sim = model.to_si()
-    short = model.model_copy(update={"motion": model.motion[:2]}).to_si()
+    sim = table_simulation(model)
+    short = table_simulation(model.model_copy(update={"motion": model.motion[:2]}))
     for _ in simulation_chunks(short, np.random.default_rng(0)):  # JIT warm-up
         break
     start = time.perf_counter()

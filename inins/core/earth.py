@@ -69,8 +69,9 @@ def gravity_of_sin2(s2, root, height):
     compiles this function with numba, so the source is shared).
     """
     gamma0 = GAMMA_E * (1.0 + _K_SOMIGLIANA * s2) / root
-    return gamma0 * (1.0 - 2.0 / A * (1.0 + F + _M - 2.0 * F * s2) * height
-                     + 3.0 * height * height / (A * A))
+    return gamma0 * (
+        1.0 - 2.0 / A * (1.0 + F + _M - 2.0 * F * s2) * height + 3.0 * height * height / (A * A)
+    )
 
 
 def gravity_n(lat, height):

@@ -96,10 +96,12 @@ def _quat_of_rotvec(x, y, z):
 @_jit
 def _quat_mul(a0, a1, a2, a3, b0, b1, b2, b3):
     """Hamilton product ``a * b``."""
-    return (a0 * b0 - a1 * b1 - a2 * b2 - a3 * b3,
-            a0 * b1 + a1 * b0 + a2 * b3 - a3 * b2,
-            a0 * b2 - a1 * b3 + a2 * b0 + a3 * b1,
-            a0 * b3 + a1 * b2 - a2 * b1 + a3 * b0)
+    return (
+        a0 * b0 - a1 * b1 - a2 * b2 - a3 * b3,
+        a0 * b1 + a1 * b0 + a2 * b3 - a3 * b2,
+        a0 * b2 - a1 * b3 + a2 * b0 + a3 * b1,
+        a0 * b3 + a1 * b2 - a2 * b1 + a3 * b0,
+    )
 
 
 @_inline
@@ -108,9 +110,11 @@ def _rotate(q0, q1, q2, q3, x, y, z):
     tx = 2.0 * (q2 * z - q3 * y)
     ty = 2.0 * (q3 * x - q1 * z)
     tz = 2.0 * (q1 * y - q2 * x)
-    return (x + q0 * tx + q2 * tz - q3 * ty,
-            y + q0 * ty + q3 * tx - q1 * tz,
-            z + q0 * tz + q1 * ty - q2 * tx)
+    return (
+        x + q0 * tx + q2 * tz - q3 * ty,
+        y + q0 * ty + q3 * tx - q1 * tz,
+        z + q0 * tz + q1 * ty - q2 * tx,
+    )
 
 
 @_jit
@@ -164,8 +168,14 @@ def _earth_terms(s, c, h):
     root = math.sqrt(1.0 - earth.E2 * s2)
     cube = root * root * root
     w = earth.RATE
-    return (w * c, -w * s, cube / (_A_POLAR + h * cube), root / (earth.A + h * root), s / c,
-            _gravity(s2, root, h))
+    return (
+        w * c,
+        -w * s,
+        cube / (_A_POLAR + h * cube),
+        root / (earth.A + h * root),
+        s / c,
+        _gravity(s2, root, h),
+    )
 
 
 @_inline
@@ -185,8 +195,9 @@ def _velocity_step(vel, u, wie, terms, g, dt, mode):
     if free:  # transport rate omega_en_n at the start velocity
         ex, ey = vel[1] * ire, -vel[0] * irn
         ez = -ex * tan_l
-    cx, cy, cz = _cross(2.0 * wn + ex, ey, 2.0 * wd + ez,
-                        known * vel[0], known * vel[1], known * vel[2])
+    cx, cy, cz = _cross(
+        2.0 * wn + ex, ey, 2.0 * wd + ez, known * vel[0], known * vel[1], known * vel[2]
+    )
     mx = vel[0] + 0.5 * (u[0] - cx * dt)
     my = vel[1] + 0.5 * (u[1] - cy * dt)
     mz = vel[2] + 0.5 * (u[2] + (g - cz) * dt)
@@ -196,8 +207,10 @@ def _velocity_step(vel, u, wie, terms, g, dt, mode):
     zx, zy, zz = (wn + ex) * dt, ey * dt, (wd + ez) * dt
     rx, ry, rz = _cross(zx, zy, zz, u[0], u[1], u[2])
     cx, cy, cz = _cross(2.0 * wn + ex, ey, 2.0 * wd + ez, known * mx, known * my, known * mz)
-    return ((u[0] - 0.5 * rx - cx * dt, u[1] - 0.5 * ry - cy * dt,
-             u[2] - 0.5 * rz + (g - cz) * dt), (zx, zy, zz))
+    return (
+        (u[0] - 0.5 * rx - cx * dt, u[1] - 0.5 * ry - cy * dt, u[2] - 0.5 * rz + (g - cz) * dt),
+        (zx, zy, zz),
+    )
 
 
 @_inline
@@ -212,8 +225,25 @@ def _attitude_step(q, phi, zeta):
 
 
 @numba.njit(cache=True, nogil=True, error_model="numpy")
-def _navigate(quat, vel, lla, prev, count, dtheta, dv, dt, mode, coning, sculling,
-              decimation, home, out_index, out_quat, out_vel, out_lla):
+def _navigate(
+    quat,
+    vel,
+    lla,
+    prev,
+    count,
+    dtheta,
+    dv,
+    dt,
+    mode,
+    coning,
+    sculling,
+    decimation,
+    home,
+    out_index,
+    out_quat,
+    out_vel,
+    out_lla,
+):
     """Run the recursion over all samples; state arrays are updated in place.
 
     The state lives in scalars inside the loop (no array views, no reference
@@ -389,8 +419,12 @@ class NavSeries:
     def concatenate(cls, parts):
         """Join the series of consecutive :func:`integrate` calls."""
         parts = list(parts)
-        return cls(*(np.concatenate([getattr(p, name) for p in parts])
-                     for name in ("index", "quat_nb", "vel_n", "lla")))
+        return cls(
+            *(
+                np.concatenate([getattr(p, name) for p in parts])
+                for name in ("index", "quat_nb", "vel_n", "lla")
+            )
+        )
 
 
 def _increments(value, name):
@@ -403,12 +437,27 @@ def _increments(value, name):
 def _home(lla):
     """Earth rate (3), R_N + h, R_E + h, lat, (unused), gravity at ``lla``."""
     rn, re = earth.principal_radii(lla[0])
-    return np.concatenate([earth.rate_ie_n(lla[0]),
-                           [rn + lla[2], re + lla[2], lla[0], 0.0, earth.gravity(lla[0], lla[2])]])
+    return np.concatenate(
+        [
+            earth.rate_ie_n(lla[0]),
+            [rn + lla[2], re + lla[2], lla[0], 0.0, earth.gravity(lla[0], lla[2])],
+        ]
+    )
 
 
-def integrate(state, dtheta, dv, dt, *, fixed_position=False, fixed_height=False, coning=True,
-              sculling=True, decimation=1, zero_velocity=False):
+def integrate(
+    state,
+    dtheta,
+    dv,
+    dt,
+    *,
+    fixed_position=False,
+    fixed_height=False,
+    coning=True,
+    sculling=True,
+    decimation=1,
+    zero_velocity=False,
+):
     """Strapdown navigation over a record of increments (module docstring for the equations).
 
     Chunked use is exact: integrating a record in pieces, each call starting from
@@ -462,10 +511,31 @@ def integrate(state, dtheta, dv, dt, *, fixed_position=False, fixed_height=False
     prev = np.concatenate([state.dtheta_prev, state.dv_prev])
     if zero_velocity and not fixed_position:
         raise ValueError("zero_velocity needs fixed_position")
-    mode = (_ZERO_VELOCITY if zero_velocity else _FIXED_POSITION if fixed_position
-            else _FIXED_HEIGHT if fixed_height else _FREE)
-    _navigate(quat, vel, lla, prev, first, dtheta, dv, float(dt), mode,
-              bool(coning), bool(sculling), decimation, _home(lla), *out)
+    mode = (
+        _ZERO_VELOCITY
+        if zero_velocity
+        else _FIXED_POSITION
+        if fixed_position
+        else _FIXED_HEIGHT
+        if fixed_height
+        else _FREE
+    )
+    _navigate(
+        quat,
+        vel,
+        lla,
+        prev,
+        first,
+        dtheta,
+        dv,
+        float(dt),
+        mode,
+        bool(coning),
+        bool(sculling),
+        decimation,
+        _home(lla),
+        *out,
+    )
     end = NavState(quat, vel, lla, prev[:3], prev[3:], first + n)
     return end, NavSeries(*out)
 

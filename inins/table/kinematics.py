@@ -70,23 +70,27 @@ _inl = numba.njit(error_model="numpy", inline="always")
 @_jit
 def _mm(a, b):
     """``a @ b`` for 3x3 matrices as row-major 9-tuples."""
-    return (a[0] * b[0] + a[1] * b[3] + a[2] * b[6],
-            a[0] * b[1] + a[1] * b[4] + a[2] * b[7],
-            a[0] * b[2] + a[1] * b[5] + a[2] * b[8],
-            a[3] * b[0] + a[4] * b[3] + a[5] * b[6],
-            a[3] * b[1] + a[4] * b[4] + a[5] * b[7],
-            a[3] * b[2] + a[4] * b[5] + a[5] * b[8],
-            a[6] * b[0] + a[7] * b[3] + a[8] * b[6],
-            a[6] * b[1] + a[7] * b[4] + a[8] * b[7],
-            a[6] * b[2] + a[7] * b[5] + a[8] * b[8])
+    return (
+        a[0] * b[0] + a[1] * b[3] + a[2] * b[6],
+        a[0] * b[1] + a[1] * b[4] + a[2] * b[7],
+        a[0] * b[2] + a[1] * b[5] + a[2] * b[8],
+        a[3] * b[0] + a[4] * b[3] + a[5] * b[6],
+        a[3] * b[1] + a[4] * b[4] + a[5] * b[7],
+        a[3] * b[2] + a[4] * b[5] + a[5] * b[8],
+        a[6] * b[0] + a[7] * b[3] + a[8] * b[6],
+        a[6] * b[1] + a[7] * b[4] + a[8] * b[7],
+        a[6] * b[2] + a[7] * b[5] + a[8] * b[8],
+    )
 
 
 @_jit
 def _mtv(a, v):
     """``a.T @ v`` for a 3x3 matrix (9-tuple) and a 3-tuple."""
-    return (a[0] * v[0] + a[3] * v[1] + a[6] * v[2],
-            a[1] * v[0] + a[4] * v[1] + a[7] * v[2],
-            a[2] * v[0] + a[5] * v[1] + a[8] * v[2])
+    return (
+        a[0] * v[0] + a[3] * v[1] + a[6] * v[2],
+        a[1] * v[0] + a[4] * v[1] + a[7] * v[2],
+        a[2] * v[0] + a[5] * v[1] + a[8] * v[2],
+    )
 
 
 @_jit
@@ -94,9 +98,17 @@ def _rodrigues(x, y, z, angle):
     """``exp(angle [axis x])`` for a unit axis ``[x, y, z]``, as a 9-tuple."""
     s, c = np.sin(angle), np.cos(angle)
     v = 1.0 - c
-    return (c + v * x * x, v * x * y - s * z, v * x * z + s * y,
-            v * x * y + s * z, c + v * y * y, v * y * z - s * x,
-            v * x * z - s * y, v * y * z + s * x, c + v * z * z)
+    return (
+        c + v * x * x,
+        v * x * y - s * z,
+        v * x * z + s * y,
+        v * x * y + s * z,
+        c + v * y * y,
+        v * y * z - s * x,
+        v * x * z - s * y,
+        v * y * z + s * x,
+        c + v * z * z,
+    )
 
 
 @_jit
@@ -120,9 +132,11 @@ def _rotate_back(m, a, b, u):
     c0 = m[1] * u[2] - m[2] * u[1]
     c1 = m[2] * u[0] - m[0] * u[2]
     c2 = m[0] * u[1] - m[1] * u[0]
-    return (u[0] - a * c0 + b * (m[1] * c2 - m[2] * c1),
-            u[1] - a * c1 + b * (m[2] * c0 - m[0] * c2),
-            u[2] - a * c2 + b * (m[0] * c1 - m[1] * c0))
+    return (
+        u[0] - a * c0 + b * (m[1] * c2 - m[2] * c1),
+        u[1] - a * c1 + b * (m[2] * c0 - m[0] * c2),
+        u[2] - a * c2 + b * (m[0] * c1 - m[1] * c0),
+    )
 
 
 @_inl
@@ -148,8 +162,20 @@ def _mount_state(t, m_axis, m_angle, m_start, m_duration, m_smooth):
 
 
 @_inl
-def _platform(k, s, tau, seg_theta0, seg_rate0, seg_accel, axes, mat_n_base, mat_tb0,
-              omega_ie_n, f_n, angles_out):
+def _platform(
+    k,
+    s,
+    tau,
+    seg_theta0,
+    seg_rate0,
+    seg_accel,
+    axes,
+    mat_n_base,
+    mat_tb0,
+    omega_ie_n,
+    f_n,
+    angles_out,
+):
     """Gimbal chain at one time: ``mat_nt`` and the platform terms seen by a mount at rest,
     ``u_omega = mat_tb0^T (mat_nt^T omega_ie_n + omega_nt_t)``, ``u_force = mat_tb0^T
     mat_nt^T f_n``; and True if a gimbal moves. Matrices are 9-tuples, vectors 3-tuples."""
@@ -190,21 +216,65 @@ def _rodrigues_vec(m, a, b):
     """``exp([m x]) = I + a [m x] + b [m x]^2`` for a rotation vector m, as a 9-tuple."""
     m2 = m[0] * m[0] + m[1] * m[1] + m[2] * m[2]
     d = 1.0 - b * m2
-    return (b * m[0] * m[0] + d, b * m[0] * m[1] - a * m[2], b * m[0] * m[2] + a * m[1],
-            b * m[1] * m[0] + a * m[2], b * m[1] * m[1] + d, b * m[1] * m[2] - a * m[0],
-            b * m[2] * m[0] - a * m[1], b * m[2] * m[1] + a * m[0], b * m[2] * m[2] + d)
+    return (
+        b * m[0] * m[0] + d,
+        b * m[0] * m[1] - a * m[2],
+        b * m[0] * m[2] + a * m[1],
+        b * m[1] * m[0] + a * m[2],
+        b * m[1] * m[1] + d,
+        b * m[1] * m[2] - a * m[0],
+        b * m[2] * m[0] - a * m[1],
+        b * m[2] * m[1] + a * m[0],
+        b * m[2] * m[2] + d,
+    )
 
 
 @_jit
-def _kinematics_kernel(time, seg_t0, seg_theta0, seg_rate0, seg_accel, axes, mat_n_base,
-                       mat_tb0, m_axis, m_angle, m_start, m_duration, m_smooth,
-                       omega_ie_n, f_n, want_mat, omega_ib_b, f_b, mat_nb, angles_out):
+def _kinematics_kernel(
+    time,
+    seg_t0,
+    seg_theta0,
+    seg_rate0,
+    seg_accel,
+    axes,
+    mat_n_base,
+    mat_tb0,
+    m_axis,
+    m_angle,
+    m_start,
+    m_duration,
+    m_smooth,
+    omega_ie_n,
+    f_n,
+    want_mat,
+    omega_ib_b,
+    f_b,
+    mat_nb,
+    angles_out,
+):
     n, n_gimbals, n_seg = time.size, axes.shape[0], seg_t0.size
-    base = (mat_n_base[0, 0], mat_n_base[0, 1], mat_n_base[0, 2], mat_n_base[1, 0],
-            mat_n_base[1, 1], mat_n_base[1, 2], mat_n_base[2, 0], mat_n_base[2, 1],
-            mat_n_base[2, 2])
-    tb0 = (mat_tb0[0, 0], mat_tb0[0, 1], mat_tb0[0, 2], mat_tb0[1, 0], mat_tb0[1, 1],
-           mat_tb0[1, 2], mat_tb0[2, 0], mat_tb0[2, 1], mat_tb0[2, 2])
+    base = (
+        mat_n_base[0, 0],
+        mat_n_base[0, 1],
+        mat_n_base[0, 2],
+        mat_n_base[1, 0],
+        mat_n_base[1, 1],
+        mat_n_base[1, 2],
+        mat_n_base[2, 0],
+        mat_n_base[2, 1],
+        mat_n_base[2, 2],
+    )
+    tb0 = (
+        mat_tb0[0, 0],
+        mat_tb0[0, 1],
+        mat_tb0[0, 2],
+        mat_tb0[1, 0],
+        mat_tb0[1, 1],
+        mat_tb0[1, 2],
+        mat_tb0[2, 0],
+        mat_tb0[2, 1],
+        mat_tb0[2, 2],
+    )
     w_ie = omega_ie_n[0], omega_ie_n[1], omega_ie_n[2]
     f_ref = f_n[0], f_n[1], f_n[2]
     mat_nt, u_omega, u_force = base, w_ie, f_ref
@@ -219,8 +289,19 @@ def _kinematics_kernel(time, seg_t0, seg_theta0, seg_rate0, seg_accel, axes, mat
         tau = t - seg_t0[s]
         if moving or s != cached:  # a hold reuses the platform terms of its segment
             moving, mat_nt, u_omega, u_force = _platform(
-                k, s, tau, seg_theta0, seg_rate0, seg_accel, axes, base, tb0, w_ie, f_ref,
-                angles_out)
+                k,
+                s,
+                tau,
+                seg_theta0,
+                seg_rate0,
+                seg_accel,
+                axes,
+                base,
+                tb0,
+                w_ie,
+                f_ref,
+                angles_out,
+            )
             cached = s
         else:
             for g in range(n_gimbals):
@@ -294,13 +375,26 @@ class TableTrajectory:
         angles = np.empty((n, seg.theta0.shape[1]))
         f_n = -earth.gravity_n(self.lla[0], self.lla[2])
         _kinematics_kernel(
-            time, seg.t0, seg.theta0, seg.rate0, seg.accel, np.asarray(self.axes, float),
-            np.asarray(self.mat_n_base, float), np.asarray(self.mat_tb0, float), m_axis,
+            time,
+            seg.t0,
+            seg.theta0,
+            seg.rate0,
+            seg.accel,
+            np.asarray(self.axes, float),
+            np.asarray(self.mat_n_base, float),
+            np.asarray(self.mat_tb0, float),
+            m_axis,
             np.array([mr.angle for mr in self.mounts], dtype=float),
             np.array([mr.start for mr in self.mounts], dtype=float),
             np.array([mr.duration for mr in self.mounts], dtype=float),
             np.array([mr.smooth for mr in self.mounts], dtype=np.bool_),
-            earth.rate_ie_n(self.lla[0]), f_n, want_mat, omega_ib_b, f_b, mat_nb, angles,
+            earth.rate_ie_n(self.lla[0]),
+            f_n,
+            want_mat,
+            omega_ib_b,
+            f_b,
+            mat_nb,
+            angles,
         )
         return omega_ib_b, f_b, mat_nb, angles
 
@@ -383,8 +477,13 @@ def warm_up():
     :meth:`TableTrajectory.rates` or ``state`` runs without compiling.
     """
     program = compile_program([Hold(1.0)], np.zeros(2))
-    table = TableTrajectory(program, gimbal_axes(["yaw", "pitch"]), base_matrix(0.0), np.eye(3),
-                            (MountRotation(np.array([0.0, 0.0, 1.0]), 0.1, 0.0, 1.0),),
-                            np.array([0.6, 2.2, 0.0]))
+    table = TableTrajectory(
+        program,
+        gimbal_axes(["yaw", "pitch"]),
+        base_matrix(0.0),
+        np.eye(3),
+        (MountRotation(np.array([0.0, 0.0, 1.0]), 0.1, 0.0, 1.0),),
+        np.array([0.6, 2.2, 0.0]),
+    )
     table.rates(np.array([0.5]))
     table.state(np.array([0.5]))

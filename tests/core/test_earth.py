@@ -44,9 +44,7 @@ def test_rates():
 
 def test_ecef_known_points():
     np.testing.assert_allclose(earth.ecef_from_llh(0.0, 0.0, 0.0), [earth.A, 0, 0], atol=1e-9)
-    np.testing.assert_allclose(
-        earth.ecef_from_llh(np.pi / 2, 0.0, 0.0), [0, 0, earth.B], atol=1e-9
-    )
+    np.testing.assert_allclose(earth.ecef_from_llh(np.pi / 2, 0.0, 0.0), [0, 0, earth.B], atol=1e-9)
 
 
 @settings(max_examples=200, deadline=None)

@@ -464,16 +464,18 @@ def test_apply_errors_type_checks():
 
 def test_truth_every_gives_block_means_of_the_per_sample_truth():
     errors = imu.SensorErrors(
-        gyro_bias=1e-6, gyro_bias_instability=1e-6, gyro_bias_corr_time_s=0.05,
-        accel_bias=1e-3, accel_bias_instability=1e-4, accel_bias_corr_time_s=0.02)
+        gyro_bias=1e-6,
+        gyro_bias_instability=1e-6,
+        gyro_bias_corr_time_s=0.05,
+        accel_bias=1e-3,
+        accel_bias_instability=1e-4,
+        accel_bias_corr_time_s=0.02,
+    )
     ideal = np.zeros((600, 3))
     full = imu.apply_errors(ideal, ideal, 0.01, errors, np.random.default_rng(5))
-    block = imu.apply_errors(ideal, ideal, 0.01, errors, np.random.default_rng(5),
-                             truth_every=20)
+    block = imu.apply_errors(ideal, ideal, 0.01, errors, np.random.default_rng(5), truth_every=20)
     np.testing.assert_array_equal(block[0], full[0])
-    np.testing.assert_allclose(block[3].gyro, full[3].gyro.reshape(30, 20, 3).mean(1),
-                               rtol=1e-13)
-    np.testing.assert_allclose(block[3].accel, full[3].accel.reshape(30, 20, 3).mean(1),
-                               rtol=1e-13)
+    np.testing.assert_allclose(block[3].gyro, full[3].gyro.reshape(30, 20, 3).mean(1), rtol=1e-13)
+    np.testing.assert_allclose(block[3].accel, full[3].accel.reshape(30, 20, 3).mean(1), rtol=1e-13)
     with pytest.raises(ValueError, match="truth_every"):
         imu.apply_errors(ideal, ideal, 0.01, errors, np.random.default_rng(5), truth_every=7)

@@ -44,8 +44,11 @@ def _phi_model(lat, height, size):
     f[3:6, 0:3] = rotation.skew([0.0, 0.0, -earth.gravity(lat, height)])  # f_n x phi
     f[3:6, 3:6] = -2.0 * rotation.skew(w_ie)
     if size > 6:  # transport-rate and Earth-rate errors from dv, dlat
-        f[0:3, 3:6] = [[0, 1 / (re + height), 0], [-1 / (rn + height), 0, 0],
-                       [0, -np.tan(lat) / (re + height), 0]]
+        f[0:3, 3:6] = [
+            [0, 1 / (re + height), 0],
+            [-1 / (rn + height), 0, 0],
+            [0, -np.tan(lat) / (re + height), 0],
+        ]
         f[0:3, 6] = earth.RATE * np.array([-np.sin(lat), 0.0, -np.cos(lat)])
         f[6, 3], f[7, 4] = 1 / (rn + height), 1 / ((re + height) * np.cos(lat))
     if size > 8:  # gravity gradient: dv_D' = (dg/dh) dh, dh' = -dv_D
@@ -72,8 +75,9 @@ def test_moving_trajectory_with_turns():
     assert np.abs(dvel).max() < 2e-4  # m/s (measured 1.6e-5 m/s)
     assert np.abs(phi).max() < 1e-3 * ARCSEC  # measured 1.7e-5 arcsec
     # the corrections matter on this trajectory: without them the errors are far larger
-    _, phi_raw, _, dpos_raw = _navigate(truth, 0, increments=increments, decimation=200,
-                                        coning=False, sculling=False)
+    _, phi_raw, _, dpos_raw = _navigate(
+        truth, 0, increments=increments, decimation=200, coning=False, sculling=False
+    )
     assert np.abs(phi_raw).max() > 100 * np.abs(phi).max()
     assert np.abs(dpos_raw[:, :2]).max() > 10 * np.abs(dpos[:, :2]).max()
     # second order: halving the rate multiplies the errors by 4
@@ -87,8 +91,9 @@ def test_coning_drift_matches_closed_form():
     truth = tr.Coning(theta, freq, LAT, LON, HEIGHT)  # cone axis north
     rates = {}
     for corrected in (False, True):
-        series, phi, _, _ = _navigate(truth, 12_000, fixed_position=True, coning=corrected,
-                                      decimation=100)
+        series, phi, _, _ = _navigate(
+            truth, 12_000, fixed_position=True, coning=corrected, decimation=100
+        )
         rates[corrected] = np.polyfit(series.time(DT), phi[:, 0], 1)[0]  # rad/s
         expected = sd.coning_drift_rate(theta, freq, DT, corrected)
         assert rates[corrected] == pytest.approx(expected, rel=0.01)
@@ -100,17 +105,27 @@ def test_schuler_oscillation_period():
     lat, height, dt = LAT, HEIGHT, 0.1
     truth = tr.Stationary(lat, LON, height)
     dtheta, dv = tr.ideal_increments(truth, np.arange(108_001) * dt)  # 3 h
-    tilt = sd.NavState.from_attitude(rotation.mat_from_rotvec([ARCMIN, 0, 0]), [0, 0, 0],
-                                     [lat, LON, height])
+    tilt = sd.NavState.from_attitude(
+        rotation.mat_from_rotvec([ARCMIN, 0, 0]), [0, 0, 0], [lat, LON, height]
+    )
     # vertical channel held: the free one diverges (e-folding ~9.5 min) from the
     # -g phi^2 / 2 vertical error of the tilt and would swamp the 3-h record
     _, series = sd.integrate(tilt, dtheta, dv, dt, fixed_height=True, decimation=100)
     t, v_east = series.time(dt), series.vel_n[:, 1]
+
     # Schuler pair split by the Foucault rate, plus the 24-h and constant modes
     def model(t, w1, w2, *c):
-        return (c[0] * np.sin(w1 * t) + c[1] * np.cos(w1 * t) + c[2] * np.sin(w2 * t)
-                + c[3] * np.cos(w2 * t) + c[4] + c[5] * t
-                + c[6] * np.sin(earth.RATE * t) + c[7] * np.cos(earth.RATE * t))
+        return (
+            c[0] * np.sin(w1 * t)
+            + c[1] * np.cos(w1 * t)
+            + c[2] * np.sin(w2 * t)
+            + c[3] * np.cos(w2 * t)
+            + c[4]
+            + c[5] * t
+            + c[6] * np.sin(earth.RATE * t)
+            + c[7] * np.cos(earth.RATE * t)
+        )
+
     w_s, w_f = 2.0 * np.pi / (84.4 * MINUTE), earth.RATE * np.sin(lat)
     p, _ = curve_fit(model, t, v_east, p0=[w_s - w_f, w_s + w_f] + [0.0] * 8)
     period = 2.0 * np.pi / np.mean(p[:2]) / MINUTE
@@ -152,8 +167,9 @@ def test_fixed_position_gyro_bias_follows_phi_equation():
     mat_nb = rotation.mat_from_euler(0.1, -0.05, 1.2)
     truth = tr.Stationary(LAT, LON, HEIGHT, mat_nb)
     bias = np.array([0.01, -0.02, 0.015]) * DPH
-    series, phi, dvel, _ = _navigate(truth, 120_000, gyro_bias=bias, fixed_position=True,
-                                     decimation=2000)
+    series, phi, dvel, _ = _navigate(
+        truth, 120_000, gyro_bias=bias, fixed_position=True, decimation=2000
+    )
     # phi' = -omega_ie x phi - mat_nb b,  dv' = f_n x phi - 2 omega_ie x dv  (000 eqs. 9-10)
     aug = np.zeros((7, 7))
     aug[:6, :6] = _phi_model(LAT, HEIGHT, 6)
@@ -173,8 +189,9 @@ def test_chunked_integration_is_bit_identical():
     whole_end, whole = sd.integrate(start, dtheta, dv, DT, decimation=7)
     state, parts, lo = start, [], 0
     for size in (1, 6, 500, 333, 7, 1153, 1000):
-        state, part = sd.integrate(state, dtheta[lo:lo + size], dv[lo:lo + size], DT,
-                                   decimation=7)
+        state, part = sd.integrate(
+            state, dtheta[lo : lo + size], dv[lo : lo + size], DT, decimation=7
+        )
         parts.append(part)
         lo += size
     joined = sd.NavSeries.concatenate(parts)
@@ -188,8 +205,7 @@ def test_chunked_integration_is_bit_identical():
 def test_state_and_series_helpers():
     euler = np.array([0.1, -0.2, 5.0])
     state = sd.NavState.from_attitude(euler, [1.0, 2.0, 3.0], [LAT, LON, HEIGHT])
-    same = sd.NavState.from_attitude(rotation.mat_from_euler(*euler), [1, 2, 3],
-                                     [LAT, LON, HEIGHT])
+    same = sd.NavState.from_attitude(rotation.mat_from_euler(*euler), [1, 2, 3], [LAT, LON, HEIGHT])
     np.testing.assert_allclose(state.quat_nb, same.quat_nb, atol=1e-15)
     np.testing.assert_allclose(state.mat_nb, rotation.mat_from_euler(*euler), atol=1e-15)
     _, series = sd.integrate(state, np.zeros((4, 3)), np.zeros((4, 3)), DT, decimation=2)
@@ -199,8 +215,13 @@ def test_state_and_series_helpers():
 
 @pytest.mark.parametrize(
     ("kwargs", "match"),
-    [({"dt": 0.0}, "dt"), ({"decimation": 0}, "decimation"), ({"decimation": 1.5}, "decimation"),
-     ({"dv": np.zeros((3, 3))}, "same shape"), ({"dtheta": np.zeros((4, 2))}, "shape")],
+    [
+        ({"dt": 0.0}, "dt"),
+        ({"decimation": 0}, "decimation"),
+        ({"decimation": 1.5}, "decimation"),
+        ({"dv": np.zeros((3, 3))}, "same shape"),
+        ({"dtheta": np.zeros((4, 2))}, "shape"),
+    ],
 )
 def test_bad_inputs_raise(kwargs, match):
     state = sd.NavState.from_attitude(np.eye(3), [0, 0, 0], [LAT, LON, HEIGHT])
@@ -219,8 +240,9 @@ def test_zero_velocity_mode_integrates_the_plain_velocity_error():
     bias = np.array([0.01, -0.02, 0.015]) * DPH
     dtheta, dv = tr.ideal_increments(truth, np.arange(120_001) * DT)
     start = sd.NavState.from_attitude(mat_nb, np.zeros(3), [LAT, LON, HEIGHT])
-    _, series = sd.integrate(start, dtheta + bias * DT, dv, DT, fixed_position=True,
-                             zero_velocity=True, decimation=2000)
+    _, series = sd.integrate(
+        start, dtheta + bias * DT, dv, DT, fixed_position=True, zero_velocity=True, decimation=2000
+    )
     aug = np.zeros((7, 7))
     aug[:6, :6] = _phi_model(LAT, HEIGHT, 6)
     aug[3:6, 3:6] = 0.0

@@ -27,8 +27,9 @@ LAT, LON, HEIGHT = 37.0 * DEG, 127.0 * DEG, 300.0
 
 def _hour_flight(rate_hz=100.0):
     """One hour of the default flight plan flown six times in a row, midpoint increments."""
-    plan = tuple((t + 600.0 * r, kind, value) for r in range(6)
-                 for t, kind, value in flight.FLIGHT_PLAN)
+    plan = tuple(
+        (t + 600.0 * r, kind, value) for r in range(6) for t, kind, value in flight.FLIGHT_PLAN
+    )
     truth = flight.aircraft_trajectory(velocity=flight.flight_velocity(plan))
     edges = np.arange(int(3600 * rate_hz) + 1) / rate_hz
     dtheta, dv = tr.ideal_increments(truth, edges, nodes=1)
@@ -81,29 +82,42 @@ def hour_flight():
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize("options", [{"fixed_position": True},
-                                     {"fixed_position": True, "zero_velocity": True}],
-                         ids=["fixed_position", "zero_velocity"])
+@pytest.mark.parametrize(
+    "options",
+    [{"fixed_position": True}, {"fixed_position": True, "zero_velocity": True}],
+    ids=["fixed_position", "zero_velocity"],
+)
 def test_hour_flight_fixed_position_is_bit_identical(hour_flight, options):
     # the flight's turns and climbs exercise the coning, sculling and rotation terms
     truth, dtheta, dv, dt = hour_flight
     mat_nb, _, lla = truth.state([0.0])
     quat = rotation.quat_from_mat(mat_nb[0])
-    _assert_identical(*_both(quat, np.zeros(3), lla[0], dtheta, dv, dt, decimation=100,
-                             **options))
+    _assert_identical(*_both(quat, np.zeros(3), lla[0], dtheta, dv, dt, decimation=100, **options))
 
 
-@pytest.mark.parametrize("options", [{"fixed_position": True},
-                                     {"fixed_position": True, "zero_velocity": True}],
-                         ids=["fixed_position", "zero_velocity"])
+@pytest.mark.parametrize(
+    "options",
+    [{"fixed_position": True}, {"fixed_position": True, "zero_velocity": True}],
+    ids=["fixed_position", "zero_velocity"],
+)
 def test_tumbling_fixed_position_is_bit_identical(options):
     # rotations of ~0.03 rad per sample (series and exact branches of q(r)) and large
     # coning and sculling terms, where the rounding of every correction shows
     rng = np.random.default_rng(7)
     dtheta = 0.02 * rng.standard_normal((100_000, 3))
     dv = 0.05 * rng.standard_normal((100_000, 3))
-    _assert_identical(*_both([1.0, 0.0, 0.0, 0.0], np.zeros(3), [LAT, LON, HEIGHT], dtheta, dv,
-                             0.01, decimation=10, **options))
+    _assert_identical(
+        *_both(
+            [1.0, 0.0, 0.0, 0.0],
+            np.zeros(3),
+            [LAT, LON, HEIGHT],
+            dtheta,
+            dv,
+            0.01,
+            decimation=10,
+            **options,
+        )
+    )
 
 
 @pytest.mark.slow
@@ -127,16 +141,19 @@ def test_hour_flight_free_navigation_matches_previous_kernel(hour_flight):
 def _stationary_both(options):
     mat_nb, dtheta, dv, dt = _stationary_hour()
     quat = rotation.quat_from_mat(mat_nb)
-    new, old = _both(quat, np.zeros(3), [LAT, LON, HEIGHT], dtheta, dv, dt, decimation=200,
-                     **options)
+    new, old = _both(
+        quat, np.zeros(3), [LAT, LON, HEIGHT], dtheta, dv, dt, decimation=200, **options
+    )
     assert len(new[0]) == 3600
     return new, old
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize("options", [{"fixed_position": True},
-                                     {"fixed_position": True, "zero_velocity": True}],
-                         ids=["fixed_position", "zero_velocity"])
+@pytest.mark.parametrize(
+    "options",
+    [{"fixed_position": True}, {"fixed_position": True, "zero_velocity": True}],
+    ids=["fixed_position", "zero_velocity"],
+)
 def test_stationary_hour_fixed_position_is_bit_identical(options):
     _assert_identical(*_stationary_both(options))
 
@@ -169,8 +186,14 @@ def test_earth_terms_match_earth_module():
         terms = sd._earth_terms(math.sin(lat), math.cos(lat), h)
         rn, re = earth.principal_radii(lat)
         rate = earth.rate_ie_n(lat)
-        ref = (rate[0], rate[2], 1.0 / (rn + h), 1.0 / (re + h), math.tan(lat),
-               earth.gravity(lat, h))
+        ref = (
+            rate[0],
+            rate[2],
+            1.0 / (rn + h),
+            1.0 / (re + h),
+            math.tan(lat),
+            earth.gravity(lat, h),
+        )
         worst = np.maximum(worst, np.abs(np.array(terms) / ref - 1.0))
     # Earth rate and gravity: the same arithmetic; inverse radii and tan within 2 ulp
     # (measured 4.4e-16, 3.3e-16, 3.3e-16)

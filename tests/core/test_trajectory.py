@@ -88,8 +88,7 @@ def test_aircraft_profile_and_second_derivative_fallback():
     assert -31.5 < np.degrees(euler[:, 0]).min() < -29.0
     assert 49.0 < speed.min() < 51.0 and 149.0 < speed.max() < 151.0
     assert vel_n[:, 2].min() < -4.5 and vel_n[:, 2].max() > 7.5  # climbs and a descent
-    plain = tr.Analytic(truth.roll, truth.pitch, truth.heading, truth.lat, truth.lon,
-                        truth.height)
+    plain = tr.Analytic(truth.roll, truth.pitch, truth.heading, truth.lat, truth.lon, truth.height)
     omega, force = truth.rates(t)
     omega2, force2 = plain.rates(t)
     assert np.abs(omega2 - omega).max() < 1e-15
@@ -107,8 +106,18 @@ def _level_turns(marks, rate):
     def const(value):
         return lambda t: value + 0.0 * t
 
-    return tr.Analytic(const(0.0), const(0.0), heading, const(LAT), const(LON), const(HEIGHT),
-                       const(0.0), const(0.0), const(0.0), breakpoints=marks)
+    return tr.Analytic(
+        const(0.0),
+        const(0.0),
+        heading,
+        const(LAT),
+        const(LON),
+        const(HEIGHT),
+        const(0.0),
+        const(0.0),
+        const(0.0),
+        breakpoints=marks,
+    )
 
 
 def _exact_level_turn_increment(a, b, marks, rate):
@@ -138,8 +147,9 @@ def test_rate_steps_inside_samples_are_integrated_exactly():
     for marks in ((0.2013, 0.2087), (0.3141, 0.5926), (0.3, 0.6)):
         truth = _level_turns(marks, rate)
         dtheta, dv = tr.ideal_increments(truth, edges)
-        exact = np.array([_exact_level_turn_increment(a, b, marks, rate)
-                          for a, b in itertools.pairwise(edges)])
+        exact = np.array(
+            [_exact_level_turn_increment(a, b, marks, rate) for a, b in itertools.pairwise(edges)]
+        )
         assert np.abs(dtheta - exact).max() < 1e-17  # rad, vs increments ~3e-3 rad
         force = -earth.gravity(LAT, HEIGHT) * dt
         assert np.abs(dv - [0.0, 0.0, force]).max() < 2e-15  # m/s, vs 0.098 m/s
@@ -147,8 +157,12 @@ def test_rate_steps_inside_samples_are_integrated_exactly():
     blind = _level_turns((0.3141, 0.5926), rate)
     object.__setattr__(blind, "breakpoints", np.empty(0))
     dtheta, _ = tr.ideal_increments(blind, edges)
-    exact = np.array([_exact_level_turn_increment(a, b, (0.3141, 0.5926), rate)
-                      for a, b in itertools.pairwise(edges)])
+    exact = np.array(
+        [
+            _exact_level_turn_increment(a, b, (0.3141, 0.5926), rate)
+            for a, b in itertools.pairwise(edges)
+        ]
+    )
     assert np.abs(dtheta - exact).max() > 1e-5
 
 

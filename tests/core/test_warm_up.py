@@ -14,11 +14,16 @@ def test_strapdown_modes_and_options_share_one_specialisation():
     strapdown.warm_up()
     state = strapdown.NavState.from_attitude([0.1, 0.2, 0.3], [1.0, 2.0, 3.0], [0.6, 2.2, 10.0])
     dtheta, dv = np.full((7, 3), 1e-4), np.full((7, 3), -0.098)
-    for options in ({}, {"fixed_height": True}, {"fixed_position": True},
-                    {"fixed_position": True, "zero_velocity": True},
-                    {"coning": False, "sculling": False, "decimation": 3}):
-        state, _ = strapdown.integrate(state, dtheta.tolist(), dv.astype(np.float32), 0.01,
-                                       **options)
+    for options in (
+        {},
+        {"fixed_height": True},
+        {"fixed_position": True},
+        {"fixed_position": True, "zero_velocity": True},
+        {"coning": False, "sculling": False, "decimation": 3},
+    ):
+        state, _ = strapdown.integrate(
+            state, dtheta.tolist(), dv.astype(np.float32), 0.01, **options
+        )
     assert len(strapdown._navigate.signatures) == 1
 
 
@@ -27,9 +32,16 @@ def test_imu_options_share_one_specialisation():
     rng = np.random.default_rng(0)
     errors = imu.SensorErrors(gyro_bias=1e-6, gyro_pulse_weight=1e-6, accel_vrw=1e-4)
     dtheta, dv = np.zeros((8, 3)), np.zeros((8, 3))
-    _, _, state, _ = imu.apply_errors(dtheta, dv, 0.01, errors, rng, truth_every=4,
-                                      temperature_delta=np.arange(8.0),
-                                      gyro_bias_extra=np.ones((8, 3)))
+    _, _, state, _ = imu.apply_errors(
+        dtheta,
+        dv,
+        0.01,
+        errors,
+        rng,
+        truth_every=4,
+        temperature_delta=np.arange(8.0),
+        gyro_bias_extra=np.ones((8, 3)),
+    )
     imu.apply_errors(dtheta[:2], dv[:2].tolist(), 0.01, imu.SensorErrors(), rng, state)
     assert len(imu._kernel.signatures) == 1
 

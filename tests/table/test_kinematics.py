@@ -13,9 +13,14 @@ RFU = np.array([[0.0, 1, 0], [1, 0, 0], [0, 0, -1]])  # IMU x right, y forward, 
 
 
 def table(steps, initial=(0.0, 0.0), mat_tb0=None, mounts=(), azimuth=0.0, nonorth=None):
-    return TableTrajectory(compile_program(steps, np.array(initial)),
-                           gimbal_axes(["yaw", "pitch"], nonorth), base_matrix(azimuth),
-                           np.eye(3) if mat_tb0 is None else mat_tb0, tuple(mounts), LLA)
+    return TableTrajectory(
+        compile_program(steps, np.array(initial)),
+        gimbal_axes(["yaw", "pitch"], nonorth),
+        base_matrix(azimuth),
+        np.eye(3) if mat_tb0 is None else mat_tb0,
+        tuple(mounts),
+        LLA,
+    )
 
 
 def test_level_hold_senses_earth_rate_and_gravity():
@@ -38,13 +43,24 @@ def test_pitch_90_points_forward_axis_up():
     np.testing.assert_allclose(lla[0], LLA)
 
 
-@pytest.mark.parametrize("mounts", [(), (MountRotation(np.array([0, 1.0, 0]), 0.2, 3.0, 40.0,
-                                                       smooth=True),)])
+@pytest.mark.parametrize(
+    "mounts", [(), (MountRotation(np.array([0, 1.0, 0]), 0.2, 3.0, 40.0, smooth=True),)]
+)
 def test_rates_are_the_derivative_of_the_attitude(mounts):
-    steps = [Hold(5.0), Rotate(0, np.pi, 10 * DEG, 20 * DEG), Hold(3.0),
-             Rotate(1, np.pi / 2, 10 * DEG, 20 * DEG), Hold(2.0)]
-    traj = table(steps, mat_tb0=rotation.mat_from_euler(0.1, 0.2, 0.3), mounts=mounts,
-                 azimuth=0.3, nonorth=[[200 * ARCSEC, 400 * ARCSEC], [600 * ARCSEC, 0.0]])
+    steps = [
+        Hold(5.0),
+        Rotate(0, np.pi, 10 * DEG, 20 * DEG),
+        Hold(3.0),
+        Rotate(1, np.pi / 2, 10 * DEG, 20 * DEG),
+        Hold(2.0),
+    ]
+    traj = table(
+        steps,
+        mat_tb0=rotation.mat_from_euler(0.1, 0.2, 0.3),
+        mounts=mounts,
+        azimuth=0.3,
+        nonorth=[[200 * ARCSEC, 400 * ARCSEC], [600 * ARCSEC, 0.0]],
+    )
     t = np.linspace(0.7, traj.program.duration - 0.7, 61)
     t = t[np.min(np.abs(t[:, None] - traj.breakpoints[None]), axis=1) > 1e-3]
     h = 1e-5
@@ -63,11 +79,13 @@ def test_mount_rotation_enters_the_attitude():
     axis = np.array([1.0, 0, 0])
     mount = MountRotation(axis, 0.005 * DEG, 10.0, 100.0)
     traj = table([Hold(200.0)], mat_tb0=RFU, mounts=[mount])
-    np.testing.assert_allclose(traj.mount_rotvec([0.0, 60.0, 150.0])[:, 0],
-                               [0.0, 0.0025 * DEG, 0.005 * DEG], atol=1e-18)
+    np.testing.assert_allclose(
+        traj.mount_rotvec([0.0, 60.0, 150.0])[:, 0], [0.0, 0.0025 * DEG, 0.005 * DEG], atol=1e-18
+    )
     before, after = traj.state([5.0, 150.0])[0]
-    np.testing.assert_allclose(before.T @ after, rotation.mat_from_rotvec(axis * 0.005 * DEG),
-                               atol=1e-16)
+    np.testing.assert_allclose(
+        before.T @ after, rotation.mat_from_rotvec(axis * 0.005 * DEG), atol=1e-16
+    )
     # the gyro senses the mount rate on top of the Earth rate
     omega, _ = traj.rates([50.0])
     w_ie_b = RFU.T @ earth.rate_ie_n(LLA[0])

@@ -33,8 +33,9 @@ def test_spin_angle_and_continuity():
     prog = compile_program([Spin(0, -30 * DEG, 10.0, 60 * DEG)], [0.1, 0.0])
     t_acc = 0.5
     assert prog.duration == pytest.approx(10.0 + 2 * t_acc)
-    np.testing.assert_allclose(prog.steps[0].angles_end[0],
-                               0.1 - 30 * DEG * (10.0 + t_acc), atol=1e-13)
+    np.testing.assert_allclose(
+        prog.steps[0].angles_end[0], 0.1 - 30 * DEG * (10.0 + t_acc), atol=1e-13
+    )
     # angle and rate are continuous across every breakpoint
     for t in prog.breakpoints:
         a, r = prog.segments.evaluate([t - 1e-9, t + 1e-9])

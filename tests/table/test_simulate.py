@@ -1,6 +1,5 @@
 """simulate-table against truth: exact increments, sensor errors, disturbances."""
 
-
 import numpy as np
 import pytest
 
@@ -29,10 +28,17 @@ def test_error_free_increments_reproduce_the_table_attitude():
     sink = run(sim)
     mat0 = sim.trajectory.state([0.0])[0][0]
     state = strapdown.NavState.from_attitude(mat0, np.zeros(3), sim.trajectory.lla)
-    _, nav = strapdown.integrate(state, sink["imu/dtheta"], sink["imu/dv"], sim.dt,
-                                 fixed_position=True, decimation=sim.truth_decimation)
-    phi = error_model.attitude_error(rotation.mat_from_quat(nav.quat_nb),
-                                rotation.mat_from_quat(sink["truth/quat_nb"]))
+    _, nav = strapdown.integrate(
+        state,
+        sink["imu/dtheta"],
+        sink["imu/dv"],
+        sim.dt,
+        fixed_position=True,
+        decimation=sim.truth_decimation,
+    )
+    phi = error_model.attitude_error(
+        rotation.mat_from_quat(nav.quat_nb), rotation.mat_from_quat(sink["truth/quat_nb"])
+    )
     assert np.abs(phi).max() < 0.1 * ARCSEC
     np.testing.assert_allclose(nav.vel_n, 0.0, atol=1e-6)  # m/s, over 43 min
     # the truth really moved: two half turns and the mount rotation
@@ -46,8 +52,7 @@ def test_hold_mean_rate_is_earth_rate_plus_bias_within_noise():
     gyro = sim.sensor
     lat = sim.trajectory.lla[0]
     steps = sim.trajectory.program.steps
-    dtheta = sink["imu/dtheta"].astype(float) * np.asarray(
-        sink.attrs["imu/dtheta"]["pulse_weight"])
+    dtheta = sink["imu/dtheta"].astype(float) * np.asarray(sink.attrs["imu/dtheta"]["pulse_weight"])
     for step in steps:
         if step.kind != "hold" or step.end - step.start < 600:
             continue
@@ -66,8 +71,14 @@ def test_hold_mean_rate_is_earth_rate_plus_bias_within_noise():
 
 
 def test_accel_bias_after_rotation_and_chamber():
-    sim = load("default.yaml", **{"imu.accel.vrw_ug_rthz": 0.0, "imu.accel.pulse_weight_ug_s": 0.0,
-                                  "imu.gyro.arw_deg_rth": 0.0})
+    sim = load(
+        "default.yaml",
+        **{
+            "imu.accel.vrw_ug_rthz": 0.0,
+            "imu.accel.pulse_weight_ug_s": 0.0,
+            "imu.gyro.arw_deg_rth": 0.0,
+        },
+    )
     sink = run(sim)
     t = sink["truth/time"] - 0.5 / 10.0  # truth biases are means over 0.1 s windows
     bias = sink["truth/accel_bias"]
@@ -89,9 +100,15 @@ def test_accel_bias_after_rotation_and_chamber():
 def test_a_chunked_run_equals_a_whole_one(monkeypatch):
     """The same seed gives the same file whether the run streams in 7 chunks or in one:
     the sensor error state, the bias instability and the encoder noise carry across."""
-    sim = load("paper000-case2-roll-mount.yaml",
-               **{"imu.sample_rate_hz": 50, "imu.gyro.arw_deg_rth": 0.001,
-                  "imu.gyro.bias_instability_dph": 0.002, "table.encoder_noise_arcsec": 1.0})
+    sim = load(
+        "paper000-case2-roll-mount.yaml",
+        **{
+            "imu.sample_rate_hz": 50,
+            "imu.gyro.arw_deg_rth": 0.001,
+            "imu.gyro.bias_instability_dph": 0.002,
+            "table.encoder_noise_arcsec": 1.0,
+        },
+    )
     whole = run(sim, seed=5)
     assert sim.n_samples < simulate.CHUNK_SAMPLES  # one chunk
     monkeypatch.setattr(simulate, "CHUNK_SAMPLES", sim.n_samples // 7)
@@ -101,8 +118,10 @@ def test_a_chunked_run_equals_a_whole_one(monkeypatch):
 
 
 def test_seeds_reproduce():
-    sim = load("paper000-case1-no-disturbance.yaml",
-               **{"imu.gyro": {"arw_deg_rth": 0.001, "bias_dph": 0.01}})
+    sim = load(
+        "paper000-case1-no-disturbance.yaml",
+        **{"imu.gyro": {"arw_deg_rth": 0.001, "bias_dph": 0.01}},
+    )
     a, b = run(sim, seed=3), run(sim, seed=3)
     np.testing.assert_array_equal(a["imu/dtheta"], b["imu/dtheta"])
     c = run(sim, seed=4)
