@@ -88,9 +88,7 @@ def chosen_results(table, names) -> list:
     if names is None:
         sigmas = {sigma_name(n) for n in table.result_names}
         return [
-            n
-            for n in table.result_names
-            if n not in sigmas and np.isfinite(table.result(n)).any()
+            n for n in table.result_names if n not in sigmas and np.isfinite(table.result(n)).any()
         ]
     unknown = [n for n in names if n not in table.result_names]
     if unknown and table.result_names:
@@ -126,12 +124,16 @@ def aggregate(table, names=None, percentiles=(5.0, 50.0, 95.0)) -> Aggregates:
     stats, rates, consistency = [], [], []
     for group, label, mask in groups:
         rates.append(
-            GroupRate(group, label, int(mask.sum()), int(passed[mask].sum()), int(errors[mask].sum()))
+            GroupRate(
+                group, label, int(mask.sum()), int(passed[mask].sum()), int(errors[mask].sum())
+            )
         )
         for name, column in columns.items():
             stats.append(_stats(group, label, name, column[mask], percentiles))
             if name in sigmas:
-                consistency.append(_consistency(group, label, name, column[mask], sigmas[name][mask]))
+                consistency.append(
+                    _consistency(group, label, name, column[mask], sigmas[name][mask])
+                )
     return Aggregates(tuple(percentiles), tuple(stats), tuple(rates), tuple(consistency))
 
 
@@ -176,9 +178,18 @@ def stats_columns(aggs: Aggregates) -> dict:
     return cols
 
 
-def format_aggregates(aggs: Aggregates) -> str:
-    """Plain-text tables of the statistics, pass rates and sigma consistency."""
+def format_aggregates(aggs: Aggregates, overall_only: bool = False) -> str:
+    """Plain-text tables of the statistics, pass rates and sigma consistency
+    (``overall_only``: the statistics of group ``all`` only, pass rates of all groups)."""
     from inins.results import format_table
+
+    if overall_only:
+        aggs = Aggregates(
+            aggs.percentiles,
+            tuple(s for s in aggs.stats if s.group == "all"),
+            aggs.rates,
+            tuple(c for c in aggs.sigmas if c.group == "all"),
+        )
 
     pct = [f"p{p:g}" for p in aggs.percentiles]
     rows = [
@@ -188,9 +199,17 @@ def format_aggregates(aggs: Aggregates) -> str:
     head = ["group", "value", "result", "n", "mean", "std", *pct, "min", "max"]
     parts = ["Results", format_table(rows, head, indent=2)] if rows else []
     rates = [[r.group, r.value, r.points, r.passed, r.errors, r.pass_rate] for r in aggs.rates]
-    parts += ["Checks", format_table(rates, ["group", "value", "points", "passed", "errors", "pass rate"], indent=2)]
+    parts += [
+        "Checks",
+        format_table(
+            rates, ["group", "value", "points", "passed", "errors", "pass rate"], indent=2
+        ),
+    ]
     if aggs.sigmas:
-        rows = [[c.group, c.value, c.result, c.n, c.sample_std, c.reported_sigma, c.ratio] for c in aggs.sigmas]
+        rows = [
+            [c.group, c.value, c.result, c.n, c.sample_std, c.reported_sigma, c.ratio]
+            for c in aggs.sigmas
+        ]
         head = ["group", "value", "result", "n", "sample std", "reported 1-sigma (rms)", "ratio"]
         parts += ["Sample std against reported 1-sigma", format_table(rows, head, indent=2)]
     return "\n".join(parts)

@@ -146,7 +146,9 @@ class DaskExecutor:
             ) from None
         if not self.client.scheduler_info().get("workers"):
             self.client.close()
-            raise InputError(f"the Dask scheduler at {self.address} has no workers", key="--scheduler")
+            raise InputError(
+                f"the Dask scheduler at {self.address} has no workers", key="--scheduler"
+            )
         self.client.run(warm_up, self.command, False)
         workers = self.client.scheduler_info()["workers"].values()
         self.slots = sum(w.get("nthreads", 1) for w in workers)
@@ -158,7 +160,9 @@ class DaskExecutor:
         self.client.close()
 
     def submit(self, task: PointTask, attempt: int = 1):
-        future = self.client.submit(run_point, task, pure=False, key=f"inins-point-{task.index}-{os.getpid()}-{id(task)}")
+        future = self.client.submit(
+            run_point, task, pure=False, key=f"inins-point-{task.index}-{os.getpid()}-{id(task)}"
+        )
         self._tasks[future] = task
         return future
 
