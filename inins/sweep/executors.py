@@ -58,32 +58,48 @@ class LocalExecutor:
     Parameters
     ----------
     workers : int
-    command : str
-        Imported once by every worker at start.
+    command : str or None
+        Imported once by every worker at start (None: on its first point).
+    keep_open : bool
+        Keep the workers between sweeps (``with`` blocks) until :meth:`close`.
     """
 
-    def __init__(self, workers: int, command: str):
+    def __init__(self, workers: int, command: str | None, keep_open: bool = False):
         if workers < 1:
             raise InputError(f"--workers must be >= 1, got {workers}", key="--workers")
-        self.workers, self.command = workers, command
+        self.workers, self.command, self.keep_open = workers, command, keep_open
         self.slots = workers
         self.pool = None
-        self._tasks = {}  # future -> (task, attempt)
+        self._tasks = {}  # future -> (task, attempt, pool)
 
     def __enter__(self):
-        self._start()
+        if self.pool is None:
+            self._start()
         return self
+
+    def close(self) -> None:
+        """Stop the workers (an executor made with ``keep_open``)."""
+        if self.pool is not None:
+            self.pool.shutdown(wait=True, cancel_futures=True)
+            self.pool = None
 
     def _start(self):
         import multiprocessing
 
         ctx = multiprocessing.get_context("forkserver")
+        ctx.set_forkserver_preload(["numpy", "numba", "inins.commands.execute"])
         self.pool = cf.ProcessPoolExecutor(
             self.workers, mp_context=ctx, initializer=warm_up, initargs=(self.command,)
         )
 
     def __exit__(self, exc_type, exc, tb):
-        self.pool.shutdown(wait=exc_type is None, cancel_futures=True)
+        if exc_type is not None:
+            for future in list(self._tasks):
+                future.cancel()
+            self._tasks.clear()
+        if not self.keep_open:
+            self.pool.shutdown(wait=exc_type is None, cancel_futures=True)
+            self.pool = None
 
     def submit(self, task: PointTask, attempt: int = 1):
         future = self.pool.submit(run_point, task)
