@@ -153,9 +153,7 @@ class DaskExecutor:
 
     def __enter__(self):
         try:
-            self.client = self.distributed.Client(
-                self.address, timeout=self.timeout_s, set_as_default=False
-            )
+            self.client = self.distributed.Client(self.address, timeout=self.timeout_s)
         except (OSError, TimeoutError, ValueError) as exc:
             raise InputError(
                 f"cannot reach the Dask scheduler at {self.address} ({exc})", key="--scheduler"
@@ -165,6 +163,7 @@ class DaskExecutor:
             raise InputError(
                 f"the Dask scheduler at {self.address} has no workers", key="--scheduler"
             )
+        self._completed = self.distributed.as_completed()
         self.client.run(warm_up, self.command, False)
         workers = self.client.scheduler_info()["workers"].values()
         self.slots = sum(w.get("nthreads", 1) for w in workers)
@@ -180,11 +179,13 @@ class DaskExecutor:
             run_point, task, pure=False, key=f"inins-point-{task.index}-{os.getpid()}-{id(task)}"
         )
         self._tasks[future] = task
+        self._completed.add(future)
         return future
 
     def wait_any(self, pending):
-        result = self.distributed.wait(list(pending), return_when="FIRST_COMPLETED")
-        return set(result.done), set(result.not_done)
+        first = next(self._completed)
+        done = {first, *self._completed.next_batch(block=False)}
+        return done, set(pending) - done
 
     def outcome(self, future):
         task = self._tasks.pop(future)
