@@ -123,5 +123,7 @@ def test_unreachable_scheduler_is_bad_input():
     from inins.sweep.executors import DaskExecutor
 
     executor = DaskExecutor("tcp://127.0.0.1:9", "calibrate-bias", timeout_s=1.0)
-    with pytest.raises(InputError, match=r"cannot reach the Dask scheduler at tcp://127\.0\.0\.1:9"):
+    with pytest.raises(
+        InputError, match=r"cannot reach the Dask scheduler at tcp://127\.0\.0\.1:9"
+    ):
         executor.__enter__()
