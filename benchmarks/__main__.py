@@ -17,7 +17,7 @@ import time
 from pathlib import Path
 
 HERE = Path(__file__).parent
-MODULES = ("bench_strapdown", "bench_imu", "bench_table")
+MODULES = ("bench_strapdown", "bench_imu", "bench_table", "bench_sweep")
 
 
 def _module(name):

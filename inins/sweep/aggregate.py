@@ -1,4 +1,5 @@
-"""Statistics of a sweep's results: over all points and per value of each swept key.
+"""Statistics of a sweep's results: over all points and per value of each axis (a
+grid key, or the first key of a zip group).
 
 For each group of points and each chosen result: the count of points with a
 value, mean, sample standard deviation (ddof = 1), percentiles, min and max; the
@@ -117,7 +118,7 @@ def aggregate(table, names=None, percentiles=(5.0, 50.0, 95.0)) -> Aggregates:
     passed = np.array([r["status"] == "passed" for r in table.records], dtype=bool)
     errors = np.array([r["status"] == "error" for r in table.records], dtype=bool)
     groups = [("all", "", np.ones(len(table.records), dtype=bool))]
-    for key in table.axis_keys:
+    for key in table.group_keys or table.axis_keys:
         values = [_label(v) for v in table.axis(key)]
         for label in dict.fromkeys(values):
             groups.append((key, label, np.array([v == label for v in values], dtype=bool)))

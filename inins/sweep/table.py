@@ -26,6 +26,8 @@ class SweepTable:
         The worker records (:func:`inins.sweep.worker.run_point`).
     result_names, truth_names, check_names : list of str
         Union over the records, in first-seen order.
+    group_keys : tuple of str
+        The first key of each axis (a zip group is grouped by its first key).
     """
 
     ids: list
@@ -35,6 +37,7 @@ class SweepTable:
     result_names: list
     truth_names: list
     check_names: list
+    group_keys: tuple = ()
 
     def result(self, name: str) -> np.ndarray:
         """Column of result ``name`` as float64 (NaN where missing), shape (n,)."""
@@ -84,6 +87,7 @@ def build_table(plan, records_by_key: dict) -> SweepTable:
         _union(r["results"] for r in records),
         _union(r["truth"] for r in records),
         _union((name for name, _ in r["checks"]) for r in records),
+        tuple(axis.keys[0] for axis in plan.axes),
     )
 
 

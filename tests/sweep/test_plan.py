@@ -127,3 +127,14 @@ def test_too_many_points(tmp_path):
 )
 def test_bad_sweep_files(tmp_path, content, expected):
     assert expected in _error(tmp_path, **content)
+
+
+@pytest.mark.parametrize(
+    ("name", "points"),
+    [("hold-time-x-mount-rotation.yaml", 48), ("paper000-case1-monte-carlo.yaml", 500)],
+)
+def test_shipped_sweeps_load(name, points):
+    from pathlib import Path
+
+    plan = load_sweep(Path(__file__).parents[2] / "configs" / "sweep" / name)
+    assert plan.size == points and plan.command == "calibrate-bias"
