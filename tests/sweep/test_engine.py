@@ -124,3 +124,34 @@ def test_keep_runs_writes_each_point(sim_sweep, tmp_path, pool):
     assert runs == ["p00000", "p00001"]
     summary = json.loads((tmp_path / "o" / "runs" / "p00001" / "summary.json").read_text())
     assert summary["results"] == outcome.table.records[1]["results"]
+
+
+@pytest.mark.slow
+def test_resume_after_kill_9_of_the_sweep_process(sim_sweep, tmp_path, pool):
+    import os
+    import signal
+    import subprocess
+    import sys
+    import time
+
+    path = sim_sweep(grid={"motion.0.duration_s": [1, 2]}, seeds=20)
+    out = tmp_path / "out"
+    cmd = [sys.executable, "-m", "inins", "sweep", str(path), "-o", str(out), "-j", "1"]
+    child = subprocess.Popen(
+        cmd, start_new_session=True, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL
+    )
+    try:
+        deadline = time.monotonic() + 120
+        while len(read_journal(out)) < 3 and child.poll() is None:
+            if time.monotonic() > deadline:
+                pytest.fail("the sweep did not finish 3 points in 120 s")
+            time.sleep(0.05)
+    finally:
+        os.killpg(child.pid, signal.SIGKILL)  # the sweep and its workers, mid-sweep
+        child.wait()
+    done_before = len(read_journal(out))
+    assert 3 <= done_before < 40
+    _, resumed = _run(path, out, pool)
+    assert resumed.skipped >= done_before and resumed.ran + resumed.skipped == 40
+    assert len(resumed.table.records) == 40 and resumed.errors == 0
+    assert [r["index"] for r in resumed.table.records] == list(range(40))
