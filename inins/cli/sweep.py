@@ -6,7 +6,7 @@ from typing import Annotated
 
 import typer
 
-from inins.cli._runner import EXIT_CHECK_FAILED, EXIT_OK, guarded
+from inins.cli._runner import EXIT_CHECK_FAILED, EXIT_INTERRUPTED, EXIT_OK, echo_err, guarded
 
 MAX_LISTED = 10
 
@@ -98,8 +98,15 @@ def _sweep(path, outdir, workers, scheduler, keep_runs, restart, retry, max_poin
         executor = DaskExecutor(scheduler, plan.command)
     else:
         executor = LocalExecutor(workers or default_workers(), plan.command)
-    with _Progress(plan.size) as bar:
-        outcome = run_sweep(plan, outdir, executor, keep_runs, restart, retry, progress=bar)
+    try:
+        with _Progress(plan.size) as bar:
+            outcome = run_sweep(plan, outdir, executor, keep_runs, restart, retry, progress=bar)
+    except KeyboardInterrupt:
+        echo_err(
+            f"inins sweep: interrupted; the finished points are in {outdir}/sweep.csv; "
+            "run the same command again to resume"
+        )
+        return EXIT_INTERRUPTED
     paths = list(outcome.paths)
     for result in plot:
         png = Path(outdir) / f"plot-{result}.png"

@@ -19,6 +19,7 @@ Dask
 """
 
 import os
+import uuid
 from concurrent import futures as cf
 
 from inins.exceptions import InputError
@@ -175,9 +176,8 @@ class DaskExecutor:
         self.client.close()
 
     def submit(self, task: PointTask, attempt: int = 1):
-        future = self.client.submit(
-            run_point, task, pure=False, key=f"inins-point-{task.index}-{os.getpid()}-{id(task)}"
-        )
+        key = f"inins-point-{task.index}-{uuid.uuid4().hex}"
+        future = self.client.submit(run_point, task, pure=False, key=key)
         self._tasks[future] = task
         self._completed.add(future)
         return future

@@ -44,7 +44,8 @@ class Point:
     Attributes
     ----------
     index : int
-        Position in the sweep (axes in file order, last fastest, seeds innermost).
+        Position in the sweep: grid keys in file order, then the zip groups, the
+        last fastest; seeds innermost.
     axis_values : tuple
         One value per swept key (:attr:`SweepPlan.axis_keys` order).
     overrides : tuple of str
