@@ -127,15 +127,15 @@ def run_checks(targets, executor, progress=None) -> list[CheckOutcome]:
     ]
     records = {}
     with executor as ex:
-        pending = {ex.submit(task) for task in tasks}
+        pending = {ex.submit((task,)) for task in tasks}
         while pending:
             done, pending = ex.wait_any(pending)
             for future in done:
-                record, retry = ex.outcome(future)
+                batch, retry = ex.outcome(future)
                 if retry is not None:
                     pending.add(retry)
                     continue
-                records[record["index"]] = record
+                records[batch[0]["index"]] = batch[0]
                 if progress:
                     progress(len(records), len(tasks), 0)
     return [CheckOutcome(t, records[i]) for i, t in enumerate(targets)]

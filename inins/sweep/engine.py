@@ -16,6 +16,9 @@ Order of work (:func:`run_sweep`):
    (``aggregates.csv``, ``sweep.txt``).
 """
 
+import collections
+import math
+import statistics
 import time
 from dataclasses import dataclass
 from pathlib import Path
@@ -148,7 +151,7 @@ def _claim(outdir, plan, restart) -> None:
 
 def _dispatch(plan, tasks, ex, journal, finished, skipped, progress) -> int:
     """Run ``tasks`` on ``ex``; journal every record; return how many ran."""
-    total, done, errors = plan.size, skipped, 0
+    total, done = plan.size, skipped
     errors = sum(r["status"] == STATUS_ERROR for r in finished.values())
     queue = list(reversed(tasks))
     if not finished:  # the probe: bad checks or aggregate names stop everything
@@ -158,34 +161,50 @@ def _dispatch(plan, tasks, ex, journal, finished, skipped, progress) -> int:
         done, errors = done + 1, errors + (record["status"] == STATUS_ERROR)
         if progress:
             progress(done, total, errors)
-    slots = IN_FLIGHT_PER_WORKER * getattr(ex, "slots", 1)
+    slots = IN_FLIGHT_PER_WORKER * ex.slots
     pending = set()
     ran = done - skipped
+    recent = collections.deque(maxlen=16)  # run times of the last points (s)
     while queue or pending:
         while queue and len(pending) < slots:
-            pending.add(ex.submit(queue.pop()))
+            run_s = statistics.median(recent) if recent else 0.0
+            batch = batch_size(ex.batch_s, run_s, len(queue), ex.slots)
+            pending.add(ex.submit(tuple(queue.pop() for _ in range(min(batch, len(queue))))))
         finished_now, pending = ex.wait_any(pending)
         for future in finished_now:
-            record, retry = ex.outcome(future)
+            records, retry = ex.outcome(future)
             if retry is not None:
                 pending.add(retry)
                 continue
-            journal.append(record)
-            ran, done = ran + 1, done + 1
-            errors += record["status"] == STATUS_ERROR
+            for record in records:
+                journal.append(record)
+                if math.isfinite(record["run_s"]):
+                    recent.append(record["run_s"])
+                ran, done = ran + 1, done + 1
+                errors += record["status"] == STATUS_ERROR
             if progress:
                 progress(done, total, errors)
     return ran
 
 
+def batch_size(batch_s: float, run_s: float, remaining: int, slots: int) -> int:
+    """Points per task: enough for ``batch_s`` of work at ``run_s`` a point (from the
+    last points; 0 before any finished), at most 64, and few enough that every slot
+    gets a few tasks."""
+    if batch_s <= 0 or not run_s > 0:
+        return 1
+    wanted = int(batch_s / run_s) + 1
+    return max(1, min(wanted, 64, remaining // (4 * max(slots, 1)) or 1))
+
+
 def _run_alone(ex, task) -> dict:
-    pending = {ex.submit(task)}
+    pending = {ex.submit((task,))}
     while True:
         done, pending = ex.wait_any(pending)
         for future in done:
-            record, retry = ex.outcome(future)
+            records, retry = ex.outcome(future)
             if retry is None:
-                return record
+                return records[0]
             pending.add(retry)
 
 
@@ -208,12 +227,14 @@ def write_results(plan, outdir, finished):
     """Rebuild the table from the journal and write table, aggregates and report."""
     table = build_table(plan, finished)
     settings = plan.aggregate
-    names = chosen_results(table, settings.results) if table.records else []
+    # names no point produced were refused by the probe; never fail while writing
+    wanted = settings.results and [n for n in settings.results if n in table.result_names]
+    names = chosen_results(table, wanted or None) if table.records else []
     aggs = aggregate(table, names, settings.percentiles)
     outdir = Path(outdir)
     sweep_files.write_table_csv(outdir / sweep_files.TABLE_CSV, csv_columns(table))
     groups, attrs = h5_groups(table, plan)
-    groups["aggregates"] = {k: v for k, v in stats_columns(aggs).items()}
+    groups["aggregates"] = stats_columns(aggs)
     sweep_files.write_table_h5(outdir / sweep_files.TABLE_H5, groups, attrs)
     sweep_files.write_table_csv(outdir / "aggregates.csv", stats_columns(aggs))
     report = (
