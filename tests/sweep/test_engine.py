@@ -155,3 +155,13 @@ def test_resume_after_kill_9_of_the_sweep_process(sim_sweep, tmp_path, pool):
     assert resumed.skipped >= done_before and resumed.ran + resumed.skipped == 40
     assert len(resumed.table.records) == 40 and resumed.errors == 0
     assert [r["index"] for r in resumed.table.records] == list(range(40))
+
+
+def test_batch_size_gives_each_task_a_quarter_second_of_points():
+    from inins.sweep.engine import batch_size
+
+    assert batch_size(0.0, 0.05, 1000, 2) == 1  # local: one point a task
+    assert batch_size(0.25, 0.0, 1000, 2) == 1  # no run time known yet
+    assert batch_size(0.25, 0.05, 1000, 2) == 6  # 0.25 s / 0.05 s, rounded up
+    assert batch_size(0.25, 1e-4, 100_000, 2) == 64  # capped
+    assert batch_size(0.25, 0.01, 40, 2) == 5  # 40 points left: 4 tasks per slot
