@@ -11,6 +11,12 @@
 - ``dask_over_local``: the same N points on a Dask cluster of 2 single-thread worker
   processes on loopback, over 2 local workers. Target >= 0.8.
 
+``*_worker_busy`` is the share of the workers' wall time spent inside points (the
+sum of the points' run times over wall time x workers): near 1 means the dispatch
+keeps every worker fed, so a speedup short of the worker count comes from the
+machine (other processes on the cores), not from the sweep. The load average
+before and after is reported with the figures.
+
 Every executor is warmed first (workers started, compiled kernels loaded), so the
 figures are steady-state throughput; a sweep's start-up (a few seconds per worker)
 is reported apart as ``local_start_s``.
@@ -48,7 +54,8 @@ def _timed_sweep(folder, name, sweep, executor):
     wall = time.perf_counter() - start
     if outcome.errors:
         raise RuntimeError(f"{outcome.errors} points raised in {name}")
-    return wall
+    busy = sum(r["run_s"] for r in outcome.table.records)
+    return wall, busy / (wall * executor.slots)
 
 
 def _run_alone_ms(base, command, repeats=40):
@@ -76,9 +83,8 @@ def _overhead(folder, points=300):
             folder, "warm-empty", _sweep_file(folder, "simulate-table", NEAR_EMPTY, 2), executor
         )
         local_start = time.perf_counter() - start
-        wall = _timed_sweep(
-            folder, "empty", _sweep_file(folder, "simulate-table", NEAR_EMPTY, points), executor
-        )
+        sweep = _sweep_file(folder, "simulate-table", NEAR_EMPTY, points)
+        wall, _ = _timed_sweep(folder, "empty", sweep, executor)
     finally:
         executor.close()
     per_point_ms = 1e3 * wall / points
@@ -101,15 +107,16 @@ def _throughput(folder, points):
         executor = LocalExecutor(workers, "calibrate-bias", keep_open=True)
         try:
             _timed_sweep(folder, f"warm-{workers}", warm, executor)
-            wall = _timed_sweep(folder, f"local-{workers}", sweep, executor)
+            wall, busy = _timed_sweep(folder, f"local-{workers}", sweep, executor)
         finally:
             executor.close()
         figures[f"local_{workers}_points_per_s"] = points / wall
+        figures[f"local_{workers}_worker_busy"] = busy
     figures["speedup_2_workers"] = figures["local_2_points_per_s"] / figures["local_1_points_per_s"]
     dask = _dask(folder, sweep, warm, points)
     if dask is not None:
-        figures["dask_2_points_per_s"] = dask
-        figures["dask_over_local"] = dask / figures["local_2_points_per_s"]
+        figures["dask_2_points_per_s"], figures["dask_2_worker_busy"] = dask
+        figures["dask_over_local"] = dask[0] / figures["local_2_points_per_s"]
     return figures
 
 
@@ -130,15 +137,19 @@ def _dask(folder, sweep, warm, points):
     ) as cluster:
         address = cluster.scheduler_address
         _timed_sweep(folder, "warm-dask", warm, DaskExecutor(address, "calibrate-bias"))
-        wall = _timed_sweep(folder, "dask", sweep, DaskExecutor(address, "calibrate-bias"))
-    return points / wall
+        wall, busy = _timed_sweep(folder, "dask", sweep, DaskExecutor(address, "calibrate-bias"))
+    return points / wall, busy
 
 
 def run(points: int = 1000) -> dict:
     """All sweep figures (see the module docstring)."""
+    import os
+
+    figures = {"load_average_1min_before": os.getloadavg()[0], "cores": os.cpu_count()}
     with tempfile.TemporaryDirectory() as folder:
-        figures = {"overhead": _overhead(folder)}
+        figures["overhead"] = _overhead(folder)
         figures["throughput"] = _throughput(folder, points)
+    figures["load_average_1min_after"] = os.getloadavg()[0]
     return figures
 
 
