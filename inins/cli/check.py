@@ -22,7 +22,9 @@ def check(
     ],
     workers: Annotated[
         int | None,
-        typer.Option("--workers", "-j", min=1, help="Local worker processes [default: cores]."),
+        typer.Option(
+            "--workers", "-j", min=1, help="Local worker processes (default: the core count)."
+        ),
     ] = None,
     scheduler: Annotated[
         str | None,
