@@ -15,7 +15,9 @@
 sum of the points' run times over wall time x workers): near 1 means the dispatch
 keeps every worker fed, so a speedup short of the worker count comes from the
 machine (other processes on the cores), not from the sweep. The load average
-before and after is reported with the figures.
+before and after is reported with the figures. ``*_worker_cpu_share`` is the CPU
+time the workers got inside points over wall time x workers: on an idle machine
+near 1; on a shared one it shows the cores other processes took.
 
 Every executor is warmed first (workers started, compiled kernels loaded), so the
 figures are steady-state throughput; a sweep's start-up (a few seconds per worker)
@@ -55,7 +57,8 @@ def _timed_sweep(folder, name, sweep, executor):
     if outcome.errors:
         raise RuntimeError(f"{outcome.errors} points raised in {name}")
     busy = sum(r["run_s"] for r in outcome.table.records)
-    return wall, busy / (wall * executor.slots)
+    cpu = sum(r["cpu_s"] for r in outcome.table.records)
+    return wall, busy / (wall * executor.slots), cpu / (wall * executor.slots)
 
 
 def _run_alone_ms(base, command, repeats=40):
@@ -84,7 +87,7 @@ def _overhead(folder, points=300):
         )
         local_start = time.perf_counter() - start
         sweep = _sweep_file(folder, "simulate-table", NEAR_EMPTY, points)
-        wall, _ = _timed_sweep(folder, "empty", sweep, executor)
+        wall, _, _ = _timed_sweep(folder, "empty", sweep, executor)
     finally:
         executor.close()
     per_point_ms = 1e3 * wall / points
@@ -107,15 +110,17 @@ def _throughput(folder, points):
         executor = LocalExecutor(workers, "calibrate-bias", keep_open=True)
         try:
             _timed_sweep(folder, f"warm-{workers}", warm, executor)
-            wall, busy = _timed_sweep(folder, f"local-{workers}", sweep, executor)
+            wall, busy, cpu = _timed_sweep(folder, f"local-{workers}", sweep, executor)
         finally:
             executor.close()
         figures[f"local_{workers}_points_per_s"] = points / wall
         figures[f"local_{workers}_worker_busy"] = busy
+        figures[f"local_{workers}_worker_cpu_share"] = cpu
     figures["speedup_2_workers"] = figures["local_2_points_per_s"] / figures["local_1_points_per_s"]
     dask = _dask(folder, sweep, warm, points)
     if dask is not None:
-        figures["dask_2_points_per_s"], figures["dask_2_worker_busy"] = dask
+        keys = ("dask_2_points_per_s", "dask_2_worker_busy", "dask_2_worker_cpu_share")
+        figures.update(zip(keys, dask, strict=True))
         figures["dask_over_local"] = dask[0] / figures["local_2_points_per_s"]
     return figures
 
@@ -137,8 +142,10 @@ def _dask(folder, sweep, warm, points):
     ) as cluster:
         address = cluster.scheduler_address
         _timed_sweep(folder, "warm-dask", warm, DaskExecutor(address, "calibrate-bias"))
-        wall, busy = _timed_sweep(folder, "dask", sweep, DaskExecutor(address, "calibrate-bias"))
-    return points / wall, busy
+        wall, busy, cpu = _timed_sweep(
+            folder, "dask", sweep, DaskExecutor(address, "calibrate-bias")
+        )
+    return points / wall, busy, cpu
 
 
 def run(points: int = 1000) -> dict:

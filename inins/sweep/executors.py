@@ -54,6 +54,7 @@ def lost_record(task: PointTask, message: str) -> dict:
         "truth": {},
         "checks": [],
         "run_s": float("nan"),
+        "cpu_s": float("nan"),
     }
 
 

@@ -2,7 +2,8 @@
 
 Columns, in order: ``id``, one per swept key path (its value; text as JSON when
 not a number), ``seed``, ``status`` (passed, check-failed, error), ``passed``,
-``error``, ``run_s``, one per result (``beta_x_dph``; empty/NaN where not
+``error``, ``run_s`` (wall time of the point in its worker), ``cpu_s`` (its CPU
+time), one per result (``beta_x_dph``; empty/NaN where not
 applicable), ``truth.NAME`` per truth value, ``check[i]`` per scenario check
 (the expression is in the HDF5 attributes and the CSV column title).
 """
@@ -116,6 +117,7 @@ def csv_columns(table: SweepTable) -> dict:
     cols["passed"] = [r["status"] == "passed" for r in recs]
     cols["error"] = [r["error"] for r in recs]
     cols["run_s"] = [r["run_s"] for r in recs]
+    cols["cpu_s"] = [r.get("cpu_s", float("nan")) for r in recs]
     for name in table.result_names:
         cols[name] = [r["results"].get(name) for r in recs]
     for name in table.truth_names:
@@ -129,7 +131,7 @@ def csv_columns(table: SweepTable) -> dict:
 def h5_groups(table: SweepTable, plan) -> tuple[dict, dict]:
     """``(groups, attrs)`` for :func:`inins.io.sweep_files.write_table_h5`.
 
-    Layout: ``/points/{id, seed, status, passed, error, run_s}``,
+    Layout: ``/points/{id, seed, status, passed, error, run_s, cpu_s}``,
     ``/axes/<key path>``, ``/results/<name>``, ``/truth/<name>``, ``/checks/passed``
     (n, k) with attribute ``expressions``; root attributes ``command``, ``base``,
     ``fingerprint``.
@@ -144,6 +146,7 @@ def h5_groups(table: SweepTable, plan) -> tuple[dict, dict]:
             "passed": np.array([r["status"] == "passed" for r in recs], dtype=bool),
             "error": [r["error"] for r in recs],
             "run_s": np.array([r["run_s"] for r in recs], dtype=np.float64),
+            "cpu_s": np.array([r.get("cpu_s", np.nan) for r in recs], dtype=np.float64),
         },
         "axes": {key: _axis_column(table.axis(key)) for key in table.axis_keys},
         "results": {name: table.result(name) for name in table.result_names},

@@ -63,13 +63,14 @@ def run_point(task: PointTask) -> dict:
         check-failed, error), ``error`` (message, "" when none), ``error_type``,
         ``error_key`` (key path of a bad-input error), ``results``, ``truth``
         (flat name -> number or None), ``checks`` (list of [expression, passed]),
-        ``run_s`` (wall time of the run in the worker, s).
+        ``run_s`` (wall time of the run in the worker, s), ``cpu_s`` (CPU time of the
+        worker process during the run, s).
     """
     from inins.commands import find_command
     from inins.commands.execute import execute
     from inins.exceptions import InputError
 
-    start = time.perf_counter()
+    start, cpu_start = time.perf_counter(), time.process_time()
     record = {"key": task.key, "index": task.index, "seed": task.seed}
     try:
         done = execute(
@@ -98,6 +99,7 @@ def run_point(task: PointTask) -> dict:
             checks=[[c["name"], bool(c["passed"])] for c in summary["checks"]],
         )
     record["run_s"] = time.perf_counter() - start
+    record["cpu_s"] = time.process_time() - cpu_start
     return record
 
 
