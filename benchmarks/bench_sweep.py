@@ -130,16 +130,23 @@ def _dask(folder, sweep, warm, points):
         import distributed
     except ImportError:
         return None
+    import dask
+
     from inins.sweep.executors import DaskExecutor
 
-    with distributed.LocalCluster(
-        n_workers=2,
-        threads_per_worker=1,
-        processes=True,
-        host="127.0.0.1",
-        dashboard_address=None,
-        silence_logs=50,
-    ) as cluster:
+    # workers as the README starts them: without the statistical profiler, which
+    # samples every thread every 10 ms (several % of a core on a busy worker)
+    with (
+        dask.config.set({"distributed.worker.profile.enabled": False}),
+        distributed.LocalCluster(
+            n_workers=2,
+            threads_per_worker=1,
+            processes=True,
+            host="127.0.0.1",
+            dashboard_address=None,
+            silence_logs=50,
+        ) as cluster,
+    ):
         address = cluster.scheduler_address
         _timed_sweep(folder, "warm-dask", warm, DaskExecutor(address, "calibrate-bias"))
         wall, busy, cpu = _timed_sweep(
