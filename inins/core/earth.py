@@ -60,9 +60,8 @@ def gravity(lat, height):
     """
     s2 = np.sin(lat) ** 2
     gamma0 = GAMMA_E * (1.0 + _K_SOMIGLIANA * s2) / np.sqrt(1.0 - E2 * s2)
-    return gamma0 * (
-        1.0 - 2.0 / A * (1.0 + F + _M - 2.0 * F * s2) * height + 3.0 * height * height / (A * A)
-    )
+    return gamma0 * (1.0 - 2.0 / A * (1.0 + F + _M - 2.0 * F * s2) * height
+                     + 3.0 * height * height / (A * A))
 
 
 def gravity_n(lat, height):

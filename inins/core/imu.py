@@ -262,9 +262,8 @@ class BiasTruth(NamedTuple):
 
 
 @numba.njit(cache=True, nogil=True)
-def _kernel(
-    ideal_g, ideal_a, dt, mat_g, mat_a, par, temp, extra_g, extra_a, carry, gen, out, every
-):
+def _kernel(ideal_g, ideal_a, dt, mat_g, mat_a, par, temp, extra_g, extra_a, carry, gen, out,
+            every):
     """One pass over the samples.
 
     ``par`` (6, 6) rows: bias, white sigma, rho, GM drive, k_T, pulse weight per
@@ -449,7 +448,8 @@ def apply_errors(
     out = (np.empty((n, 3)), np.empty((n, 3)), np.empty((m, 3)), np.empty((m, 3)))
     if n:
         mats = errors.gyro_matrix(), errors.accel_matrix()
-        _kernel(dtheta, dv, dt, *mats, par, temp, extra_g, extra_a, carry, rng, out, truth_every)
+        _kernel(dtheta, dv, dt, *mats, par, temp, extra_g, extra_a, carry, rng, out,
+                truth_every)
     gm, resid = carry
     new_state = ImuState(gm[:3], gm[3:], resid[:3], resid[3:])
     return out[0], out[1], new_state, BiasTruth(out[2], out[3])

@@ -79,12 +79,10 @@ def _quat_of_rotvec(x, y, z):
 @numba.njit(cache=True)
 def _quat_mul(a0, a1, a2, a3, b0, b1, b2, b3):
     """Hamilton product ``a * b``."""
-    return (
-        a0 * b0 - a1 * b1 - a2 * b2 - a3 * b3,
-        a0 * b1 + a1 * b0 + a2 * b3 - a3 * b2,
-        a0 * b2 - a1 * b3 + a2 * b0 + a3 * b1,
-        a0 * b3 + a1 * b2 - a2 * b1 + a3 * b0,
-    )
+    return (a0 * b0 - a1 * b1 - a2 * b2 - a3 * b3,
+            a0 * b1 + a1 * b0 + a2 * b3 - a3 * b2,
+            a0 * b2 - a1 * b3 + a2 * b0 + a3 * b1,
+            a0 * b3 + a1 * b2 - a2 * b1 + a3 * b0)
 
 
 @numba.njit(cache=True)
@@ -93,11 +91,9 @@ def _rotate(q0, q1, q2, q3, x, y, z):
     tx = 2.0 * (q2 * z - q3 * y)
     ty = 2.0 * (q3 * x - q1 * z)
     tz = 2.0 * (q1 * y - q2 * x)
-    return (
-        x + q0 * tx + q2 * tz - q3 * ty,
-        y + q0 * ty + q3 * tx - q1 * tz,
-        z + q0 * tz + q1 * ty - q2 * tx,
-    )
+    return (x + q0 * tx + q2 * tz - q3 * ty,
+            y + q0 * ty + q3 * tx - q1 * tz,
+            z + q0 * tz + q1 * ty - q2 * tx)
 
 
 @numba.njit(cache=True)
@@ -134,15 +130,8 @@ def _earth_terms(lla, vel, dt, mode, home):
     h_m = lla[2] if mode == _FIXED_HEIGHT else lla[2] - 0.5 * dt * vel[2]
     rn, re = _radii(lat_m)
     w = earth.RATE
-    return (
-        w * math.cos(lat_m),
-        0.0,
-        -w * math.sin(lat_m),
-        rn + h_m,
-        re + h_m,
-        lat_m,
-        _gravity(lat_m, h_m),
-    )
+    return (w * math.cos(lat_m), 0.0, -w * math.sin(lat_m), rn + h_m, re + h_m, lat_m,
+            _gravity(lat_m, h_m))
 
 
 @numba.njit(cache=True)
@@ -161,49 +150,23 @@ def _velocity_step(vel, u, wie, terms, g, dt, mode):
     # computed velocity is the open-loop velocity error (000 eq. 10)
     known = 0.0 if mode == _ZERO_VELOCITY else 1.0
     ex, ey, ez = _transport(vel[0], vel[1], rn_h, re_h, lat, mode)
-    cx, cy, cz = _cross(
-        2.0 * wie[0] + ex,
-        2.0 * wie[1] + ey,
-        2.0 * wie[2] + ez,
-        known * vel[0],
-        known * vel[1],
-        known * vel[2],
-    )
+    cx, cy, cz = _cross(2.0 * wie[0] + ex, 2.0 * wie[1] + ey, 2.0 * wie[2] + ez,
+                        known * vel[0], known * vel[1], known * vel[2])
     mx = vel[0] + 0.5 * (u[0] - cx * dt)
     my = vel[1] + 0.5 * (u[1] - cy * dt)
     mz = vel[2] + 0.5 * (u[2] + (g - cz) * dt)
     ex, ey, ez = _transport(mx, my, rn_h, re_h, lat, mode)
     zx, zy, zz = (wie[0] + ex) * dt, (wie[1] + ey) * dt, (wie[2] + ez) * dt
     rx, ry, rz = _cross(zx, zy, zz, u[0], u[1], u[2])
-    cx, cy, cz = _cross(
-        2.0 * wie[0] + ex, 2.0 * wie[1] + ey, 2.0 * wie[2] + ez, known * mx, known * my, known * mz
-    )
-    return (
-        (u[0] - 0.5 * rx - cx * dt, u[1] - 0.5 * ry - cy * dt, u[2] - 0.5 * rz + (g - cz) * dt),
-        (zx, zy, zz),
-    )
+    cx, cy, cz = _cross(2.0 * wie[0] + ex, 2.0 * wie[1] + ey, 2.0 * wie[2] + ez,
+                        known * mx, known * my, known * mz)
+    return ((u[0] - 0.5 * rx - cx * dt, u[1] - 0.5 * ry - cy * dt,
+             u[2] - 0.5 * rz + (g - cz) * dt), (zx, zy, zz))
 
 
 @numba.njit(cache=True, nogil=True)
-def _navigate(
-    quat,
-    vel,
-    lla,
-    prev,
-    count,
-    dtheta,
-    dv,
-    dt,
-    mode,
-    coning,
-    sculling,
-    decimation,
-    home,
-    out_index,
-    out_quat,
-    out_vel,
-    out_lla,
-):
+def _navigate(quat, vel, lla, prev, count, dtheta, dv, dt, mode, coning, sculling,
+              decimation, home, out_index, out_quat, out_vel, out_lla):
     """Run the recursion over all samples; state arrays are updated in place."""
     q0, q1, q2, q3 = quat[0], quat[1], quat[2], quat[3]
     j = 0
@@ -219,11 +182,8 @@ def _navigate(
         q0, q1, q2, q3 = _quat_mul(n[0], n[1], n[2], n[3], q0, q1, q2, q3)
         s = 1.5 - 0.5 * (q0 * q0 + q1 * q1 + q2 * q2 + q3 * q3)
         q0, q1, q2, q3 = q0 * s, q1 * s, q2 * s, q3 * s
-        mean_n, mean_e, mean_d = (
-            vel[0] + 0.5 * dvn[0],
-            vel[1] + 0.5 * dvn[1],
-            vel[2] + 0.5 * dvn[2],
-        )
+        mean_n, mean_e, mean_d = (vel[0] + 0.5 * dvn[0], vel[1] + 0.5 * dvn[1],
+                                  vel[2] + 0.5 * dvn[2])
         vel[0], vel[1], vel[2] = vel[0] + dvn[0], vel[1] + dvn[1], vel[2] + dvn[2]
         if mode < _FIXED_POSITION:
             lla[0] += mean_n * dt / rn_h
@@ -357,12 +317,8 @@ class NavSeries:
     def concatenate(cls, parts):
         """Join the series of consecutive :func:`integrate` calls."""
         parts = list(parts)
-        return cls(
-            *(
-                np.concatenate([getattr(p, name) for p in parts])
-                for name in ("index", "quat_nb", "vel_n", "lla")
-            )
-        )
+        return cls(*(np.concatenate([getattr(p, name) for p in parts])
+                     for name in ("index", "quat_nb", "vel_n", "lla")))
 
 
 def _increments(value, name):
@@ -375,27 +331,12 @@ def _increments(value, name):
 def _home(lla):
     """Earth rate (3), R_N + h, R_E + h, lat, (unused), gravity at ``lla``."""
     rn, re = earth.principal_radii(lla[0])
-    return np.concatenate(
-        [
-            earth.rate_ie_n(lla[0]),
-            [rn + lla[2], re + lla[2], lla[0], 0.0, earth.gravity(lla[0], lla[2])],
-        ]
-    )
+    return np.concatenate([earth.rate_ie_n(lla[0]),
+                           [rn + lla[2], re + lla[2], lla[0], 0.0, earth.gravity(lla[0], lla[2])]])
 
 
-def integrate(
-    state,
-    dtheta,
-    dv,
-    dt,
-    *,
-    fixed_position=False,
-    fixed_height=False,
-    coning=True,
-    sculling=True,
-    decimation=1,
-    zero_velocity=False,
-):
+def integrate(state, dtheta, dv, dt, *, fixed_position=False, fixed_height=False, coning=True,
+              sculling=True, decimation=1, zero_velocity=False):
     """Strapdown navigation over a record of increments (module docstring for the equations).
 
     Chunked use is exact: integrating a record in pieces, each call starting from
@@ -449,31 +390,10 @@ def integrate(
     prev = np.concatenate([state.dtheta_prev, state.dv_prev])
     if zero_velocity and not fixed_position:
         raise ValueError("zero_velocity needs fixed_position")
-    mode = (
-        _ZERO_VELOCITY
-        if zero_velocity
-        else _FIXED_POSITION
-        if fixed_position
-        else _FIXED_HEIGHT
-        if fixed_height
-        else _FREE
-    )
-    _navigate(
-        quat,
-        vel,
-        lla,
-        prev,
-        first,
-        dtheta,
-        dv,
-        float(dt),
-        mode,
-        bool(coning),
-        bool(sculling),
-        decimation,
-        _home(lla),
-        *out,
-    )
+    mode = (_ZERO_VELOCITY if zero_velocity else _FIXED_POSITION if fixed_position
+            else _FIXED_HEIGHT if fixed_height else _FREE)
+    _navigate(quat, vel, lla, prev, first, dtheta, dv, float(dt), mode,
+              bool(coning), bool(sculling), decimation, _home(lla), *out)
     end = NavState(quat, vel, lla, prev[:3], prev[3:], first + n)
     return end, NavSeries(*out)
 

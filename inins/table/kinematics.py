@@ -142,23 +142,8 @@ def _mount_state(t, m_axis, m_angle, m_start, m_duration, m_smooth, m, mdot):
 
 
 @_jit
-def _platform(
-    k,
-    s,
-    tau,
-    seg_theta0,
-    seg_rate0,
-    seg_accel,
-    axes,
-    mat_n_base,
-    mat_tb0,
-    omega_ie_n,
-    f_n,
-    angles_out,
-    mat_nt,
-    u_omega,
-    u_force,
-):
+def _platform(k, s, tau, seg_theta0, seg_rate0, seg_accel, axes, mat_n_base, mat_tb0,
+              omega_ie_n, f_n, angles_out, mat_nt, u_omega, u_force):
     """Gimbal chain at one time: mat_nt, and the platform terms seen by a mount at rest,
     u_omega = mat_tb0^T (mat_nt^T omega_ie_n + omega_nt_t), u_force = mat_tb0^T mat_nt^T f_n.
     Returns True if a gimbal moves."""
@@ -190,28 +175,9 @@ def _platform(
 
 
 @_jit
-def _kinematics_kernel(
-    time,
-    seg_t0,
-    seg_theta0,
-    seg_rate0,
-    seg_accel,
-    axes,
-    mat_n_base,
-    mat_tb0,
-    m_axis,
-    m_angle,
-    m_start,
-    m_duration,
-    m_smooth,
-    omega_ie_n,
-    f_n,
-    want_mat,
-    omega_ib_b,
-    f_b,
-    mat_nb,
-    angles_out,
-):
+def _kinematics_kernel(time, seg_t0, seg_theta0, seg_rate0, seg_accel, axes, mat_n_base,
+                       mat_tb0, m_axis, m_angle, m_start, m_duration, m_smooth,
+                       omega_ie_n, f_n, want_mat, omega_ib_b, f_b, mat_nb, angles_out):
     n, n_gimbals, n_seg = time.size, axes.shape[0], seg_t0.size
     mat_nt = np.empty((3, 3))
     mat_tb = np.empty((3, 3))
@@ -231,23 +197,8 @@ def _kinematics_kernel(
             s += 1
         tau = t - seg_t0[s]
         if moving or s != cached:  # a hold reuses the platform terms of its segment
-            moving = _platform(
-                k,
-                s,
-                tau,
-                seg_theta0,
-                seg_rate0,
-                seg_accel,
-                axes,
-                mat_n_base,
-                mat_tb0,
-                omega_ie_n,
-                f_n,
-                angles_out,
-                mat_nt,
-                u_omega,
-                u_force,
-            )
+            moving = _platform(k, s, tau, seg_theta0, seg_rate0, seg_accel, axes, mat_n_base,
+                               mat_tb0, omega_ie_n, f_n, angles_out, mat_nt, u_omega, u_force)
             cached = s
         else:
             for g in range(n_gimbals):
@@ -339,26 +290,13 @@ class TableTrajectory:
         angles = np.empty((n, seg.theta0.shape[1]))
         f_n = -earth.gravity_n(self.lla[0], self.lla[2])
         _kinematics_kernel(
-            time,
-            seg.t0,
-            seg.theta0,
-            seg.rate0,
-            seg.accel,
-            np.asarray(self.axes, float),
-            np.asarray(self.mat_n_base, float),
-            np.asarray(self.mat_tb0, float),
-            m_axis,
+            time, seg.t0, seg.theta0, seg.rate0, seg.accel, np.asarray(self.axes, float),
+            np.asarray(self.mat_n_base, float), np.asarray(self.mat_tb0, float), m_axis,
             np.array([mr.angle for mr in self.mounts], dtype=float),
             np.array([mr.start for mr in self.mounts], dtype=float),
             np.array([mr.duration for mr in self.mounts], dtype=float),
             np.array([mr.smooth for mr in self.mounts], dtype=np.bool_),
-            earth.rate_ie_n(self.lla[0]),
-            f_n,
-            want_mat,
-            omega_ib_b,
-            f_b,
-            mat_nb,
-            angles,
+            earth.rate_ie_n(self.lla[0]), f_n, want_mat, omega_ib_b, f_b, mat_nb, angles,
         )
         return omega_ib_b, f_b, mat_nb, angles
 
