@@ -47,6 +47,7 @@ MODULES = (
     "bench_gnss",
     "bench_observability",
     "bench_ekf",
+    "bench_sweep",
 )
 
 

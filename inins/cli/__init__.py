@@ -19,8 +19,10 @@ import typer
 
 import inins
 from inins.cli._runner import make_command
+from inins.cli.check import check
 from inins.cli.schema import make_schema_command
 from inins.cli.show import show
+from inins.cli.sweep import sweep
 from inins.commands import COMMANDS
 
 _HELP = (
@@ -65,6 +67,8 @@ def make_app(commands=COMMANDS) -> typer.Typer:
         app.command(spec.name, help=spec.full_help(), short_help=short)(make_command(spec))
     app.command("schema")(make_schema_command(commands))
     app.command("show")(show)
+    app.command("sweep")(sweep)
+    app.command("check")(check)
     return app
 
 

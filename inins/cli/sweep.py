@@ -1,0 +1,175 @@
+"""``inins sweep SWEEP.yaml -o OUTDIR``: run a sweep, show progress, print aggregates."""
+
+import os
+from pathlib import Path
+from typing import Annotated
+
+import typer
+
+from inins.cli._runner import EXIT_CHECK_FAILED, EXIT_INTERRUPTED, EXIT_OK, echo_err, guarded
+
+MAX_LISTED = 10
+
+_HELP = (
+    "Run a command over a grid of scenario keys, zipped axes and Monte Carlo seeds "
+    "(spec §8). Each point runs as 'inins CMD BASE --set KEY=VALUE ... --seed N' would. "
+    "Writes OUTDIR/sweep.csv and OUTDIR/sweep.h5 (one row per point: axes, seed, status, "
+    "error, run time, results, truth, checks), OUTDIR/aggregates.csv and OUTDIR/sweep.txt. "
+    "Rerunning resumes: finished points are skipped. Exit codes: 0 every point passed, "
+    "1 a point failed a check or raised, 2 bad input, 3 internal error, 130 interrupted "
+    "(the table holds the finished points)."
+)
+
+
+def sweep(
+    sweep_file: Annotated[Path, typer.Argument(metavar="SWEEP.yaml", help="The sweep file.")],
+    outdir: Annotated[
+        Path, typer.Option("--outdir", "-o", help="Sweep folder (created if missing).")
+    ] = Path("out"),
+    workers: Annotated[
+        int | None,
+        typer.Option(
+            "--workers", "-j", min=1, help="Local worker processes (default: the core count)."
+        ),
+    ] = None,
+    scheduler: Annotated[
+        str | None,
+        typer.Option(
+            "--scheduler", metavar="tcp://HOST:PORT", help="Run on this Dask cluster instead."
+        ),
+    ] = None,
+    keep_runs: Annotated[
+        bool,
+        typer.Option("--keep-runs", help="Also write every point's outputs to OUTDIR/runs/ID/."),
+    ] = False,
+    restart: Annotated[
+        bool,
+        typer.Option("--restart", help="Discard an earlier sweep in OUTDIR instead of resuming."),
+    ] = False,
+    retry_errors: Annotated[
+        bool, typer.Option("--retry-errors", help="On resume, rerun the points that raised.")
+    ] = False,
+    max_points: Annotated[
+        int, typer.Option("--max-points", min=1, help="Refuse a sweep with more points.")
+    ] = 100_000,
+    plot: Annotated[
+        list[str] | None,
+        typer.Option(
+            "--plot", metavar="RESULT", help="Draw RESULT against the swept keys (repeatable)."
+        ),
+    ] = None,
+    against: Annotated[
+        list[str] | None,
+        typer.Option("--against", metavar="KEY", help="Swept key(s) for --plot (one or two)."),
+    ] = None,
+    debug: Annotated[bool, typer.Option("--debug", help="Show the traceback of an error.")] = False,
+) -> None:
+    """Run a sweep (grids, zipped axes, Monte Carlo seeds) locally or on a Dask cluster."""
+    raise typer.Exit(
+        guarded(
+            "inins sweep",
+            debug,
+            lambda: _sweep(
+                sweep_file,
+                outdir,
+                workers,
+                scheduler,
+                keep_runs,
+                restart,
+                retry_errors,
+                max_points,
+                plot or [],
+                against or [],
+            ),
+        )
+    )
+
+
+sweep.__doc__ = _HELP
+
+
+def _sweep(path, outdir, workers, scheduler, keep_runs, restart, retry, max_points, plot, against):
+    from inins.sweep.engine import run_sweep
+    from inins.sweep.executors import DaskExecutor, LocalExecutor, default_workers
+    from inins.sweep.plan import load_sweep
+    from inins.sweep.plot import check_plot_request, plot_result
+
+    plan = load_sweep(path, max_points)
+    keys = check_plot_request(plan, plot, against) if plot else ()
+    if scheduler:
+        executor = DaskExecutor(scheduler, plan.command)
+    else:
+        executor = LocalExecutor(workers or default_workers(), plan.command)
+    try:
+        with _Progress(plan.size) as bar:
+            outcome = run_sweep(plan, outdir, executor, keep_runs, restart, retry, progress=bar)
+    except KeyboardInterrupt:
+        echo_err(
+            f"inins sweep: interrupted; the finished points are in {outdir}/sweep.csv; "
+            "run the same command again to resume"
+        )
+        return EXIT_INTERRUPTED
+    paths = list(outcome.paths)
+    for result in plot:
+        png = Path(outdir) / f"plot-{result}.png"
+        plot_result(outcome.table, result, keys, png)
+        paths.append(png)
+    _print(outcome, paths)
+    failed = sum(r["status"] != "passed" for r in outcome.table.records)
+    return EXIT_OK if failed == 0 else EXIT_CHECK_FAILED
+
+
+class _Progress:
+    """A rich progress bar with ETA and the count of points that raised."""
+
+    def __init__(self, total):
+        from rich.progress import (
+            BarColumn,
+            MofNCompleteColumn,
+            Progress,
+            TextColumn,
+            TimeElapsedColumn,
+            TimeRemainingColumn,
+        )
+
+        self.progress = Progress(
+            TextColumn("sweep"),
+            BarColumn(),
+            MofNCompleteColumn(),
+            TextColumn("{task.fields[errors]} errors"),
+            TimeElapsedColumn(),
+            TextColumn("ETA"),
+            TimeRemainingColumn(),
+            transient=True,
+            disable=not os.isatty(2),
+        )
+        self.task = self.progress.add_task("sweep", total=total, errors=0)
+
+    def __enter__(self):
+        self.progress.__enter__()
+        return self
+
+    def __exit__(self, *exc):
+        self.progress.__exit__(*exc)
+
+    def __call__(self, done, total, errors):
+        self.progress.update(self.task, completed=done, total=total, errors=errors)
+
+
+def _print(outcome, paths) -> None:
+    from inins.sweep.aggregate import format_aggregates
+
+    counts = (
+        f"{outcome.ran} run, {outcome.skipped} already finished, {outcome.errors} raised; "
+        f"{len(outcome.table.records)} of {outcome.planned} points in the table "
+        f"({outcome.wall_s:.1f} s)"
+    )
+    typer.echo(f"inins sweep: {counts}")
+    typer.echo(format_aggregates(outcome.aggregates, overall_only=True))
+    typer.echo("(statistics per value of each swept key: sweep.txt, aggregates.csv)")
+    raised = [r for r in outcome.table.records if r["status"] == "error"]
+    for record in raised[:MAX_LISTED]:
+        typer.echo(f"point {record['index']} raised: {record['error']}", err=True)
+    if len(raised) > MAX_LISTED:
+        typer.echo(f"... and {len(raised) - MAX_LISTED} more (column error of sweep.csv)", err=True)
+    typer.echo("wrote " + ", ".join(str(p) for p in paths))

@@ -1,0 +1,248 @@
+"""Run a sweep: skip the finished points, run the rest, journal each, write the table.
+
+Order of work (:func:`run_sweep`):
+
+1. the sweep folder's manifest must belong to this sweep (same command, base
+   scenario text and ``set:``); ``restart`` forgets an earlier sweep instead;
+2. points already in the journal are skipped (``retry_errors`` reruns those that
+   raised);
+3. when nothing has run yet, the first point runs alone: a check naming an
+   unknown result, or an ``aggregate.results`` name no result carries, stops
+   the sweep as bad input before the other points start;
+4. the other points go to the executor, a few per worker in flight; each record
+   is appended to the journal as it arrives, a point that raised included;
+5. at the end, and on an interrupt, the table is rebuilt from the journal and
+   written atomically (``sweep.csv``, ``sweep.h5``), with the aggregates
+   (``aggregates.csv``, ``sweep.txt``).
+"""
+
+import collections
+import math
+import statistics
+import time
+from dataclasses import dataclass
+from pathlib import Path
+
+from inins.exceptions import InputError
+from inins.io import sweep_files
+from inins.sweep.aggregate import aggregate, chosen_results, format_aggregates, stats_columns
+from inins.sweep.table import build_table, csv_columns, h5_groups, point_id
+from inins.sweep.worker import STATUS_ERROR, PointTask, is_check_name_error
+
+IN_FLIGHT_PER_WORKER = 2
+
+
+@dataclass(frozen=True)
+class SweepOutcome:
+    """A finished (or interrupted) sweep.
+
+    Attributes
+    ----------
+    table : inins.sweep.table.SweepTable
+    aggregates : inins.sweep.aggregate.Aggregates
+    planned, ran, skipped, errors : int
+        Points in the sweep, run now, found finished, that raised (in the table).
+    paths : tuple of Path
+        Files written.
+    wall_s : float
+    """
+
+    table: object
+    aggregates: object
+    planned: int
+    ran: int
+    skipped: int
+    errors: int
+    paths: tuple
+    wall_s: float
+
+    @property
+    def complete(self) -> bool:
+        """True when every point of the sweep is in the table."""
+        return len(self.table.records) == self.planned
+
+
+def run_sweep(
+    plan,
+    outdir,
+    executor,
+    keep_runs=False,
+    restart=False,
+    retry_errors=False,
+    progress=None,
+) -> SweepOutcome:
+    """Run ``plan`` (:func:`inins.sweep.plan.load_sweep`) into ``outdir``.
+
+    Parameters
+    ----------
+    plan : SweepPlan
+    outdir : Path
+    executor : LocalExecutor or DaskExecutor
+        Not yet entered; entered here only if there is work.
+    keep_runs : bool
+        Write each point's outputs under ``outdir/runs/<id>/``.
+    restart, retry_errors : bool
+    progress : callable, optional
+        ``progress(done, total, errors)`` after each point (done counts skipped ones).
+    """
+    from inins.commands.execute import prepare_outdir
+
+    start = time.perf_counter()
+    outdir = prepare_outdir(outdir)
+    _claim(outdir, plan, restart)
+    finished = sweep_files.read_journal(outdir)
+    todo = [p for p in plan.points() if _needs_run(finished.get(p.key), retry_errors)]
+    skipped = plan.size - len(todo)
+    tasks = [_task(plan, p, outdir, keep_runs) for p in todo]
+    ran = 0
+    try:
+        if tasks:
+            with sweep_files.Journal(outdir) as journal, executor as ex:
+                ran = _dispatch(plan, tasks, ex, journal, finished, skipped, progress)
+    finally:
+        finished = sweep_files.read_journal(outdir)
+        outcome = write_results(plan, outdir, finished)
+    table, aggs, paths = outcome
+    errors = sum(r["status"] == STATUS_ERROR for r in table.records)
+    return SweepOutcome(
+        table, aggs, plan.size, ran, skipped, errors, paths, time.perf_counter() - start
+    )
+
+
+def _needs_run(record, retry_errors) -> bool:
+    return record is None or (retry_errors and record["status"] == STATUS_ERROR)
+
+
+def _task(plan, point, outdir, keep_runs) -> PointTask:
+    run_dir = str(Path(outdir).resolve() / "runs" / point_id(point.index, plan.size))
+    base = None if plan.base is None else str(Path(plan.base).resolve())
+    return PointTask(
+        point.key,
+        point.index,
+        plan.command,
+        base,
+        point.overrides,
+        point.seed,
+        run_dir if keep_runs else None,
+    )
+
+
+def _claim(outdir, plan, restart) -> None:
+    """Check (or write) the manifest: the folder holds this sweep or none."""
+    manifest = {
+        "command": plan.command,
+        "fingerprint": plan.fingerprint(),
+        "sweep": plan.source,
+        "points": plan.size,
+    }
+    old = sweep_files.read_manifest(outdir)
+    if restart:
+        sweep_files.reset(outdir)
+    elif old is not None and (
+        old.get("command") != plan.command or old.get("fingerprint") != plan.fingerprint()
+    ):
+        raise InputError(
+            "this output folder holds the results of a different sweep (command, base "
+            "scenario or set: changed); use --restart to discard them, or another -o",
+            source=str(outdir),
+        )
+    sweep_files.write_manifest(outdir, manifest)
+
+
+def _dispatch(plan, tasks, ex, journal, finished, skipped, progress) -> int:
+    """Run ``tasks`` on ``ex``; journal every record; return how many ran."""
+    total, done = plan.size, skipped
+    errors = sum(r["status"] == STATUS_ERROR for r in finished.values())
+    queue = list(reversed(tasks))
+    if not finished:  # the probe: bad checks or aggregate names stop everything
+        record = _run_alone(ex, queue.pop())
+        _probe(plan, record)
+        journal.append(record)
+        done, errors = done + 1, errors + (record["status"] == STATUS_ERROR)
+        if progress:
+            progress(done, total, errors)
+    slots = IN_FLIGHT_PER_WORKER * ex.slots
+    pending = set()
+    ran = done - skipped
+    recent = collections.deque(maxlen=16)  # run times of the last points (s)
+    while queue or pending:
+        while queue and len(pending) < slots:
+            run_s = statistics.median(recent) if recent else 0.0
+            batch = batch_size(ex.batch_s, run_s, len(queue), ex.slots)
+            pending.add(ex.submit(tuple(queue.pop() for _ in range(min(batch, len(queue))))))
+        finished_now, pending = ex.wait_any(pending)
+        for future in finished_now:
+            records, retry = ex.outcome(future)
+            if retry is not None:
+                pending.add(retry)
+                continue
+            for record in records:
+                journal.append(record)
+                if math.isfinite(record["run_s"]):
+                    recent.append(record["run_s"])
+                ran, done = ran + 1, done + 1
+                errors += record["status"] == STATUS_ERROR
+            if progress:
+                progress(done, total, errors)
+    return ran
+
+
+def batch_size(batch_s: float, run_s: float, remaining: int, slots: int) -> int:
+    """Points per task: enough for ``batch_s`` of work at ``run_s`` a point (from the
+    last points; 0 before any finished), at most 64, and few enough that every slot
+    gets a few tasks."""
+    if batch_s <= 0 or not run_s > 0:
+        return 1
+    wanted = int(batch_s / run_s) + 1
+    return max(1, min(wanted, 64, remaining // (4 * max(slots, 1)) or 1))
+
+
+def _run_alone(ex, task) -> dict:
+    pending = {ex.submit((task,))}
+    while True:
+        done, pending = ex.wait_any(pending)
+        for future in done:
+            records, retry = ex.outcome(future)
+            if retry is None:
+                return records[0]
+            pending.add(retry)
+
+
+def _probe(plan, record) -> None:
+    """Stop on bad input that every point shares."""
+    if is_check_name_error(record):
+        raise InputError(f"{record['error']} (in the first point)", source=plan.source)
+    names = plan.aggregate.results or []
+    known = record["results"]
+    unknown = [n for n in names if n not in known]
+    if known and unknown:
+        raise InputError(
+            f"unknown result {unknown[0]!r} (results: {', '.join(known)})",
+            source=plan.source,
+            key="aggregate.results",
+        )
+
+
+def write_results(plan, outdir, finished):
+    """Rebuild the table from the journal and write table, aggregates and report."""
+    table = build_table(plan, finished)
+    settings = plan.aggregate
+    # names no point produced were refused by the probe; never fail while writing
+    wanted = settings.results and [n for n in settings.results if n in table.result_names]
+    names = chosen_results(table, wanted or None) if table.records else []
+    aggs = aggregate(table, names, settings.percentiles)
+    outdir = Path(outdir)
+    sweep_files.write_table_csv(outdir / sweep_files.TABLE_CSV, csv_columns(table))
+    groups, attrs = h5_groups(table, plan)
+    groups["aggregates"] = stats_columns(aggs)
+    sweep_files.write_table_h5(outdir / sweep_files.TABLE_H5, groups, attrs)
+    sweep_files.write_table_csv(outdir / "aggregates.csv", stats_columns(aggs))
+    report = (
+        f"inins sweep {plan.source}: {plan.command}, {len(table.records)} of {plan.size} "
+        f"points finished\n\n{format_aggregates(aggs)}\n"
+    )
+    from inins.io.atomic import write_text_atomic
+
+    write_text_atomic(outdir / "sweep.txt", report)
+    names = (sweep_files.TABLE_CSV, sweep_files.TABLE_H5, "aggregates.csv", "sweep.txt")
+    return table, aggs, tuple(outdir / n for n in names)
