@@ -19,7 +19,16 @@ import numpy as np
 
 from inins.core import earth
 
-_gravity = numba.njit(cache=True)(earth.gravity)
+_gravity_of_sin2 = numba.njit(cache=True)(earth.gravity_of_sin2)
+
+
+@numba.njit(cache=True)
+def _gravity(lat, height):
+    """:func:`inins.core.earth.gravity`, compiled (the same arithmetic)."""
+    s2 = np.sin(lat) ** 2
+    return _gravity_of_sin2(s2, np.sqrt(1.0 - earth.E2 * s2), height)
+
+
 _radii = numba.njit(cache=True)(earth.principal_radii)
 
 POS, VEL, ATT, BA, BG, CLK, MA, MG = 0, 3, 6, 9, 12, 15, 17, 20
