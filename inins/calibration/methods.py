@@ -22,11 +22,11 @@ neglect do not bias it.
 """
 
 import enum
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
-from inins.calibration import tilt_model, velocity
+from inins.calibration import exact_model, tilt_model, velocity
 
 
 class Estimator(enum.StrEnum):
@@ -121,6 +121,8 @@ class Context:
     arw: np.ndarray
     bias_z: float
     heading_per_bias: np.ndarray
+    exact: exact_model.ExactModel
+    gyrocompass: bool
 
     @classmethod
     def build(cls, track, windows, t_hold, arw, bias_z=0.0, gyrocompass=False):
@@ -129,20 +131,28 @@ class Context:
         "heading error = beta_x / (Omega cos lambda)"); otherwise it is ~0."""
         w_h = np.linalg.norm(tilt_model.earth.rate_ie_n(track.lat)[:2])
         heading = track.mat_nb[0][1] / w_h if gyrocompass else np.zeros(3)
-        phi_response = np.concatenate(
-            [-tilt_model.bias_response(track), tilt_model.earth_transition(track)], axis=2
-        )
+        phi_t = tilt_model.earth_transition(track)
+        phi_response = np.concatenate([-tilt_model.bias_response(track), phi_t], axis=2)
+        response = tilt_model.Response.of(track)
         return cls(
             track,
             np.asarray(windows),
             t_hold,
             tilt_model.tilts(track),
-            tilt_model.Response.of(track),
+            response,
             phi_response,
             np.broadcast_to(np.asarray(arw, float), (3,)),
             bias_z,
             heading,
+            exact_model.ExactModel.of(track, phi_t, response.phit_nb),
+            bool(gyrocompass),
         )
+
+    def full_bias(self, horizontal_bias):
+        """Body-frame bias (3,) from the horizontal pair, the vertical one taken as known."""
+        b = np.full(3, float(self.bias_z))
+        b[self.track.horizontal] = horizontal_bias
+        return b
 
     def weights(self, kinds):
         """Weights (2, m, 3) of one formula per horizontal axis: ``kinds[axis] -> name``."""
@@ -191,9 +201,17 @@ def solve(ctx, kinds, heading_known=False):
     weights = ctx.weights(kinds)
     gain = ctx.gain(weights)
     heading = np.zeros(3) if heading_known else ctx.heading_per_bias
-    return _estimate(
-        ctx, ctx.evaluate(weights), _with_heading(gain, heading), gain.s_phi, weights, heading
+    s_bias = _with_heading(gain, heading)
+    est = _estimate(ctx, ctx.evaluate(weights), s_bias, gain.s_phi, weights, heading)
+    exact = exact_model.refine(
+        ctx.exact,
+        weights,
+        s_bias,
+        ctx.full_bias(est.value),
+        ctx.track.horizontal,
+        ctx.gyrocompass and not heading_known,
     )
+    return replace(est, value=exact[ctx.track.horizontal])
 
 
 def solve_velocity(ctx, windows, vrw=0.0, quantum=0.0):
@@ -240,11 +258,12 @@ def mount_check(ctx, reference, heading_sigma=0.0):
         1-sigma noise of the alignment heading (rad).
     """
     track = ctx.track
-    h, v = track.horizontal, track.down_axis
+    h = track.horizontal
     weights = ctx.weights(dict.fromkeys(h, Formula.RETURN_TO_START))
     gain = ctx.gain(weights)
     k = _with_heading(gain, ctx.heading_per_bias)
-    residual = ctx.evaluate(weights) - k[:, h] @ reference.value - k[:, v] * ctx.bias_z
+    predicted = ctx.exact.evaluate(weights, ctx.full_bias(reference.value), ctx.gyrocompass)
+    residual = ctx.evaluate(weights) - predicted
     resid_weights = weights - np.einsum("ak,kmi->ami", k[:, h], reference.weights)
     sigma = np.hypot(ctx.sigma(resid_weights), gain.s_phi[:, 2] * heading_sigma)
     return MountCheck(residual, sigma)

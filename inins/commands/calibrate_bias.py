@@ -7,7 +7,7 @@ datasets and text report from its outcome.
 
 import numpy as np
 
-from inins.calibration import bias, ett
+from inins.calibration import bias, ett, exact_model
 from inins.calibration.alignment import HeadingSource
 from inins.commands import figures
 from inins.commands._table import load_record
@@ -146,7 +146,8 @@ def result_names(outcome):
 
 def initial_heading_error(outcome):
     """Initial heading error (rad) the calibration implies: the gyrocompass equilibrium
-    ``(mat_nb b)_E / (W cos lat)`` with the chosen biases (000 §3.2), 0 for a known heading."""
+    ``asin((mat_nb b)_E / (W cos lat))`` with the chosen biases (000 §3.2,
+    :func:`inins.calibration.exact_model.gyrocompass_heading_error`), 0 for a known heading."""
     if outcome.align.method != HeadingSource.GYROCOMPASS:
         return 0.0
     if outcome.choice.east_formula is None:
@@ -154,7 +155,7 @@ def initial_heading_error(outcome):
     est = outcome.estimates[outcome.choice.east_formula]
     bias = np.zeros(3)
     bias[outcome.geometry.horizontal] = est.value
-    return float(est.heading_per_bias @ bias)
+    return exact_model.gyrocompass_heading_error(outcome.track.mat_nb[0], bias, outcome.track.lat)
 
 
 def build(outcome, record, settings, paper_case=None):
