@@ -11,12 +11,13 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-from inins.calibration import methods, navigate, sequence
+from inins.calibration import exact_model, methods, navigate, sequence
 from inins.calibration.alignment import StationaryAlignment
 from inins.calibration.ett import EttResult
 from inins.calibration.methods import Estimator, Formula
 from inins.calibration.tilt_model import Track
-from inins.core import error_model, rotation
+from inins.core import earth, error_model, rotation
+from inins.core.units import DPH
 from inins.exceptions import InputError
 
 
@@ -58,6 +59,10 @@ class Settings:
         Vertical gyro bias taken as known (rad/s).
     k_sigma, floor : float
         Mount-rotation detection: residual above max(k_sigma * sigma, floor) (rad).
+    bias_bound : float or None
+        Largest gyro bias the unit may have (rad/s, the data sheet's); gyrocompassing is
+        refused where it reaches :data:`exact_model.MAX_SIN_HEADING` of the horizontal
+        Earth rate. None: checked on the calibrated biases instead.
     ett : inins.calibration.ett.EttResult or None
         ETT mounting (000 §3.1): the heading at the alignment window follows from the
         table's encoder angles there (``heading_method`` "ett").
@@ -79,6 +84,7 @@ class Settings:
     k_sigma: float = 4.0
     floor: float = 0.5 * np.pi / 180 / 3600
     ett: EttResult | None = None
+    bias_bound: float | None = None
 
 
 @dataclass(frozen=True)
@@ -111,6 +117,12 @@ class Outcome:
     chosen: dict
     noise: tuple = ()
     truth: CalibrationTruth | None = None
+    warnings: tuple = ()
+
+
+MIN_BIAS_BOUND = 1e-4 * np.pi / 180 / 3600
+"""rad/s (1e-4 deg/h): the bias bound assumed when none is stated, so that gyrocompassing
+is refused where cos(lat) vanishes (the pole) whatever the bias."""
 
 
 def _hold_windows(seq):
@@ -131,10 +143,23 @@ def calibrate_bias(record, settings, progress=None):
     -------
     Outcome
     """
+    if settings.free:
+        raise InputError(
+            "navigation.mode free is not supported by calibrate-bias: every method here "
+            "(attitude, velocity, eqs. 38/44/45) assumes the known position and zero "
+            "velocity of the table (000 eqs. 9-10), and free-inertial navigation adds the "
+            "Schuler feedback of the velocity error on the tilt (-12 % on beta_x, -41 % on "
+            "beta_y at T = 600 s). Use navigation.mode: stationary",
+            source=record.source,
+            key="navigation.mode",
+        )
     seq = sequence.build_sequence(
         record, settings.align_duration, settings.epoch_window, settings.settle, settings.labels
     )
     lat = float(record.lla[0])
+    gyrocompass = settings.heading_method == HeadingMethod.GYROCOMPASS
+    if gyrocompass:
+        _check_gyrocompass(settings.bias_bound, lat, record.source)
     if settings.ett is not None:
         settings = replace(
             settings,
@@ -155,7 +180,6 @@ def calibrate_bias(record, settings, progress=None):
         settings.free,
         progress,
     )
-    gyrocompass = settings.heading_method == HeadingMethod.GYROCOMPASS
     ctx = methods.Context.build(
         track, seq.epochs, seq.hold_times, settings.arw, settings.bias_z, gyrocompass
     )
@@ -172,17 +196,16 @@ def calibrate_bias(record, settings, progress=None):
         est[Estimator.EQ45] = methods.solve(
             ctx, {e: Formula.RETURN, n: Formula.RETURN}, heading_known=True
         )
+        est[Estimator.EQ38] = methods.solve_north(ctx, geometry, est[Estimator.VELOCITY])
     heading_sigma = align.heading_sigma if gyrocompass else settings.heading_sigma
     est = {k: _with_alignment_noise(v, align.tilt_sigma, heading_sigma) for k, v in est.items()}
     if seq.has_return:
-        reference = est[Estimator.EQ44] if gyrocompass else est[Estimator.EQ45]
-        check = methods.mount_check(ctx, reference, heading_sigma)
-        threshold = np.maximum(settings.k_sigma * check.sigma, settings.floor)
-        choice = methods.choose(geometry, check, not gyrocompass, threshold)
+        check, threshold, choice = _mount_choice(ctx, est, geometry, settings, heading_sigma)
     else:
         check = methods.MountCheck(np.full(2, np.nan), np.full(2, np.nan))
         threshold, choice = np.full(2, np.nan), methods.NO_RETURN
     chosen = _chosen(est, geometry, choice)
+    warnings = _heading_warnings(gyrocompass, chosen, geometry, track, record.source)
     outcome = Outcome(
         seq,
         geometry,
@@ -196,10 +219,72 @@ def calibrate_bias(record, settings, progress=None):
         choice,
         chosen,
         noise=(arw, vrw, estimated),
+        warnings=warnings,
     )
     if record.truth is not None:
         outcome = _with_truth(outcome, record, ctx)
     return outcome
+
+
+def _check_gyrocompass(bound, lat, source):
+    """Refuse gyrocompassing where the stated bias reaches
+    :data:`exact_model.MAX_SIN_HEADING` of the horizontal Earth rate ``W cos lat``."""
+    w_h = earth.RATE * np.cos(lat)
+    if bound is None or bound < MIN_BIAS_BOUND:
+        bound = MIN_BIAS_BOUND
+    if bound >= exact_model.MAX_SIN_HEADING * w_h:
+        raise InputError(
+            f"gyrocompass alignment cannot work at latitude {np.degrees(lat):.4g} deg for a "
+            f"gyro bias of {bound / DPH:.3g} deg/h: the horizontal Earth rate there is "
+            f"{w_h / DPH:.3g} deg/h, so the initial heading error "
+            f"asin(bias / (W cos lat)) would reach 30 deg or more. Use alignment.method: "
+            "ett (the heading from the pitch-90/0 positions, inins align-ett) or known "
+            "(with alignment.heading_deg from the table's north reference)",
+            source=source,
+            key="alignment.method",
+        )
+
+
+def _heading_warnings(gyrocompass, chosen, geometry, track, source):
+    """Refuse (calibrated bias too large for gyrocompassing) or warn (heading error large
+    enough that the linear tilt model would be off by ~10 %)."""
+    if not gyrocompass or chosen.get(geometry.east) is None:
+        return ()
+    b = np.zeros(3)
+    for axis in geometry.horizontal:
+        b[axis] = chosen[axis][0]
+    sin_heading = abs((track.mat_nb[0] @ b)[1]) / (earth.RATE * np.cos(track.lat))
+    if not np.isfinite(sin_heading) or sin_heading >= exact_model.MAX_SIN_HEADING:
+        _check_gyrocompass(
+            float(np.linalg.norm(b)) if np.all(np.isfinite(b)) else np.inf, track.lat, source
+        )
+    if sin_heading >= exact_model.WARN_SIN_HEADING:
+        return (
+            f"the gyrocompass heading error is {np.degrees(np.arcsin(sin_heading)):.3g} deg "
+            "(bias east / (W cos lat)): the linear tilt model of 000 is off by about that "
+            "fraction; the estimates rest on the exact rotation model. An ETT or known "
+            "heading (alignment.method) avoids the heading error",
+        )
+    return ()
+
+
+def _mount_choice(ctx, est, geometry, settings, heading_sigma):
+    """Mount check and the choice of the east formula (000 §3.2). When the east axis is
+    rejected, the north residual is checked again against eq. 38 alone (the east bias
+    from the velocity method): the rejected pair must not speak for the north axis."""
+    gyrocompass = settings.heading_method == HeadingMethod.GYROCOMPASS
+    reference = est[Estimator.EQ44] if gyrocompass else est[Estimator.EQ45]
+    check = methods.mount_check(ctx, reference, heading_sigma)
+    threshold = np.maximum(settings.k_sigma * check.sigma, settings.floor)
+    choice = methods.choose(geometry, check, not gyrocompass, threshold)
+    if choice.east_formula is None:
+        north = geometry.horizontal.index(geometry.north)
+        again = methods.mount_check(ctx, est[Estimator.EQ38], heading_sigma)
+        residual, sigma = check.residual.copy(), check.sigma.copy()
+        residual[north], sigma[north] = again.residual[north], again.sigma[north]
+        check = methods.MountCheck(residual, sigma)
+        threshold = np.maximum(settings.k_sigma * check.sigma, settings.floor)
+    return check, threshold, choice
 
 
 def _ett_heading(record, ett, window):
@@ -238,7 +323,7 @@ def _chosen(est, geometry, choice):
     if Estimator.EQ44 not in est:
         return dict.fromkeys(geometry.horizontal)
     h = geometry.horizontal
-    pair = est[choice.east_formula or Estimator.EQ44]
+    pair = est[choice.east_formula or Estimator.EQ38]
     north = h.index(geometry.north)
     east = h.index(geometry.east)
     out = {geometry.north: (pair.value[north], pair.sigma[north], methods.EQ38)}

@@ -36,9 +36,18 @@ import numpy as np
 
 from inins.core import earth, rotation
 
-MAX_ITERATIONS = 12
-"""Fixed-point steps at most; each reduces the error by about phi_D0 (< 0.3 rad where
-gyrocompassing is accepted), so 12 reach the rounding level."""
+MAX_ITERATIONS = 40
+"""Fixed-point steps at most; each reduces the error by about sin(phi_D0) (< 0.5 where
+gyrocompassing is accepted, :data:`MAX_SIN_HEADING`), so 40 reach the rounding level."""
+
+MAX_SIN_HEADING = 0.5
+"""Gyrocompassing is refused where the horizontal bias reaches half the horizontal Earth
+rate (initial heading error 30 deg): the fixed point then contracts too slowly, the
+heading noise ``ARW / (W cos lat sqrt(T))`` is large, and at the pole it has no solution."""
+
+WARN_SIN_HEADING = 0.02
+"""Above this (heading error 1.1 deg) the linear tilt model is off by ~2 %: a warning
+says the estimates rest on the exact rotation model (:func:`refine`)."""
 
 E_D = np.array([0.0, 0.0, 1.0])
 
@@ -127,22 +136,24 @@ class ExactModel:
         return np.einsum("kmi,mi->k", weights[:, index], self.tilts(bias, phi_d0, index))
 
 
-def refine(model, weights, s_bias, bias0, horizontal, gyrocompass, tol=1e-12):
-    """Solve ``values = N(b)`` (the formulas by (3)-(5)) for the horizontal biases.
+def refine(model, weights, s_bias, bias0, unknown, gyrocompass, tol=1e-12):
+    """Solve ``values = N(b)`` (the formulas by (3)-(5)) for the unknown biases.
 
-    Fixed point ``b <- b_lin - S_h^-1 (N(b) - S b)`` with the exact linear gain ``S``
+    Fixed point ``b <- b_lin - S_u^-1 (N(b) - S b)`` with the exact linear gain ``S``
     (``s_bias``, heading folded in) and ``b_lin`` its linear solution; contracts by about
     ``|phi_D0|`` per step.
 
     Parameters
     ----------
     model : ExactModel
-    weights : ndarray, shape (2, m, 3)
-    s_bias : ndarray, shape (2, 3)
+    weights : ndarray, shape (k, m, 3)
+        One formula per unknown axis.
+    s_bias : ndarray, shape (k, 3)
     bias0 : ndarray, shape (3,)
-        Linear solution ``S_h^-1 (values - S_v b_z)`` of the observed formula values,
-        with the vertical bias ``b_z`` taken as known (rad/s).
-    horizontal : list of int
+        Linear solution ``S_u^-1 (values - S_k b_k)`` of the observed formula values,
+        the other axes ``k`` taken as known (rad/s).
+    unknown : list of int
+        The k body axes solved for.
     gyrocompass : bool
         The initial heading error follows the bias by (5); else it is zero.
 
@@ -151,13 +162,13 @@ def refine(model, weights, s_bias, bias0, horizontal, gyrocompass, tol=1e-12):
     ndarray, shape (3,)
         The bias (rad/s); NaN if (5) has no solution.
     """
-    inv = np.linalg.inv(s_bias[:, horizontal])
+    inv = np.linalg.inv(s_bias[:, unknown])
     lin = np.asarray(bias0, float)
     b = lin.copy()
     for _ in range(MAX_ITERATIONS):
         second = model.evaluate(weights, b, gyrocompass) - s_bias @ b
         new = b.copy()
-        new[horizontal] = lin[horizontal] - inv @ second
+        new[unknown] = lin[unknown] - inv @ second
         if not np.all(np.isfinite(new)):
             return np.full(3, np.nan)
         step = np.max(np.abs(new - b))

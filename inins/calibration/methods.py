@@ -37,6 +37,7 @@ class Estimator(enum.StrEnum):
     VELOCITY = "velocity"
     EQ44 = "eq44"
     EQ45 = "eq45"
+    EQ38 = "eq38"  # eq. 38 alone (north), the east bias from the velocity method
 
 
 class Formula(enum.StrEnum):
@@ -212,6 +213,49 @@ def solve(ctx, kinds, heading_known=False):
         ctx.gyrocompass and not heading_known,
     )
     return replace(est, value=exact[ctx.track.horizontal])
+
+
+def solve_north(ctx, geometry, east):
+    """eq. 38 alone for the axis pointing north at A, the east bias taken from ``east``.
+
+    Used where the east formulas are rejected (mount rotation about east after a
+    gyrocompass alignment): eq. 38 then must not borrow the east bias from a pair that
+    the mount spoils. The north formula responds to the east bias only through the two
+    turns, ``2 Delta / (pi T)`` (~4 % for 18 s turns and T = 300 s); ``east`` is the
+    velocity-error estimate, which a mount rotation does not reach (the computed
+    attitude follows the IMU), and its 1-sigma enters through that coupling.
+
+    Parameters
+    ----------
+    ctx : Context
+    geometry : Geometry
+    east : Estimate
+        Supplies the east-axis bias and 1-sigma.
+
+    Returns
+    -------
+    Estimate
+        North: eq. 38; east: ``east``'s value and 1-sigma (tilt weights zero).
+    """
+    h = ctx.track.horizontal
+    ie, in_ = h.index(geometry.east), h.index(geometry.north)
+    weights = ctx.weights(dict.fromkeys(h, Formula.RETURN))[in_ : in_ + 1]
+    gain = ctx.gain(weights)
+    s = _with_heading(gain, ctx.heading_per_bias)[0]
+    s_nn, coupling = s[geometry.north], s[geometry.east] / s[geometry.north]
+    b = ctx.full_bias(east.value)
+    known = [a for a in range(3) if a != geometry.north]
+    b[geometry.north] = (ctx.evaluate(weights)[0] - s[known] @ b[known]) / s_nn
+    b = exact_model.refine(ctx.exact, weights, s[None], b, [geometry.north], ctx.gyrocompass)
+    row = weights[0] / s_nn
+    value, sigma = np.array(east.value, float), np.array(east.sigma, float)
+    value[in_] = b[geometry.north]
+    sigma[in_] = np.hypot(ctx.sigma(row[None])[0], coupling * east.sigma[ie])
+    phi_gain = np.array(east.phi_gain, float)
+    phi_gain[in_] = gain.s_phi[0] / s_nn - coupling * east.phi_gain[ie]
+    combined = np.zeros((2, *row.shape))
+    combined[in_] = row
+    return Estimate(value, sigma, phi_gain, ctx.heading_per_bias, combined)
 
 
 def solve_velocity(ctx, windows, vrw=0.0, quantum=0.0):

@@ -82,15 +82,33 @@ def _settings(scenario, sensor=None, ett_result=None):
         k_sigma=scenario.mount_detection.k_sigma,
         floor=scenario.mount_detection.floor_arcsec * ARCSEC,
         ett=ett_result,
+        bias_bound=_bias_bound(scenario, sensor),
     )
 
 
+def _bias_bound(scenario, sensor):
+    """Largest gyro bias (rad/s) for the gyrocompass check: the scenario's stated bound,
+    else the simulated bias (its magnitude), else None (checked on the estimates)."""
+    stated = scenario.alignment.gyro_bias_bound_dph
+    if stated is not None:
+        return stated * DPH
+    if sensor is not None:
+        return float(np.linalg.norm(sensor.gyro_bias))
+    return None
+
+
 AXES = "xyz"
+ALIGNMENT_LABELS = {
+    bias.HeadingMethod.GYROCOMPASS: "gyrocompass",
+    bias.HeadingMethod.KNOWN: "known heading",
+    bias.HeadingMethod.ETT: "ETT",
+}
 METHOD_TITLES = {
     "attitude": "attitude error, two positions (000 eqs. 28-29)",
     "velocity": "velocity error, quadratic fit (000 eq. 12)",
     "eq44": "return sequence: eq. 44 (east) + eq. 38 (north)",
     "eq45": "return sequence: eq. 45 (east) + eq. 38 (north)",
+    "eq38": "return sequence: eq. 38 alone (north), east bias from the velocity method",
 }
 PAPER = {  # 000 §3.2 (deg per T); None where the paper gives no number
     1: {"eq38": -0.0034, "eq44": 0.0016, "eq45": None},
@@ -119,27 +137,33 @@ def _arcsec(value):
     return float(value / ARCSEC) if np.isfinite(value) else None
 
 
+FORMULAS = ("attitude", "velocity", "eq38", "eq44", "eq45")
+"""Per-axis result names ``beta_<axis>_<formula>``; eq. 38 applies to the axis pointing
+north at A, eqs. 44-45 to the one pointing east, the others are null."""
+
+
 def result_names(outcome):
-    """``name -> (value rad/s, sigma rad/s)`` of every estimate, unit suffix added later."""
+    """``name -> (value rad/s, sigma rad/s)`` of every estimate, unit suffix added later.
+
+    The same names in every run (issue 7): every formula on every body axis x, y, z, and
+    the chosen ``beta_<axis>``, (None, None) where not applicable (the vertical axis, eq. 38
+    on the east axis, eqs. 44-45 on the north axis, no return to the first position).
+    """
     g = outcome.geometry
     h = g.horizontal
-    e, n = AXES[g.east], AXES[g.north]
     est = outcome.estimates
-    out = {}
+    out = {f"beta_{a}_{f}": (None, None) for a in AXES for f in FORMULAS}
     for name in ("attitude", "velocity"):
         for i, axis in enumerate(h):
             out[f"beta_{AXES[axis]}_{name}"] = (est[name].value[i], est[name].sigma[i])
-    ie, in_ = h.index(g.east), h.index(g.north)
     if "eq44" in est:
-        pair = est[outcome.choice.east_formula or "eq44"]
-        out[f"beta_{n}_eq38"] = (pair.value[in_], pair.sigma[in_])
-        out[f"beta_{e}_eq44"] = (est["eq44"].value[ie], est["eq44"].sigma[ie])
-        out[f"beta_{e}_eq45"] = (est["eq45"].value[ie], est["eq45"].sigma[ie])
-    else:  # no return to the first position: not applicable
-        for key in (f"beta_{n}_eq38", f"beta_{e}_eq44", f"beta_{e}_eq45"):
-            out[key] = (None, None)
-    for axis in h:
-        chosen = outcome.chosen[axis]
+        ie = h.index(g.east)
+        north = outcome.chosen[g.north]
+        out[f"beta_{AXES[g.north]}_eq38"] = north[:2]
+        for f in ("eq44", "eq45"):
+            out[f"beta_{AXES[g.east]}_{f}"] = (est[f].value[ie], est[f].sigma[ie])
+    for axis in range(3):
+        chosen = outcome.chosen.get(axis)
         out[f"beta_{AXES[axis]}"] = (None, None) if chosen is None else chosen[:2]
     return out
 
@@ -168,9 +192,14 @@ def build(outcome, record, settings, paper_case=None):
     heading_err = initial_heading_error(outcome)
     results["initial_heading_err_deg"] = None if heading_err is None else heading_err / DEG
     h = outcome.geometry.horizontal
-    for i, axis in enumerate(h):
-        results[f"mount_{AXES[axis]}_arcsec"] = _arcsec(outcome.check.residual[i])
-        results[f"mount_{AXES[axis]}_sigma_arcsec"] = _arcsec(outcome.check.sigma[i])
+    for axis in range(3):
+        i = h.index(axis) if axis in h else None
+        results[f"mount_{AXES[axis]}_arcsec"] = (
+            None if i is None else _arcsec(outcome.check.residual[i])
+        )
+        results[f"mount_{AXES[axis]}_sigma_arcsec"] = (
+            None if i is None else _arcsec(outcome.check.sigma[i])
+        )
     t_a, t_b = outcome.seq.hold_times
     results.update(
         {"hold_a_s": t_a, "hold_b_s": t_b, "heading_deg": float(outcome.align.euler[2] / DEG)}
@@ -197,7 +226,7 @@ def _truth(outcome, names):
 
 
 def _warnings(outcome):
-    out = []
+    out = list(outcome.warnings)
     if not outcome.geometry.aligned:
         out.append(
             "no horizontal IMU axis points east at the first position (within 10 deg): "
@@ -281,7 +310,8 @@ def _report(outcome, record, settings, names, paper_case):
         f"navigation time at A {t_a:.1f} s, at B {t_b:.1f} s; "
         f"{'free-inertial' if settings.free else 'stationary (known position, zero velocity)'}"
         f" navigation, output every {np.median(np.diff(outcome.track.time)):g} s",
-        f"alignment: {al.method} over {al.duration:g} s: roll {roll:.5f}, pitch {pitch:.5f}, "
+        f"alignment: {ALIGNMENT_LABELS[settings.heading_method]} over {al.duration:g} s: "
+        f"roll {roll:.5f}, pitch {pitch:.5f}, "
         f"heading {heading:.5f} deg"
         + (f" (1-sigma {al.heading_sigma / DEG:.2g} deg)" if al.heading_sigma > 0 else ""),
         f"axes at A: body {AXES[g.east]} points east, {AXES[g.north]} north",
@@ -329,8 +359,10 @@ def _estimate_table(outcome, names):
     truth = outcome.truth.bias if outcome.truth else None
     rows = []
     for name, (value, sigma) in names.items():
+        if value is None:
+            continue  # not applicable (null in summary.json)
         axis = AXES.index(name.split("_")[1])
-        err = None if value is None or truth is None else (value - truth[axis]) / DPH
+        err = None if truth is None else (value - truth[axis]) / DPH
         rows.append([name + "_dph", _dph(value), _dph(sigma), err])
     return format_table(
         rows, ["result", "value", "1-sigma", "error"], ["", "deg/h", "deg/h", "deg/h"], fmt=".5g"

@@ -32,6 +32,12 @@ class AlignmentSettings(ScenarioSection):
     heading_sigma_arcsec: NonNegFloat = Field(
         0.0, description="1-sigma of a known heading (arcsec)"
     )
+    gyro_bias_bound_dph: NonNegFloat | None = Field(
+        None,
+        description="largest gyro bias the unit may have (deg/h, data sheet); gyrocompass "
+        "alignment is refused where it reaches half the horizontal Earth rate W cos(lat) "
+        "(heading error 30 deg). Default: the simulated bias, else checked on the result",
+    )
     ett_file: ScenarioPath | None = Field(
         None,
         description="align-ett.h5 written by inins align-ett on the same mounting, "
