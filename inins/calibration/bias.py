@@ -7,11 +7,11 @@ the valid return-sequence formula automatically.
 """
 
 import enum
-from dataclasses import dataclass, replace
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
-from inins.calibration import exact_model, methods, navigate, sequence
+from inins.calibration import budget, exact_model, methods, navigate, sequence
 from inins.calibration.alignment import StationaryAlignment
 from inins.calibration.ett import EttResult
 from inins.calibration.methods import Estimator, Formula
@@ -66,6 +66,8 @@ class Settings:
     ett : inins.calibration.ett.EttResult or None
         ETT mounting (000 §3.1): the heading at the alignment window follows from the
         table's encoder angles there (``heading_method`` "ett").
+    stated : inins.calibration.budget.StatedErrors
+        1-sigma of the sensor errors not estimated, for the uncertainty budget.
     """
 
     align_duration: float = 300.0
@@ -85,6 +87,7 @@ class Settings:
     floor: float = 0.5 * np.pi / 180 / 3600
     ett: EttResult | None = None
     bias_bound: float | None = None
+    stated: budget.StatedErrors = field(default_factory=budget.StatedErrors)
 
 
 @dataclass(frozen=True)
@@ -118,6 +121,7 @@ class Outcome:
     noise: tuple = ()
     truth: CalibrationTruth | None = None
     warnings: tuple = ()
+    budgets: dict = field(default_factory=dict)
 
 
 MIN_BIAS_BOUND = 1e-4 * np.pi / 180 / 3600
@@ -220,6 +224,11 @@ def calibrate_bias(record, settings, progress=None):
         chosen,
         noise=(arw, vrw, estimated),
         warnings=warnings,
+        budgets={
+            k: budget.budget(ctx, v, settings.stated, seq.align)
+            for k, v in est.items()
+            if k in (Estimator.EQ44, Estimator.EQ45, Estimator.EQ38)
+        },
     )
     if record.truth is not None:
         outcome = _with_truth(outcome, record, ctx)

@@ -120,20 +120,37 @@ class ExactModel:
             Output samples to evaluate.
         """
         e0 = rotation.mat_from_rotvec(np.array([0.0, 0.0, -phi_d0]))
-        v = self.down_i[index] @ e0.T
-        rot = rotation.mat_from_rotvec(self.h_gain[index] @ bias)
-        v = np.einsum("mij,mj->mi", rot, v)
+        v = _rotate(self.h_gain[index] @ bias, self.down_i[index] @ e0.T)
         v = np.einsum("mij,mj->mi", self.phi_t[index], v)
         return np.cross(np.einsum("mij,mj->mi", self.mat_bn[index], E_D - v), self.d0)
 
-    def evaluate(self, weights, bias, gyrocompass):
+    def evaluate(self, weights, bias, gyrocompass, index=None):
         """Formula values (k,) that (3)-(5) predict for ``weights`` (k, m, 3); only the
-        samples in the epoch windows (nonzero weight) are evaluated."""
+        samples in the epoch windows (nonzero weight, or ``index``) are evaluated, and
+        ``weights`` may already be cut to ``index`` (k, len(index), 3)."""
         phi_d0 = gyrocompass_heading_error(self.mat_nb0, bias, self.lat) if gyrocompass else 0.0
         if not np.isfinite(phi_d0):
             return np.full(weights.shape[0], np.nan)
-        index = np.flatnonzero(np.any(weights != 0.0, axis=(0, 2)))
-        return np.einsum("kmi,mi->k", weights[:, index], self.tilts(bias, phi_d0, index))
+        if index is None:
+            index = support(weights)
+            weights = weights[:, index]
+        return np.einsum("kmi,mi->k", weights, self.tilts(bias, phi_d0, index))
+
+
+def support(weights):
+    """Output samples (int array) where any of the formulas ``weights`` (k, m, 3) weighs."""
+    return np.flatnonzero(np.any(weights != 0.0, axis=(0, 2)))
+
+
+def _rotate(rotvec, vec):
+    """``exp([rotvec x]) vec`` row by row (Rodrigues), each (m, 3)."""
+    angle = np.linalg.norm(rotvec, axis=1, keepdims=True)
+    small = angle < 1e-8
+    safe = np.where(small, 1.0, angle)
+    a = np.where(small, 1.0 - angle**2 / 6.0, np.sin(angle) / safe)
+    b = np.where(small, 0.5 - angle**2 / 24.0, (1.0 - np.cos(angle)) / safe**2)
+    cross = np.cross(rotvec, vec)
+    return vec + a * cross + b * np.cross(rotvec, cross)
 
 
 def refine(model, weights, s_bias, bias0, unknown, gyrocompass, tol=1e-12):
@@ -165,8 +182,10 @@ def refine(model, weights, s_bias, bias0, unknown, gyrocompass, tol=1e-12):
     inv = np.linalg.inv(s_bias[:, unknown])
     lin = np.asarray(bias0, float)
     b = lin.copy()
+    index = support(weights)
+    cut = weights[:, index]
     for _ in range(MAX_ITERATIONS):
-        second = model.evaluate(weights, b, gyrocompass) - s_bias @ b
+        second = model.evaluate(cut, b, gyrocompass, index) - s_bias @ b
         new = b.copy()
         new[unknown] = lin[unknown] - inv @ second
         if not np.all(np.isfinite(new)):

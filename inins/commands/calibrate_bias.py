@@ -7,12 +7,12 @@ datasets and text report from its outcome.
 
 import numpy as np
 
-from inins.calibration import bias, ett, exact_model
+from inins.calibration import bias, budget, ett, exact_model
 from inins.calibration.alignment import HeadingSource
 from inins.commands import figures
 from inins.commands._table import load_record
 from inins.core import rotation
-from inins.core.units import ARCSEC, DEG, DEG_RTH, DPH, HOUR, UG_RTHZ, UG_S
+from inins.core.units import ARCSEC, DEG, DEG_RTH, DPH, HOUR, PPM, UG, UG_RTHZ, UG_S
 from inins.results import CommandResult, Series, format_table
 from inins.scenario.calibrate_bias import CalibrateBiasScenario
 
@@ -83,6 +83,19 @@ def _settings(scenario, sensor=None, ett_result=None):
         floor=scenario.mount_detection.floor_arcsec * ARCSEC,
         ett=ett_result,
         bias_bound=_bias_bound(scenario, sensor),
+        stated=_stated(scenario.uncertainty),
+    )
+
+
+def _stated(u):
+    """The scenario's stated 1-sigma sensor errors in SI."""
+    return budget.StatedErrors(
+        accel_bias=u.accel_bias_ug * UG,
+        gyro_bias_z=u.gyro_bias_z_dph * DPH,
+        gyro_scale=np.broadcast_to(np.asarray(u.gyro_scale_ppm, float) * PPM, (3,)).copy(),
+        gyro_misalignment=np.full(6, u.gyro_misalignment_arcsec * ARCSEC),
+        bias_instability=u.gyro_bias_instability_dph * DPH,
+        corr_time=u.gyro_bias_corr_time_s,
     )
 
 
@@ -168,6 +181,23 @@ def result_names(outcome):
     return out
 
 
+def chosen_budget(outcome):
+    """``axis -> {term: 1-sigma rad/s, "total": ...}`` of each chosen bias (issue 7 item 6):
+    the budget of the estimate the choice took that axis from."""
+    g = outcome.geometry
+    if not outcome.seq.has_return:
+        return {}
+    source = {g.north: outcome.choice.east_formula or "eq38", g.east: outcome.choice.east_formula}
+    out = {}
+    for axis, name in source.items():
+        if name is None or outcome.chosen.get(axis) is None:
+            continue
+        b = outcome.budgets[name]
+        i = g.horizontal.index(axis)
+        out[axis] = {t: float(b.terms[t][i]) for t in budget.TERMS} | {"total": float(b.total[i])}
+    return out
+
+
 def initial_heading_error(outcome):
     """Initial heading error (rad) the calibration implies: the gyrocompass equilibrium
     ``asin((mat_nb b)_E / (W cos lat))`` with the chosen biases (000 §3.2,
@@ -189,6 +219,12 @@ def build(outcome, record, settings, paper_case=None):
     for name, (value, sigma) in names.items():
         results[f"{name}_dph"] = _dph(value)
         results[f"{name}_sigma_dph"] = _dph(sigma)
+    budgets = chosen_budget(outcome)
+    for axis in range(3):
+        terms = budgets.get(axis)
+        results[f"beta_{AXES[axis]}_u_dph"] = None if terms is None else terms["total"] / DPH
+        for t in budget.TERMS:
+            results[f"beta_{AXES[axis]}_u_{t}_dph"] = None if terms is None else terms[t] / DPH
     heading_err = initial_heading_error(outcome)
     results["initial_heading_err_deg"] = None if heading_err is None else heading_err / DEG
     h = outcome.geometry.horizontal
@@ -325,11 +361,42 @@ def _report(outcome, record, settings, names, paper_case):
         "",
         _choice_line(outcome),
     ]
+    budgets = chosen_budget(outcome)
+    if budgets:
+        lines += ["", _budget_table(budgets)]
     if outcome.truth:
         lines += ["", _truth_lines(outcome)]
     if paper_case is not None:
         lines += ["", _paper_table(outcome, names, paper_case)]
     return "\n".join(lines)
+
+
+BUDGET_TITLES = {
+    "random": "random (sensor noise, alignment noise)",
+    "accel_bias": "accelerometer bias through levelling",
+    "gyro_bias_z": "vertical gyro bias taken as known",
+    "gyro_scale": "gyro scale factor",
+    "misalignment": "gyro misalignment",
+    "bias_instability": "gyro bias instability",
+    "total": "combined 1-sigma u (quadrature sum)",
+}
+
+
+def _budget_table(budgets):
+    axes = sorted(budgets)
+    rows = [
+        [BUDGET_TITLES[t], *(budgets[a][t] / DPH for a in axes)] for t in (*budget.TERMS, "total")
+    ]
+    return (
+        "uncertainty budget of the chosen biases (1-sigma, from the stated sensor errors; "
+        "summary.json: beta_<axis>_u_dph and beta_<axis>_u_<term>_dph)\n"
+        + format_table(
+            rows,
+            ["term", *(f"beta_{AXES[a]}" for a in axes)],
+            ["", *["deg/h"] * len(axes)],
+            fmt=".3g",
+        )
+    )
 
 
 def _choice_line(outcome):

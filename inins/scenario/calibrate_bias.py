@@ -103,6 +103,29 @@ class MountDetection(ScenarioSection):
     floor_arcsec: NonNegFloat = Field(0.5, description="and larger than this (arcsec)")
 
 
+class StatedErrorSettings(ScenarioSection):
+    """1-sigma of the sensor errors calibrate-bias does not estimate (the unit's data sheet
+    or a previous calibration), for the uncertainty budget of each chosen bias: each
+    enters through its exact sensitivity along the sequence (issue 7 item 6)."""
+
+    accel_bias_ug: NonNegFloat = Field(
+        0.0, description="accelerometer bias per horizontal axis, 1 sigma (ug): levelling tilt"
+    )
+    gyro_bias_z_dph: NonNegFloat = Field(
+        0.0,
+        description="error of the vertical gyro bias taken as known (gyro_bias_z_dph), "
+        "1 sigma (deg/h)",
+    )
+    gyro_scale_ppm: NonNegVec3 = Field(0.0, description="gyro scale factor, 1 sigma (ppm)")
+    gyro_misalignment_arcsec: NonNegFloat = Field(
+        0.0, description="each of the six gyro misalignments, 1 sigma (arcsec)"
+    )
+    gyro_bias_instability_dph: NonNegFloat = Field(
+        0.0, description="Gauss-Markov gyro bias instability, 1 sigma (deg/h)"
+    )
+    gyro_bias_corr_time_s: PositiveFloat = Field(3600.0, description="its correlation time (s)")
+
+
 class CalibrateBiasScenario(TableSource):
     """Horizontal gyro-bias calibration from a rate-table return sequence (000 §2-3)."""
 
@@ -111,6 +134,7 @@ class CalibrateBiasScenario(TableSource):
     navigation: NavigationSettings = Field(default_factory=NavigationSettings)
     noise: NoiseSettings = Field(default_factory=NoiseSettings)
     mount_detection: MountDetection = Field(default_factory=MountDetection)
+    uncertainty: StatedErrorSettings = Field(default_factory=StatedErrorSettings)
     gyro_bias_z_dph: float = Field(
         0.0,
         description="vertical gyro bias taken as known (deg/h); 000 calibrates the horizontal ones",
