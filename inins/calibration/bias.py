@@ -68,6 +68,8 @@ class Settings:
         table's encoder angles there (``heading_method`` "ett").
     stated : inins.calibration.budget.StatedErrors
         1-sigma of the sensor errors not estimated, for the uncertainty budget.
+    start_after : float
+        Look for the return sequence from this time on (s).
     """
 
     align_duration: float = 300.0
@@ -88,6 +90,7 @@ class Settings:
     ett: EttResult | None = None
     bias_bound: float | None = None
     stated: budget.StatedErrors = field(default_factory=budget.StatedErrors)
+    start_after: float = -np.inf
 
 
 @dataclass(frozen=True)
@@ -105,7 +108,8 @@ class CalibrationTruth:
 
 @dataclass(frozen=True)
 class Outcome:
-    """Everything calibrate-bias found (SI; biases in rad/s on the body axes x, y, z)."""
+    """Everything calibrate-bias found (SI; biases in rad/s on the body axes x, y, z);
+    ``vertical_bias`` is the bias of the vertical body axis taken as known (rad/s)."""
 
     seq: sequence.Sequence
     geometry: methods.Geometry
@@ -122,6 +126,7 @@ class Outcome:
     truth: CalibrationTruth | None = None
     warnings: tuple = ()
     budgets: dict = field(default_factory=dict)
+    vertical_bias: float = 0.0
 
 
 MIN_BIAS_BOUND = 1e-4 * np.pi / 180 / 3600
@@ -158,7 +163,12 @@ def calibrate_bias(record, settings, progress=None):
             key="navigation.mode",
         )
     seq = sequence.build_sequence(
-        record, settings.align_duration, settings.epoch_window, settings.settle, settings.labels
+        record,
+        settings.align_duration,
+        settings.epoch_window,
+        settings.settle,
+        settings.labels,
+        settings.start_after,
     )
     lat = float(record.lla[0])
     gyrocompass = settings.heading_method == HeadingMethod.GYROCOMPASS
@@ -224,6 +234,7 @@ def calibrate_bias(record, settings, progress=None):
         chosen,
         noise=(arw, vrw, estimated),
         warnings=warnings,
+        vertical_bias=float(settings.bias_z),
         budgets={
             k: budget.budget(ctx, v, settings.stated, seq.align)
             for k, v in est.items()

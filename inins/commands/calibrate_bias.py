@@ -7,7 +7,7 @@ datasets and text report from its outcome.
 
 import numpy as np
 
-from inins.calibration import bias, budget, ett, exact_model
+from inins.calibration import bias, budget, ett, exact_model, three_axis
 from inins.calibration.alignment import HeadingSource
 from inins.commands import figures
 from inins.commands._table import load_record
@@ -27,8 +27,11 @@ def run(scenario, seed, *, sink=None, progress=None):
     """Calibrate from the scenario's data file or its in-memory simulation."""
     record, sensor = load_record(scenario.data, scenario.simulate, seed)
     settings = _settings(scenario, sensor, _ett(scenario, record))
-    outcome = bias.calibrate_bias(record, settings, progress)
-    return build(outcome, record, settings, scenario.paper000_case)
+    labels = scenario.sequence.vertical_labels
+    found = three_axis.calibrate_three_axis(
+        record, settings, None if labels is None else tuple(labels), progress
+    )
+    return build(found.level, record, settings, scenario.paper000_case, found.pitched)
 
 
 def _ett(scenario, record):
@@ -182,20 +185,8 @@ def result_names(outcome):
 
 
 def chosen_budget(outcome):
-    """``axis -> {term: 1-sigma rad/s, "total": ...}`` of each chosen bias (issue 7 item 6):
-    the budget of the estimate the choice took that axis from."""
-    g = outcome.geometry
-    if not outcome.seq.has_return:
-        return {}
-    source = {g.north: outcome.choice.east_formula or "eq38", g.east: outcome.choice.east_formula}
-    out = {}
-    for axis, name in source.items():
-        if name is None or outcome.chosen.get(axis) is None:
-            continue
-        b = outcome.budgets[name]
-        i = g.horizontal.index(axis)
-        out[axis] = {t: float(b.terms[t][i]) for t in budget.TERMS} | {"total": float(b.total[i])}
-    return out
+    """``axis -> {term: 1-sigma rad/s, "total": ...}`` of each chosen bias (issue 7 item 6)."""
+    return three_axis.chosen_budgets(outcome)
 
 
 def initial_heading_error(outcome):
@@ -212,8 +203,66 @@ def initial_heading_error(outcome):
     return exact_model.gyrocompass_heading_error(outcome.track.mat_nb[0], bias, outcome.track.lat)
 
 
-def build(outcome, record, settings, paper_case=None):
-    """The CommandResult of calibrate-bias."""
+def build(outcome, record, settings, paper_case=None, pitched=None):
+    """The CommandResult of calibrate-bias; ``pitched``: the second (pitch 90 deg) return
+    sequence, whose results give the body z entries (issue 7 item 7)."""
+    results, names = _outcome_results(outcome)
+    truth = _truth(outcome, names)
+    report = _report(outcome, record, settings, names, paper_case)
+    warnings = _warnings(outcome)
+    if pitched is not None:
+        z_results, z_names = _outcome_results(pitched)
+        results.update({k: v for k, v in z_results.items() if _is_z(k)})
+        names.update({k: v for k, v in z_names.items() if _is_z(k)})
+        truth.update({k: v for k, v in _truth(pitched, z_names).items() if _is_z(k)})
+        report += "\n\n" + _pitched_report(pitched, z_names)
+        east = f"beta_{AXES[pitched.geometry.east]}:"
+        warnings += tuple(  # an east axis other than z is taken from the level sequence
+            f"pitched sequence: {w}"
+            for w in _warnings(pitched)
+            if pitched.geometry.east == 2 or not w.startswith(east)
+        )
+    return CommandResult(
+        "calibrate-bias",
+        results,
+        truth,
+        _datasets(outcome),
+        _attrs(outcome, record),
+        report,
+        warnings,
+    )
+
+
+def _is_z(key):
+    return key.startswith(("beta_z", "mount_z"))
+
+
+def _pitched_report(pitched, names):
+    g = pitched.geometry
+    a = pitched.seq.positions[0]
+    return "\n".join(
+        [
+            f"second return sequence (pitch gimbal at 90 deg, from {a.start:g} s): body "
+            f"{AXES[pitched.track.down_axis]} vertical, {AXES[g.east]} east, "
+            f"{AXES[g.north]} north; its vertical bias taken from the level sequence "
+            f"({pitched_vertical(pitched)}); the level sequence ran again with its beta_z",
+            "estimates (deg/h)",
+            _estimate_table(pitched, names),
+            "mount rotation from the return to the start attitude (000 eqs. 35, 43)",
+            _mount_table(pitched),
+            _choice_line(pitched),
+            *([_budget_table(chosen_budget(pitched))] if chosen_budget(pitched) else []),
+        ]
+    )
+
+
+def pitched_vertical(pitched):
+    """The vertical bias the pitched sequence took as known, as text."""
+    return f"beta_{AXES[pitched.track.down_axis]} = {pitched.vertical_bias / DPH:.6g} deg/h"
+
+
+def _outcome_results(outcome):
+    """Flat results (lab units) of one calibration and its ``result_names``."""
     names = result_names(outcome)
     results = {}
     for name, (value, sigma) in names.items():
@@ -240,16 +289,7 @@ def build(outcome, record, settings, paper_case=None):
     results.update(
         {"hold_a_s": t_a, "hold_b_s": t_b, "heading_deg": float(outcome.align.euler[2] / DEG)}
     )
-    truth = _truth(outcome, names)
-    return CommandResult(
-        "calibrate-bias",
-        results,
-        truth,
-        _datasets(outcome),
-        _attrs(outcome, record),
-        _report(outcome, record, settings, names, paper_case),
-        _warnings(outcome),
-    )
+    return results, names
 
 
 def _truth(outcome, names):

@@ -61,6 +61,14 @@ class SequenceSettings(ScenarioSection):
         description="labels of a hold at A, at B (A "
         "turned 180 deg) and back at A; default: the first such triple found",
     )
+    vertical_labels: list[str] | None = Field(
+        None,
+        min_length=3,
+        max_length=3,
+        description="labels of a hold at A, B and A' of the second return sequence, with the "
+        "pitch gimbal at 90 deg (body z horizontal) for beta_z; default: the first later "
+        "return sequence whose vertical body axis is not the level one's, if any",
+    )
     epoch_window_s: PositiveFloat = Field(
         5.0, description="each epoch tilt is the mean over this window (s)"
     )

@@ -105,3 +105,19 @@ def test_ett_alignment_is_called_ett(tmp_path):
     assert result.exit_code == 0, result.output
     report = (tmp_path / "calibrate-bias.txt").read_text()
     assert "alignment: ETT over" in report and "known heading" not in report
+
+
+def test_three_axis_scenario_gives_beta_z_with_the_same_names(tmp_path):
+    result = run(
+        CONFIGS / "calibrate-bias" / "three-axis.yaml",
+        "-o",
+        tmp_path,
+        "--set",
+        "simulate.imu.sample_rate_hz=20",
+    )
+    assert result.exit_code == 0, result.output  # its checks: |err| < 4 u on x, y, z
+    s = json.loads((tmp_path / "summary.json").read_text())
+    assert s["results"]["beta_z_dph"] is not None and s["results"]["beta_z_u_dph"] is not None
+    assert sorted(s["results"]) == sorted(summary()["results"])
+    report = (tmp_path / "calibrate-bias.txt").read_text()
+    assert "second return sequence (pitch gimbal at 90 deg" in report
