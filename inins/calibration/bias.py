@@ -210,11 +210,18 @@ def calibrate_bias(record, settings, progress=None):
         est[Estimator.EQ45] = methods.solve(
             ctx, {e: Formula.RETURN, n: Formula.RETURN}, heading_known=True
         )
-        est[Estimator.EQ38] = methods.solve_north(ctx, geometry, est[Estimator.VELOCITY])
+    velocity = est[Estimator.VELOCITY]
     heading_sigma = align.heading_sigma if gyrocompass else settings.heading_sigma
     est = {k: _with_alignment_noise(v, align.tilt_sigma, heading_sigma) for k, v in est.items()}
     if seq.has_return:
         check, threshold, choice = _mount_choice(ctx, est, geometry, settings, heading_sigma)
+        if choice.east_formula is None:  # eq. 38 must not borrow from the rejected pair
+            est[Estimator.EQ38] = _with_alignment_noise(
+                methods.solve_north(ctx, geometry, velocity), align.tilt_sigma, heading_sigma
+            )
+            check, threshold = _recheck_north(
+                ctx, est[Estimator.EQ38], check, geometry, settings, heading_sigma
+            )
     else:
         check = methods.MountCheck(np.full(2, np.nan), np.full(2, np.nan))
         threshold, choice = np.full(2, np.nan), methods.NO_RETURN
@@ -289,22 +296,24 @@ def _heading_warnings(gyrocompass, chosen, geometry, track, source):
 
 
 def _mount_choice(ctx, est, geometry, settings, heading_sigma):
-    """Mount check and the choice of the east formula (000 §3.2). When the east axis is
-    rejected, the north residual is checked again against eq. 38 alone (the east bias
-    from the velocity method): the rejected pair must not speak for the north axis."""
+    """Mount check and the choice of the east formula (000 §3.2)."""
     gyrocompass = settings.heading_method == HeadingMethod.GYROCOMPASS
     reference = est[Estimator.EQ44] if gyrocompass else est[Estimator.EQ45]
     check = methods.mount_check(ctx, reference, heading_sigma)
     threshold = np.maximum(settings.k_sigma * check.sigma, settings.floor)
-    choice = methods.choose(geometry, check, not gyrocompass, threshold)
-    if choice.east_formula is None:
-        north = geometry.horizontal.index(geometry.north)
-        again = methods.mount_check(ctx, est[Estimator.EQ38], heading_sigma)
-        residual, sigma = check.residual.copy(), check.sigma.copy()
-        residual[north], sigma[north] = again.residual[north], again.sigma[north]
-        check = methods.MountCheck(residual, sigma)
-        threshold = np.maximum(settings.k_sigma * check.sigma, settings.floor)
-    return check, threshold, choice
+    return check, threshold, methods.choose(geometry, check, not gyrocompass, threshold)
+
+
+def _recheck_north(ctx, eq38, check, geometry, settings, heading_sigma):
+    """With the east axis rejected, the north residual is checked again against eq. 38
+    alone (the east bias from the velocity method): the rejected pair must not speak for
+    the north axis (issue 7 item 2)."""
+    north = geometry.horizontal.index(geometry.north)
+    again = methods.mount_check(ctx, eq38, heading_sigma)
+    residual, sigma = check.residual.copy(), check.sigma.copy()
+    residual[north], sigma[north] = again.residual[north], again.sigma[north]
+    check = methods.MountCheck(residual, sigma)
+    return check, np.maximum(settings.k_sigma * check.sigma, settings.floor)
 
 
 def _ett_heading(record, ett, window):

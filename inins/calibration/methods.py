@@ -133,8 +133,9 @@ class Context:
         w_h = np.linalg.norm(tilt_model.earth.rate_ie_n(track.lat)[:2])
         heading = track.mat_nb[0][1] / w_h if gyrocompass else np.zeros(3)
         phi_t = tilt_model.earth_transition(track)
-        phi_response = np.concatenate([-tilt_model.bias_response(track), phi_t], axis=2)
-        response = tilt_model.Response.of(track)
+        g = tilt_model.bias_response(track, phi_t)
+        phi_response = np.concatenate([-g, phi_t], axis=2)
+        response = tilt_model.Response.of(track, phi_t, g)
         return cls(
             track,
             np.asarray(windows),
