@@ -34,7 +34,7 @@ class AlignmentSettings(ScenarioSection):
     )
     gyro_bias_bound_dph: NonNegFloat | None = Field(
         None,
-        description="largest gyro bias the unit may have (deg/h, data sheet); gyrocompass "
+        description="largest gyro bias the unit may have, from its data sheet (deg/h); gyrocompass "
         "alignment is refused where it reaches half the horizontal Earth rate W cos(lat) "
         "(heading error 30 deg). Default: the simulated bias, else checked on the result",
     )
