@@ -195,3 +195,19 @@ def refine(model, weights, s_bias, bias0, unknown, gyrocompass, tol=1e-12):
         if step <= tol * max(np.max(np.abs(b)), 1e-12) or step < 1e-18:
             break
     return b
+
+
+def jacobian(model, weights, bias, unknown, gyrocompass, rel_step=1e-3):
+    """``d N / d b_u`` (k, k) of the formulas by (3)-(5) at ``bias`` (central differences),
+    the gain through which noise in the formulas reaches the refined estimate."""
+    index = support(weights)
+    cut = weights[:, index]
+    step = max(rel_step * float(np.max(np.abs(bias))), 1e-12)
+    cols = []
+    for axis in unknown:
+        db = np.zeros(3)
+        db[axis] = step
+        plus = model.evaluate(cut, bias + db, gyrocompass, index)
+        minus = model.evaluate(cut, bias - db, gyrocompass, index)
+        cols.append((plus - minus) / (2.0 * step))
+    return np.array(cols).T

@@ -179,19 +179,28 @@ class Context:
         return tilt_model.arw_sigma(self.track, weights, self.arw, self.response)
 
 
+JACOBIAN_TOL = 1e-2
+"""Where the exact model's gain differs from the linear one by more than this (relative;
+biases above ~0.1 deg/h after gyrocompassing), the 1-sigma and the attitude-error gains
+are formed with it; below, the linear ones are within 1 %."""
+
+
 def _with_heading(gain, heading_per_bias):
     """Bias gains with the assumed heading error ``phi_D0 = heading_per_bias . b`` folded in."""
     return gain.s_bias + np.outer(gain.s_phi[:, 2], heading_per_bias)
 
 
-def _estimate(ctx, values, s_bias, s_phi, weights, heading):
-    """Solve ``values = s_bias b`` for the horizontal biases, b_z taken as known."""
+def _estimate(ctx, values, s_bias, s_phi, weights, heading, gain_h=None):
+    """Solve ``values = s_bias b`` for the horizontal biases, b_z taken as known;
+    ``gain_h`` (2, 2): the gain through which the formulas' noise and the initial attitude
+    error reach the estimate (default ``s_bias`` on the horizontal axes)."""
     h, v = ctx.track.horizontal, ctx.track.down_axis
-    inv = np.linalg.inv(s_bias[:, h])
+    inv = np.linalg.inv(s_bias[:, h] if gain_h is None else gain_h)
     rhs = values - s_bias[:, v] * ctx.bias_z
     combined = None if weights is None else np.einsum("ak,kmi->ami", inv, weights)
     sigma = None if weights is None else ctx.sigma(combined)
-    return Estimate(inv @ rhs, sigma, inv @ s_phi, heading, combined)
+    value = np.linalg.inv(s_bias[:, h]) @ rhs if gain_h is not None else inv @ rhs
+    return Estimate(value, sigma, inv @ s_phi, heading, combined)
 
 
 def solve(ctx, kinds, heading_known=False):
@@ -205,15 +214,13 @@ def solve(ctx, kinds, heading_known=False):
     heading = np.zeros(3) if heading_known else ctx.heading_per_bias
     s_bias = _with_heading(gain, heading)
     est = _estimate(ctx, ctx.evaluate(weights), s_bias, gain.s_phi, weights, heading)
-    exact = exact_model.refine(
-        ctx.exact,
-        weights,
-        s_bias,
-        ctx.full_bias(est.value),
-        ctx.track.horizontal,
-        ctx.gyrocompass and not heading_known,
-    )
-    return replace(est, value=exact[ctx.track.horizontal])
+    h, gyro = ctx.track.horizontal, ctx.gyrocompass and not heading_known
+    exact = exact_model.refine(ctx.exact, weights, s_bias, ctx.full_bias(est.value), h, gyro)
+    if np.all(np.isfinite(exact)):  # noise propagates through the exact model's gain
+        jac = exact_model.jacobian(ctx.exact, weights, exact, h, gyro)
+        if np.max(np.abs(jac - s_bias[:, h])) > JACOBIAN_TOL * np.max(np.abs(s_bias[:, h])):
+            est = _estimate(ctx, ctx.evaluate(weights), s_bias, gain.s_phi, weights, heading, jac)
+    return replace(est, value=exact[h])
 
 
 def solve_north(ctx, geometry, east):
