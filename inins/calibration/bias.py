@@ -3,7 +3,12 @@
 Align at the first position, navigate (stationary: known position, 000 eqs. 9-10)
 through the 000 Table 1 sequence, then evaluate the methods side by side
 (:mod:`inins.calibration.methods`, :mod:`inins.calibration.velocity`) and choose
-the valid return-sequence formula automatically.
+the valid return-sequence formula automatically. The tilt formulas are solved without
+linearising in the gyrocompass heading error (:mod:`inins.calibration.exact_model`),
+each chosen bias carries an uncertainty budget (:mod:`inins.calibration.budget`), and
+free-inertial navigation and gyrocompassing where cos(lat) is too small for the bias are
+refused (issue 7). The body axis that is vertical need not be z: a second, pitched
+sequence gives beta_z the same way (:mod:`inins.calibration.three_axis`).
 """
 
 import enum
