@@ -219,13 +219,15 @@ def calibrate_bias(record, settings, progress=None):
     heading_sigma = align.heading_sigma if gyrocompass else settings.heading_sigma
     est = {k: _with_alignment_noise(v, align.tilt_sigma, heading_sigma) for k, v in est.items()}
     if seq.has_return:
-        check, threshold, choice = _mount_choice(ctx, est, geometry, settings, heading_sigma)
+        check, threshold, choice = _mount_choice(
+            ctx, est, geometry, settings, heading_sigma, seq.align
+        )
         if choice.east_formula is None:  # eq. 38 must not borrow from the rejected pair
             est[Estimator.EQ38] = _with_alignment_noise(
                 methods.solve_north(ctx, geometry, velocity), align.tilt_sigma, heading_sigma
             )
             check, threshold = _recheck_north(
-                ctx, est[Estimator.EQ38], check, geometry, settings, heading_sigma
+                ctx, est[Estimator.EQ38], check, geometry, settings, heading_sigma, seq.align
             )
     else:
         check = methods.MountCheck(np.full(2, np.nan), np.full(2, np.nan))
@@ -300,21 +302,36 @@ def _heading_warnings(gyrocompass, chosen, geometry, track, source):
     return ()
 
 
-def _mount_choice(ctx, est, geometry, settings, heading_sigma):
+def _with_instability(ctx, check, settings, window):
+    """The mount check's 1-sigma with the stated bias instability: a wandering bias
+    leaves a return-to-start residual that a constant one does not."""
+    stated = settings.stated
+    if stated.bias_instability == 0.0:
+        return check
+    w = budget.interval_weights(ctx.response, check.weights)
+    extra = budget.instability_sigma(
+        ctx, w, check.heading_gain, window, stated.bias_instability, stated.corr_time, False
+    )
+    return replace(check, sigma=np.hypot(check.sigma, extra))
+
+
+def _mount_choice(ctx, est, geometry, settings, heading_sigma, window):
     """Mount check and the choice of the east formula (000 §3.2)."""
     gyrocompass = settings.heading_method == HeadingMethod.GYROCOMPASS
     reference = est[Estimator.EQ44] if gyrocompass else est[Estimator.EQ45]
-    check = methods.mount_check(ctx, reference, heading_sigma)
+    check = _with_instability(
+        ctx, methods.mount_check(ctx, reference, heading_sigma), settings, window
+    )
     threshold = np.maximum(settings.k_sigma * check.sigma, settings.floor)
     return check, threshold, methods.choose(geometry, check, not gyrocompass, threshold)
 
 
-def _recheck_north(ctx, eq38, check, geometry, settings, heading_sigma):
+def _recheck_north(ctx, eq38, check, geometry, settings, heading_sigma, window):
     """With the east axis rejected, the north residual is checked again against eq. 38
     alone (the east bias from the velocity method): the rejected pair must not speak for
     the north axis (issue 7 item 2)."""
     north = geometry.horizontal.index(geometry.north)
-    again = methods.mount_check(ctx, eq38, heading_sigma)
+    again = _with_instability(ctx, methods.mount_check(ctx, eq38, heading_sigma), settings, window)
     residual, sigma = check.residual.copy(), check.sigma.copy()
     residual[north], sigma[north] = again.residual[north], again.sigma[north]
     check = methods.MountCheck(residual, sigma)

@@ -149,11 +149,32 @@ def _accel_term(ctx, est, sigma):
 
 def _bias_instability(ctx, est, w, align, sigma, tau):
     """1-sigma (2,) of the weighted bias minus its navigation mean, for a GM bias."""
+    return instability_sigma(ctx, w, est.phi_gain[:, 2], align, sigma, tau, True)
+
+
+def instability_sigma(ctx, w, heading_gain, align, sigma, tau, minus_mean):
+    """1-sigma (k,) of ``int w . db ds + heading_gain (h . mean db over the alignment)``
+    for a first-order Gauss-Markov bias ``db`` (sigma rad/s, tau s) on each gyro.
+
+    Parameters
+    ----------
+    w : ndarray, shape (k, m - 1, 3)
+        Interval weights (:func:`interval_weights`).
+    heading_gain : ndarray, shape (k,)
+        Sensitivity to the initial heading, moved by the bias during the alignment
+        through the gyrocompass (``ctx.heading_per_bias``; zero for a known heading).
+    align : (float, float)
+        Alignment window (s).
+    minus_mean : bool
+        Subtract the mean bias over the navigation from row k's own axis (the truth an
+        estimate is compared with); False for a residual that a constant bias leaves zero.
+    """
+    rows = w.shape[0]
     if sigma == 0.0:
-        return np.zeros(2)
+        return np.zeros(rows)
     track = ctx.track
-    t0, t1 = align[0], track.time[-1]
-    edges = np.linspace(t0, t1, BI_GRID + 1)
+    t1 = track.time[-1]
+    edges = np.linspace(align[0], t1, BI_GRID + 1)
     centre = 0.5 * (edges[1:] + edges[:-1])
     dt = np.diff(track.time)
     mid = 0.5 * (track.time[1:] + track.time[:-1])
@@ -161,15 +182,14 @@ def _bias_instability(ctx, est, w, align, sigma, tau):
     a = (centre < align[1]) & (centre >= align[0])
     nav = (centre >= track.time[0]) & (centre <= t1)
     kernel = np.exp(-np.abs(centre[:, None] - centre[None, :]) / tau)
-    out = np.zeros(2)
-    for k in range(2):
+    out = np.zeros(rows)
+    for k in range(rows):
         var = 0.0
-        axis_k = track.horizontal[k]
         for i in range(3):
             mass = np.bincount(b, w[k, :, i] * dt, minlength=BI_GRID)
-            if ctx.gyrocompass:  # the alignment window sets the heading (first order)
-                mass[a] += est.phi_gain[k, 2] * ctx.heading_per_bias[i] / np.count_nonzero(a)
-            if i == axis_k:  # the truth: the mean over the navigation
+            if ctx.gyrocompass and np.any(a):  # the alignment sets the heading
+                mass[a] += heading_gain[k] * ctx.heading_per_bias[i] / np.count_nonzero(a)
+            if minus_mean and i == track.horizontal[k]:
                 mass[nav] -= 1.0 / np.count_nonzero(nav)
             var += mass @ kernel @ mass
         out[k] = sigma * np.sqrt(max(var, 0.0))

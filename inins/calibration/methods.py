@@ -288,10 +288,15 @@ class MountCheck:
     ``residual = eps4 - eps0 - predicted``, where ``predicted`` is what the
     biases (and, for a gyrocompass alignment, the heading error they imply)
     produce: the mount rotation over the sequence, if the prediction holds.
+    ``weights`` (2, m, 3): the residual's weights on the tilt samples; ``heading_gain``
+    (2,): its sensitivity to an initial heading error the biases do not explain (both for
+    the noise of a wandering bias, :func:`inins.calibration.budget.instability_sigma`).
     """
 
     residual: np.ndarray
     sigma: np.ndarray
+    weights: np.ndarray | None = field(default=None, repr=False)
+    heading_gain: np.ndarray | None = None
 
 
 def mount_check(ctx, reference, heading_sigma=0.0):
@@ -317,8 +322,9 @@ def mount_check(ctx, reference, heading_sigma=0.0):
     predicted = ctx.exact.evaluate(weights, ctx.full_bias(reference.value), ctx.gyrocompass)
     residual = ctx.evaluate(weights) - predicted
     resid_weights = weights - np.einsum("ak,kmi->ami", k[:, h], reference.weights)
+    heading_gain = gain.s_phi[:, 2] - k[:, h] @ reference.phi_gain[:, 2]
     sigma = np.hypot(ctx.sigma(resid_weights), gain.s_phi[:, 2] * heading_sigma)
-    return MountCheck(residual, sigma)
+    return MountCheck(residual, sigma, resid_weights, heading_gain)
 
 
 @dataclass(frozen=True)
