@@ -22,11 +22,11 @@ neglect do not bias it.
 """
 
 import enum
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
-from inins.calibration import tilt_model, velocity
+from inins.calibration import exact_model, tilt_model, velocity
 
 
 class Estimator(enum.StrEnum):
@@ -37,6 +37,7 @@ class Estimator(enum.StrEnum):
     VELOCITY = "velocity"
     EQ44 = "eq44"
     EQ45 = "eq45"
+    EQ38 = "eq38"  # eq. 38 alone (north), the east bias from the velocity method
 
 
 class Formula(enum.StrEnum):
@@ -121,6 +122,8 @@ class Context:
     arw: np.ndarray
     bias_z: float
     heading_per_bias: np.ndarray
+    exact: exact_model.ExactModel
+    gyrocompass: bool
 
     @classmethod
     def build(cls, track, windows, t_hold, arw, bias_z=0.0, gyrocompass=False):
@@ -129,20 +132,29 @@ class Context:
         "heading error = beta_x / (Omega cos lambda)"); otherwise it is ~0."""
         w_h = np.linalg.norm(tilt_model.earth.rate_ie_n(track.lat)[:2])
         heading = track.mat_nb[0][1] / w_h if gyrocompass else np.zeros(3)
-        phi_response = np.concatenate(
-            [-tilt_model.bias_response(track), tilt_model.earth_transition(track)], axis=2
-        )
+        phi_t = tilt_model.earth_transition(track)
+        g = tilt_model.bias_response(track, phi_t)
+        phi_response = np.concatenate([-g, phi_t], axis=2)
+        response = tilt_model.Response.of(track, phi_t, g)
         return cls(
             track,
             np.asarray(windows),
             t_hold,
             tilt_model.tilts(track),
-            tilt_model.Response.of(track),
+            response,
             phi_response,
             np.broadcast_to(np.asarray(arw, float), (3,)),
             bias_z,
             heading,
+            exact_model.ExactModel.of(track, phi_t, response.phit_nb),
+            bool(gyrocompass),
         )
+
+    def full_bias(self, horizontal_bias):
+        """Body-frame bias (3,) from the horizontal pair, the vertical one taken as known."""
+        b = np.full(3, float(self.bias_z))
+        b[self.track.horizontal] = horizontal_bias
+        return b
 
     def weights(self, kinds):
         """Weights (2, m, 3) of one formula per horizontal axis: ``kinds[axis] -> name``."""
@@ -167,19 +179,28 @@ class Context:
         return tilt_model.arw_sigma(self.track, weights, self.arw, self.response)
 
 
+JACOBIAN_TOL = 1e-2
+"""Where the exact model's gain differs from the linear one by more than this (relative;
+biases above ~0.1 deg/h after gyrocompassing), the 1-sigma and the attitude-error gains
+are formed with it; below, the linear ones are within 1 %."""
+
+
 def _with_heading(gain, heading_per_bias):
     """Bias gains with the assumed heading error ``phi_D0 = heading_per_bias . b`` folded in."""
     return gain.s_bias + np.outer(gain.s_phi[:, 2], heading_per_bias)
 
 
-def _estimate(ctx, values, s_bias, s_phi, weights, heading):
-    """Solve ``values = s_bias b`` for the horizontal biases, b_z taken as known."""
+def _estimate(ctx, values, s_bias, s_phi, weights, heading, gain_h=None):
+    """Solve ``values = s_bias b`` for the horizontal biases, b_z taken as known;
+    ``gain_h`` (2, 2): the gain through which the formulas' noise and the initial attitude
+    error reach the estimate (default ``s_bias`` on the horizontal axes)."""
     h, v = ctx.track.horizontal, ctx.track.down_axis
-    inv = np.linalg.inv(s_bias[:, h])
+    inv = np.linalg.inv(s_bias[:, h] if gain_h is None else gain_h)
     rhs = values - s_bias[:, v] * ctx.bias_z
     combined = None if weights is None else np.einsum("ak,kmi->ami", inv, weights)
     sigma = None if weights is None else ctx.sigma(combined)
-    return Estimate(inv @ rhs, sigma, inv @ s_phi, heading, combined)
+    value = np.linalg.inv(s_bias[:, h]) @ rhs if gain_h is not None else inv @ rhs
+    return Estimate(value, sigma, inv @ s_phi, heading, combined)
 
 
 def solve(ctx, kinds, heading_known=False):
@@ -191,9 +212,58 @@ def solve(ctx, kinds, heading_known=False):
     weights = ctx.weights(kinds)
     gain = ctx.gain(weights)
     heading = np.zeros(3) if heading_known else ctx.heading_per_bias
-    return _estimate(
-        ctx, ctx.evaluate(weights), _with_heading(gain, heading), gain.s_phi, weights, heading
-    )
+    s_bias = _with_heading(gain, heading)
+    est = _estimate(ctx, ctx.evaluate(weights), s_bias, gain.s_phi, weights, heading)
+    h, gyro = ctx.track.horizontal, ctx.gyrocompass and not heading_known
+    exact = exact_model.refine(ctx.exact, weights, s_bias, ctx.full_bias(est.value), h, gyro)
+    if np.all(np.isfinite(exact)):  # noise propagates through the exact model's gain
+        jac = exact_model.jacobian(ctx.exact, weights, exact, h, gyro)
+        if np.max(np.abs(jac - s_bias[:, h])) > JACOBIAN_TOL * np.max(np.abs(s_bias[:, h])):
+            est = _estimate(ctx, ctx.evaluate(weights), s_bias, gain.s_phi, weights, heading, jac)
+    return replace(est, value=exact[h])
+
+
+def solve_north(ctx, geometry, east):
+    """eq. 38 alone for the axis pointing north at A, the east bias taken from ``east``.
+
+    Used where the east formulas are rejected (mount rotation about east after a
+    gyrocompass alignment): eq. 38 then must not borrow the east bias from a pair that
+    the mount spoils. The north formula responds to the east bias only through the two
+    turns, ``2 Delta / (pi T)`` (~4 % for 18 s turns and T = 300 s); ``east`` is the
+    velocity-error estimate, which a mount rotation does not reach (the computed
+    attitude follows the IMU), and its 1-sigma enters through that coupling.
+
+    Parameters
+    ----------
+    ctx : Context
+    geometry : Geometry
+    east : Estimate
+        Supplies the east-axis bias and 1-sigma.
+
+    Returns
+    -------
+    Estimate
+        North: eq. 38; east: ``east``'s value and 1-sigma (tilt weights zero).
+    """
+    h = ctx.track.horizontal
+    ie, in_ = h.index(geometry.east), h.index(geometry.north)
+    weights = ctx.weights(dict.fromkeys(h, Formula.RETURN))[in_ : in_ + 1]
+    gain = ctx.gain(weights)
+    s = _with_heading(gain, ctx.heading_per_bias)[0]
+    s_nn, coupling = s[geometry.north], s[geometry.east] / s[geometry.north]
+    b = ctx.full_bias(east.value)
+    known = [a for a in range(3) if a != geometry.north]
+    b[geometry.north] = (ctx.evaluate(weights)[0] - s[known] @ b[known]) / s_nn
+    b = exact_model.refine(ctx.exact, weights, s[None], b, [geometry.north], ctx.gyrocompass)
+    row = weights[0] / s_nn
+    value, sigma = np.array(east.value, float), np.array(east.sigma, float)
+    value[in_] = b[geometry.north]
+    sigma[in_] = np.hypot(ctx.sigma(row[None])[0], coupling * east.sigma[ie])
+    phi_gain = np.array(east.phi_gain, float)
+    phi_gain[in_] = gain.s_phi[0] / s_nn - coupling * east.phi_gain[ie]
+    combined = np.zeros((2, *row.shape))
+    combined[in_] = row
+    return Estimate(value, sigma, phi_gain, ctx.heading_per_bias, combined)
 
 
 def solve_velocity(ctx, windows, vrw=0.0, quantum=0.0):
@@ -218,10 +288,15 @@ class MountCheck:
     ``residual = eps4 - eps0 - predicted``, where ``predicted`` is what the
     biases (and, for a gyrocompass alignment, the heading error they imply)
     produce: the mount rotation over the sequence, if the prediction holds.
+    ``weights`` (2, m, 3): the residual's weights on the tilt samples; ``heading_gain``
+    (2,): its sensitivity to an initial heading error the biases do not explain (both for
+    the noise of a wandering bias, :func:`inins.calibration.budget.instability_sigma`).
     """
 
     residual: np.ndarray
     sigma: np.ndarray
+    weights: np.ndarray | None = field(default=None, repr=False)
+    heading_gain: np.ndarray | None = None
 
 
 def mount_check(ctx, reference, heading_sigma=0.0):
@@ -240,14 +315,16 @@ def mount_check(ctx, reference, heading_sigma=0.0):
         1-sigma noise of the alignment heading (rad).
     """
     track = ctx.track
-    h, v = track.horizontal, track.down_axis
+    h = track.horizontal
     weights = ctx.weights(dict.fromkeys(h, Formula.RETURN_TO_START))
     gain = ctx.gain(weights)
     k = _with_heading(gain, ctx.heading_per_bias)
-    residual = ctx.evaluate(weights) - k[:, h] @ reference.value - k[:, v] * ctx.bias_z
+    predicted = ctx.exact.evaluate(weights, ctx.full_bias(reference.value), ctx.gyrocompass)
+    residual = ctx.evaluate(weights) - predicted
     resid_weights = weights - np.einsum("ak,kmi->ami", k[:, h], reference.weights)
+    heading_gain = gain.s_phi[:, 2] - k[:, h] @ reference.phi_gain[:, 2]
     sigma = np.hypot(ctx.sigma(resid_weights), gain.s_phi[:, 2] * heading_sigma)
-    return MountCheck(residual, sigma)
+    return MountCheck(residual, sigma, resid_weights, heading_gain)
 
 
 @dataclass(frozen=True)

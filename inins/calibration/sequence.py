@@ -109,7 +109,7 @@ def _is_half_turn(mat_a, mat_b):
     return abs(angle - np.pi) < 1e-3 and abs(abs(rv[2]) / angle - 1.0) < 1e-3
 
 
-def find_return_sequence(record, labels=None):
+def find_return_sequence(record, labels=None, start_after=-np.inf):
     """Positions A, B, A' of the 000 Table 1 sequence.
 
     Parameters
@@ -117,13 +117,16 @@ def find_return_sequence(record, labels=None):
     record : inins.core.records.TableRecord
     labels : sequence of 3 str, optional
         Labels of a hold in A, B and A'; default: the first matching triple.
+    start_after : float, optional
+        Only positions starting at or after this time (s) are considered (the second,
+        pitched sequence of a three-axis calibration).
 
     Raises
     ------
     InputError
         No such triple (the message lists the positions found).
     """
-    pos = positions(record.steps)
+    pos = [p for p in positions(record.steps) if p.start >= start_after - 1e-9]
     mats = [platform_matrix(record.axes, record.mat_n_base, p.angles) for p in pos]
     for i in range(len(pos) - 2):
         a, b, c = pos[i : i + 3]
@@ -159,7 +162,7 @@ def find_return_sequence(record, labels=None):
     )
 
 
-def build_sequence(record, align_duration, epoch_window, settle, labels=None):
+def build_sequence(record, align_duration, epoch_window, settle, labels=None, start_after=-np.inf):
     """Alignment window and epoch windows of the return sequence.
 
     Parameters
@@ -172,8 +175,10 @@ def build_sequence(record, align_duration, epoch_window, settle, labels=None):
     settle : float
         Time skipped after a rotation before a window starts (s).
     labels : sequence of 3 str, optional
+    start_after : float, optional
+        See :func:`find_return_sequence`.
     """
-    a, b, c = find_return_sequence(record, labels)
+    a, b, c = find_return_sequence(record, labels, start_after)
     align = (a.start + settle, a.start + settle + align_duration)
     needs = {"A": (a, align[1] + 2 * epoch_window), "B": (b, b.start + settle + 2 * epoch_window)}
     if c is not None:

@@ -104,9 +104,10 @@ def earth_transition(track):
     return rotation.mat_from_rotvec(-np.outer(track.time - track.time[0], w))
 
 
-def bias_response(track):
-    """``G(t)`` of eq. (1) on the grid, shape (m, 3, 3): ``phi(t) = Phi phi0 - G b``."""
-    phi_t = earth_transition(track)
+def bias_response(track, phi_t=None):
+    """``G(t)`` of eq. (1) on the grid, shape (m, 3, 3): ``phi(t) = Phi phi0 - G b``;
+    ``phi_t`` is :func:`earth_transition` if already formed."""
+    phi_t = earth_transition(track) if phi_t is None else phi_t
     inner = np.swapaxes(phi_t, 1, 2) @ track.mat_nb
     dt = np.diff(track.time)[:, None, None]
     integral = np.concatenate(
@@ -139,12 +140,13 @@ class Response:
     phit_nb: np.ndarray
 
     @classmethod
-    def of(cls, track):
-        phi_t = earth_transition(track)
+    def of(cls, track, phi_t=None, g=None):
+        """From the track; ``phi_t`` (:func:`earth_transition`) and ``g``
+        (:func:`bias_response`) if already formed."""
+        phi_t = earth_transition(track) if phi_t is None else phi_t
+        g = bias_response(track, phi_t) if g is None else g
         mat_bn = np.swapaxes(track.mat_nb, 1, 2)
-        return cls(
-            mat_bn @ bias_response(track), mat_bn @ phi_t, np.swapaxes(phi_t, 1, 2) @ track.mat_nb
-        )
+        return cls(mat_bn @ g, mat_bn @ phi_t, np.swapaxes(phi_t, 1, 2) @ track.mat_nb)
 
 
 def formula_gain(weights, response):

@@ -7,12 +7,12 @@ datasets and text report from its outcome.
 
 import numpy as np
 
-from inins.calibration import bias, ett
+from inins.calibration import bias, budget, ett, exact_model, three_axis
 from inins.calibration.alignment import HeadingSource
 from inins.commands import figures
 from inins.commands._table import load_record
 from inins.core import rotation
-from inins.core.units import ARCSEC, DEG, DEG_RTH, DPH, HOUR, UG_RTHZ, UG_S
+from inins.core.units import ARCSEC, DEG, DEG_RTH, DPH, HOUR, PPM, UG, UG_RTHZ, UG_S
 from inins.results import CommandResult, Series, format_table
 from inins.scenario.calibrate_bias import CalibrateBiasScenario
 
@@ -27,8 +27,11 @@ def run(scenario, seed, *, sink=None, progress=None):
     """Calibrate from the scenario's data file or its in-memory simulation."""
     record, sensor = load_record(scenario.data, scenario.simulate, seed)
     settings = _settings(scenario, sensor, _ett(scenario, record))
-    outcome = bias.calibrate_bias(record, settings, progress)
-    return build(outcome, record, settings, scenario.paper000_case)
+    labels = scenario.sequence.vertical_labels
+    found = three_axis.calibrate_three_axis(
+        record, settings, None if labels is None else tuple(labels), progress
+    )
+    return build(found.level, record, settings, scenario.paper000_case, found.pitched)
 
 
 def _ett(scenario, record):
@@ -82,15 +85,46 @@ def _settings(scenario, sensor=None, ett_result=None):
         k_sigma=scenario.mount_detection.k_sigma,
         floor=scenario.mount_detection.floor_arcsec * ARCSEC,
         ett=ett_result,
+        bias_bound=_bias_bound(scenario, sensor),
+        stated=_stated(scenario.uncertainty),
     )
 
 
+def _stated(u):
+    """The scenario's stated 1-sigma sensor errors in SI."""
+    return budget.StatedErrors(
+        accel_bias=u.accel_bias_ug * UG,
+        gyro_bias_z=u.gyro_bias_z_dph * DPH,
+        gyro_scale=np.broadcast_to(np.asarray(u.gyro_scale_ppm, float) * PPM, (3,)).copy(),
+        gyro_misalignment=np.full(6, u.gyro_misalignment_arcsec * ARCSEC),
+        bias_instability=u.gyro_bias_instability_dph * DPH,
+        corr_time=u.gyro_bias_corr_time_s,
+    )
+
+
+def _bias_bound(scenario, sensor):
+    """Largest gyro bias (rad/s) for the gyrocompass check: the scenario's stated bound,
+    else the simulated bias (its magnitude), else None (checked on the estimates)."""
+    stated = scenario.alignment.gyro_bias_bound_dph
+    if stated is not None:
+        return stated * DPH
+    if sensor is not None:
+        return float(np.linalg.norm(sensor.gyro_bias))
+    return None
+
+
 AXES = "xyz"
+ALIGNMENT_LABELS = {
+    bias.HeadingMethod.GYROCOMPASS: "gyrocompass",
+    bias.HeadingMethod.KNOWN: "known heading",
+    bias.HeadingMethod.ETT: "ETT",
+}
 METHOD_TITLES = {
     "attitude": "attitude error, two positions (000 eqs. 28-29)",
     "velocity": "velocity error, quadratic fit (000 eq. 12)",
     "eq44": "return sequence: eq. 44 (east) + eq. 38 (north)",
     "eq45": "return sequence: eq. 45 (east) + eq. 38 (north)",
+    "eq38": "return sequence: eq. 38 alone (north), east bias from the velocity method",
 }
 PAPER = {  # 000 §3.2 (deg per T); None where the paper gives no number
     1: {"eq38": -0.0034, "eq44": 0.0016, "eq45": None},
@@ -119,34 +153,46 @@ def _arcsec(value):
     return float(value / ARCSEC) if np.isfinite(value) else None
 
 
+FORMULAS = ("attitude", "velocity", "eq38", "eq44", "eq45")
+"""Per-axis result names ``beta_<axis>_<formula>``; eq. 38 applies to the axis pointing
+north at A, eqs. 44-45 to the one pointing east, the others are null."""
+
+
 def result_names(outcome):
-    """``name -> (value rad/s, sigma rad/s)`` of every estimate, unit suffix added later."""
+    """``name -> (value rad/s, sigma rad/s)`` of every estimate, unit suffix added later.
+
+    The same names in every run (issue 7): every formula on every body axis x, y, z, and
+    the chosen ``beta_<axis>``, (None, None) where not applicable (the vertical axis, eq. 38
+    on the east axis, eqs. 44-45 on the north axis, no return to the first position).
+    """
     g = outcome.geometry
     h = g.horizontal
-    e, n = AXES[g.east], AXES[g.north]
     est = outcome.estimates
-    out = {}
+    out = {f"beta_{a}_{f}": (None, None) for a in AXES for f in FORMULAS}
     for name in ("attitude", "velocity"):
         for i, axis in enumerate(h):
             out[f"beta_{AXES[axis]}_{name}"] = (est[name].value[i], est[name].sigma[i])
-    ie, in_ = h.index(g.east), h.index(g.north)
     if "eq44" in est:
-        pair = est[outcome.choice.east_formula or "eq44"]
-        out[f"beta_{n}_eq38"] = (pair.value[in_], pair.sigma[in_])
-        out[f"beta_{e}_eq44"] = (est["eq44"].value[ie], est["eq44"].sigma[ie])
-        out[f"beta_{e}_eq45"] = (est["eq45"].value[ie], est["eq45"].sigma[ie])
-    else:  # no return to the first position: not applicable
-        for key in (f"beta_{n}_eq38", f"beta_{e}_eq44", f"beta_{e}_eq45"):
-            out[key] = (None, None)
-    for axis in h:
-        chosen = outcome.chosen[axis]
+        ie = h.index(g.east)
+        north = outcome.chosen[g.north]
+        out[f"beta_{AXES[g.north]}_eq38"] = north[:2]
+        for f in ("eq44", "eq45"):
+            out[f"beta_{AXES[g.east]}_{f}"] = (est[f].value[ie], est[f].sigma[ie])
+    for axis in range(3):
+        chosen = outcome.chosen.get(axis)
         out[f"beta_{AXES[axis]}"] = (None, None) if chosen is None else chosen[:2]
     return out
 
 
+def chosen_budget(outcome):
+    """``axis -> {term: 1-sigma rad/s, "total": ...}`` of each chosen bias (issue 7 item 6)."""
+    return three_axis.chosen_budgets(outcome)
+
+
 def initial_heading_error(outcome):
     """Initial heading error (rad) the calibration implies: the gyrocompass equilibrium
-    ``(mat_nb b)_E / (W cos lat)`` with the chosen biases (000 §3.2), 0 for a known heading."""
+    ``asin((mat_nb b)_E / (W cos lat))`` with the chosen biases (000 §3.2,
+    :func:`inins.calibration.exact_model.gyrocompass_heading_error`), 0 for a known heading."""
     if outcome.align.method != HeadingSource.GYROCOMPASS:
         return 0.0
     if outcome.choice.east_formula is None:
@@ -154,36 +200,96 @@ def initial_heading_error(outcome):
     est = outcome.estimates[outcome.choice.east_formula]
     bias = np.zeros(3)
     bias[outcome.geometry.horizontal] = est.value
-    return float(est.heading_per_bias @ bias)
+    return exact_model.gyrocompass_heading_error(outcome.track.mat_nb[0], bias, outcome.track.lat)
 
 
-def build(outcome, record, settings, paper_case=None):
-    """The CommandResult of calibrate-bias."""
-    names = result_names(outcome)
-    results = {}
-    for name, (value, sigma) in names.items():
-        results[f"{name}_dph"] = _dph(value)
-        results[f"{name}_sigma_dph"] = _dph(sigma)
-    heading_err = initial_heading_error(outcome)
-    results["initial_heading_err_deg"] = None if heading_err is None else heading_err / DEG
-    h = outcome.geometry.horizontal
-    for i, axis in enumerate(h):
-        results[f"mount_{AXES[axis]}_arcsec"] = _arcsec(outcome.check.residual[i])
-        results[f"mount_{AXES[axis]}_sigma_arcsec"] = _arcsec(outcome.check.sigma[i])
-    t_a, t_b = outcome.seq.hold_times
-    results.update(
-        {"hold_a_s": t_a, "hold_b_s": t_b, "heading_deg": float(outcome.align.euler[2] / DEG)}
-    )
+def build(outcome, record, settings, paper_case=None, pitched=None):
+    """The CommandResult of calibrate-bias; ``pitched``: the second (pitch 90 deg) return
+    sequence, whose results give the body z entries (issue 7 item 7)."""
+    results, names = _outcome_results(outcome)
     truth = _truth(outcome, names)
+    report = _report(outcome, record, settings, names, paper_case)
+    warnings = _warnings(outcome)
+    if pitched is not None:
+        z_results, z_names = _outcome_results(pitched)
+        results.update({k: v for k, v in z_results.items() if _is_z(k)})
+        names.update({k: v for k, v in z_names.items() if _is_z(k)})
+        truth.update({k: v for k, v in _truth(pitched, z_names).items() if _is_z(k)})
+        report += "\n\n" + _pitched_report(pitched, z_names)
+        east = f"beta_{AXES[pitched.geometry.east]}:"
+        warnings += tuple(  # an east axis other than z is taken from the level sequence
+            f"pitched sequence: {w}"
+            for w in _warnings(pitched)
+            if pitched.geometry.east == 2 or not w.startswith(east)
+        )
     return CommandResult(
         "calibrate-bias",
         results,
         truth,
         _datasets(outcome),
         _attrs(outcome, record),
-        _report(outcome, record, settings, names, paper_case),
-        _warnings(outcome),
+        report,
+        warnings,
     )
+
+
+def _is_z(key):
+    return key.startswith(("beta_z", "mount_z"))
+
+
+def _pitched_report(pitched, names):
+    g = pitched.geometry
+    a = pitched.seq.positions[0]
+    return "\n".join(
+        [
+            f"second return sequence (pitch gimbal at 90 deg, from {a.start:g} s): body "
+            f"{AXES[pitched.track.down_axis]} vertical, {AXES[g.east]} east, "
+            f"{AXES[g.north]} north; its vertical bias taken from the level sequence "
+            f"({pitched_vertical(pitched)}); the level sequence ran again with its beta_z",
+            "estimates (deg/h)",
+            _estimate_table(pitched, names),
+            "mount rotation from the return to the start attitude (000 eqs. 35, 43)",
+            _mount_table(pitched),
+            _choice_line(pitched),
+            *([_budget_table(chosen_budget(pitched))] if chosen_budget(pitched) else []),
+        ]
+    )
+
+
+def pitched_vertical(pitched):
+    """The vertical bias the pitched sequence took as known, as text."""
+    return f"beta_{AXES[pitched.track.down_axis]} = {pitched.vertical_bias / DPH:.6g} deg/h"
+
+
+def _outcome_results(outcome):
+    """Flat results (lab units) of one calibration and its ``result_names``."""
+    names = result_names(outcome)
+    results = {}
+    for name, (value, sigma) in names.items():
+        results[f"{name}_dph"] = _dph(value)
+        results[f"{name}_sigma_dph"] = _dph(sigma)
+    budgets = chosen_budget(outcome)
+    for axis in range(3):
+        terms = budgets.get(axis)
+        results[f"beta_{AXES[axis]}_u_dph"] = None if terms is None else terms["total"] / DPH
+        for t in budget.TERMS:
+            results[f"beta_{AXES[axis]}_u_{t}_dph"] = None if terms is None else terms[t] / DPH
+    heading_err = initial_heading_error(outcome)
+    results["initial_heading_err_deg"] = None if heading_err is None else heading_err / DEG
+    h = outcome.geometry.horizontal
+    for axis in range(3):
+        i = h.index(axis) if axis in h else None
+        results[f"mount_{AXES[axis]}_arcsec"] = (
+            None if i is None else _arcsec(outcome.check.residual[i])
+        )
+        results[f"mount_{AXES[axis]}_sigma_arcsec"] = (
+            None if i is None else _arcsec(outcome.check.sigma[i])
+        )
+    t_a, t_b = outcome.seq.hold_times
+    results.update(
+        {"hold_a_s": t_a, "hold_b_s": t_b, "heading_deg": float(outcome.align.euler[2] / DEG)}
+    )
+    return results, names
 
 
 def _truth(outcome, names):
@@ -196,7 +302,7 @@ def _truth(outcome, names):
 
 
 def _warnings(outcome):
-    out = []
+    out = list(outcome.warnings)
     if not outcome.geometry.aligned:
         out.append(
             "no horizontal IMU axis points east at the first position (within 10 deg): "
@@ -280,7 +386,8 @@ def _report(outcome, record, settings, names, paper_case):
         f"navigation time at A {t_a:.1f} s, at B {t_b:.1f} s; "
         f"{'free-inertial' if settings.free else 'stationary (known position, zero velocity)'}"
         f" navigation, output every {np.median(np.diff(outcome.track.time)):g} s",
-        f"alignment: {al.method} over {al.duration:g} s: roll {roll:.5f}, pitch {pitch:.5f}, "
+        f"alignment: {ALIGNMENT_LABELS[settings.heading_method]} over {al.duration:g} s: "
+        f"roll {roll:.5f}, pitch {pitch:.5f}, "
         f"heading {heading:.5f} deg"
         + (f" (1-sigma {al.heading_sigma / DEG:.2g} deg)" if al.heading_sigma > 0 else ""),
         f"axes at A: body {AXES[g.east]} points east, {AXES[g.north]} north",
@@ -294,11 +401,42 @@ def _report(outcome, record, settings, names, paper_case):
         "",
         _choice_line(outcome),
     ]
+    budgets = chosen_budget(outcome)
+    if budgets:
+        lines += ["", _budget_table(budgets)]
     if outcome.truth:
         lines += ["", _truth_lines(outcome)]
     if paper_case is not None:
         lines += ["", _paper_table(outcome, names, paper_case)]
     return "\n".join(lines)
+
+
+BUDGET_TITLES = {
+    "random": "random (sensor noise, alignment noise)",
+    "accel_bias": "accelerometer bias through levelling",
+    "gyro_bias_z": "vertical gyro bias taken as known",
+    "gyro_scale": "gyro scale factor",
+    "misalignment": "gyro misalignment",
+    "bias_instability": "gyro bias instability",
+    "total": "combined 1-sigma u (quadrature sum)",
+}
+
+
+def _budget_table(budgets):
+    axes = sorted(budgets)
+    rows = [
+        [BUDGET_TITLES[t], *(budgets[a][t] / DPH for a in axes)] for t in (*budget.TERMS, "total")
+    ]
+    return (
+        "uncertainty budget of the chosen biases (1-sigma, from the stated sensor errors; "
+        "summary.json: beta_<axis>_u_dph and beta_<axis>_u_<term>_dph)\n"
+        + format_table(
+            rows,
+            ["term", *(f"beta_{AXES[a]}" for a in axes)],
+            ["", *["deg/h"] * len(axes)],
+            fmt=".3g",
+        )
+    )
 
 
 def _choice_line(outcome):
@@ -328,8 +466,10 @@ def _estimate_table(outcome, names):
     truth = outcome.truth.bias if outcome.truth else None
     rows = []
     for name, (value, sigma) in names.items():
+        if value is None:
+            continue  # not applicable (null in summary.json)
         axis = AXES.index(name.split("_")[1])
-        err = None if value is None or truth is None else (value - truth[axis]) / DPH
+        err = None if truth is None else (value - truth[axis]) / DPH
         rows.append([name + "_dph", _dph(value), _dph(sigma), err])
     return format_table(
         rows, ["result", "value", "1-sigma", "error"], ["", "deg/h", "deg/h", "deg/h"], fmt=".5g"

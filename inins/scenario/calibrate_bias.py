@@ -32,6 +32,12 @@ class AlignmentSettings(ScenarioSection):
     heading_sigma_arcsec: NonNegFloat = Field(
         0.0, description="1-sigma of a known heading (arcsec)"
     )
+    gyro_bias_bound_dph: NonNegFloat | None = Field(
+        None,
+        description="largest gyro bias the unit may have, from its data sheet (deg/h); gyrocompass "
+        "alignment is refused where it reaches half the horizontal Earth rate W cos(lat) "
+        "(heading error 30 deg). Default: the simulated bias, else checked on the result",
+    )
     ett_file: ScenarioPath | None = Field(
         None,
         description="align-ett.h5 written by inins align-ett on the same mounting, "
@@ -55,6 +61,14 @@ class SequenceSettings(ScenarioSection):
         description="labels of a hold at A, at B (A "
         "turned 180 deg) and back at A; default: the first such triple found",
     )
+    vertical_labels: list[str] | None = Field(
+        None,
+        min_length=3,
+        max_length=3,
+        description="labels of a hold at A, B and A' of the second return sequence, with the "
+        "pitch gimbal at 90 deg (body z horizontal) for beta_z; default: the first later "
+        "return sequence whose vertical body axis is not the level one's, if any",
+    )
     epoch_window_s: PositiveFloat = Field(
         5.0, description="each epoch tilt is the mean over this window (s)"
     )
@@ -68,7 +82,9 @@ class NavigationSettings(ScenarioSection):
         "stationary",
         description="stationary: known position and zero velocity, no "
         "transport rate and no Coriolis, so the tilt follows the gyro biases without "
-        "Schuler feedback (000 eqs. 9-10); free: free-inertial, to see the Schuler effect",
+        "Schuler feedback (000 eqs. 9-10); free (free-inertial) is refused: the methods "
+        "assume a fixed position and the Schuler loop would bias them (-12 %/-41 % at "
+        "T = 600 s)",
     )
     output_rate_hz: PositiveFloat = Field(
         10.0, description="rate of the navigation output the methods use (Hz)"
@@ -97,6 +113,29 @@ class MountDetection(ScenarioSection):
     floor_arcsec: NonNegFloat = Field(0.5, description="and larger than this (arcsec)")
 
 
+class StatedErrorSettings(ScenarioSection):
+    """1-sigma of the sensor errors calibrate-bias does not estimate (the unit's data sheet
+    or a previous calibration), for the uncertainty budget of each chosen bias: each
+    enters through its exact sensitivity along the sequence (issue 7 item 6)."""
+
+    accel_bias_ug: NonNegFloat = Field(
+        0.0, description="accelerometer bias per horizontal axis, 1 sigma (ug): levelling tilt"
+    )
+    gyro_bias_z_dph: NonNegFloat = Field(
+        0.0,
+        description="error of the vertical gyro bias taken as known (gyro_bias_z_dph), "
+        "1 sigma (deg/h)",
+    )
+    gyro_scale_ppm: NonNegVec3 = Field(0.0, description="gyro scale factor, 1 sigma (ppm)")
+    gyro_misalignment_arcsec: NonNegFloat = Field(
+        0.0, description="each of the six gyro misalignments, 1 sigma (arcsec)"
+    )
+    gyro_bias_instability_dph: NonNegFloat = Field(
+        0.0, description="Gauss-Markov gyro bias instability, 1 sigma (deg/h)"
+    )
+    gyro_bias_corr_time_s: PositiveFloat = Field(3600.0, description="its correlation time (s)")
+
+
 class CalibrateBiasScenario(TableSource):
     """Horizontal gyro-bias calibration from a rate-table return sequence (000 §2-3)."""
 
@@ -105,6 +144,7 @@ class CalibrateBiasScenario(TableSource):
     navigation: NavigationSettings = Field(default_factory=NavigationSettings)
     noise: NoiseSettings = Field(default_factory=NoiseSettings)
     mount_detection: MountDetection = Field(default_factory=MountDetection)
+    uncertainty: StatedErrorSettings = Field(default_factory=StatedErrorSettings)
     gyro_bias_z_dph: float = Field(
         0.0,
         description="vertical gyro bias taken as known (deg/h); 000 calibrates the horizontal ones",
