@@ -26,7 +26,7 @@ FIGURES = {
 def run(scenario, seed, *, sink=None, progress=None):
     """Calibrate from the scenario's data file or its in-memory simulation."""
     record, sensor = load_record(scenario.data, scenario.simulate, seed)
-    settings = _settings(scenario, sensor, _ett(scenario, record))
+    settings = method_settings(scenario, sensor, _ett(scenario, record))
     labels = scenario.sequence.vertical_labels
     found = three_axis.calibrate_three_axis(
         record, settings, None if labels is None else tuple(labels), progress
@@ -46,7 +46,7 @@ def _ett(scenario, record):
     return ett.align_ett(record, ett.EttOptions(mat_tb0=nominal)).result
 
 
-def _settings(scenario, sensor=None, ett_result=None):
+def method_settings(scenario, sensor=None, ett_result=None):
     """The method settings in SI; ``sensor`` (SensorErrors of a simulation) fills the
     noise figures the scenario leaves out; ``ett_result`` is the ETT mounting."""
     n = scenario.noise

@@ -48,7 +48,7 @@ def calibrate(method="gyrocompass", seed=1, stated=STATED, rate=10, **updates):
         },
     )
     record, sensor = load_record(model.data, model.simulate, seed)
-    settings = replace(calibrate_bias._settings(model, sensor), stated=stated)
+    settings = replace(calibrate_bias.method_settings(model, sensor), stated=stated)
     return bias.calibrate_bias(record, settings)
 
 

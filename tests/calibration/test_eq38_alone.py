@@ -44,7 +44,7 @@ def calibrate(angle_deg, **updates):
         },
     )
     record, sensor = load_record(model.data, model.simulate, 1)
-    return bias.calibrate_bias(record, calibrate_bias._settings(model, sensor))
+    return bias.calibrate_bias(record, calibrate_bias.method_settings(model, sensor))
 
 
 @pytest.mark.parametrize("angle", [0.01, 0.05])

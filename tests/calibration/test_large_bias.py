@@ -33,7 +33,7 @@ def calibrate(beta_dph, lat_deg, rate_hz=50, **updates):
         },
     )
     record, sensor = load_record(model.data, model.simulate, 1)
-    return bias.calibrate_bias(record, calibrate_bias._settings(model, sensor))
+    return bias.calibrate_bias(record, calibrate_bias.method_settings(model, sensor))
 
 
 def relative_errors(outcome):

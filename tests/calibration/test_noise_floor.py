@@ -71,7 +71,7 @@ def monte_carlo():
     runs = []
     for seed in range(SEEDS):
         record, sensor = load_record(m.data, m.simulate, seed)
-        outcome = bias.calibrate_bias(record, calibrate_bias._settings(m, sensor))
+        outcome = bias.calibrate_bias(record, calibrate_bias.method_settings(m, sensor))
         runs.append(outcome)
     return runs
 

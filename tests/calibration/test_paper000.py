@@ -51,7 +51,7 @@ def scenario(case, **simulate):
 
 def run(model, seed=1):
     record, sensor = load_record(model.data, model.simulate, seed)
-    return bias.calibrate_bias(record, calibrate_bias._settings(model, sensor))
+    return bias.calibrate_bias(record, calibrate_bias.method_settings(model, sensor))
 
 
 @pytest.fixture(scope="module")
@@ -174,7 +174,7 @@ def test_stationary_navigation_avoids_the_schuler_error():
     track is built here with the library's navigation and the attitude method on it.)"""
     model = scenario(1)
     record, sensor = load_record(model.data, model.simulate, 1)
-    stationary = bias.calibrate_bias(record, calibrate_bias._settings(model, sensor))
+    stationary = bias.calibrate_bias(record, calibrate_bias.method_settings(model, sensor))
     seq = stationary.seq
     free_track = navigate.navigate(
         record, stationary.align.mat_nb, seq.nav_start, seq.nav_end, 10.0, free=True
