@@ -11,6 +11,7 @@ window and the velocity-heading initialisation (:func:`inins.ekf.sources.velocit
 """
 
 import math
+from dataclasses import replace
 
 import numpy as np
 
@@ -47,7 +48,10 @@ def run(scenario, seed, *, sink=None, progress=None):
         result, info = _recorded(scenario)
     else:
         result, info = _simulated(scenario, seed)
-    summary = result.summary(window=(scenario.filter.turning_from_s, math.inf))
+    summary = result.summary()
+    if result.heading_error.size and np.any(result.time >= scenario.filter.turning_from_s):
+        window = result.summary(window=(scenario.filter.turning_from_s, math.inf))
+        summary = replace(summary, heading_err_rms_deg=window.heading_err_rms_deg)
     return CommandResult(
         command="run-ekf",
         results=_results(result, summary, info),
