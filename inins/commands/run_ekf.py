@@ -57,8 +57,13 @@ def run(scenario, seed, *, sink=None, progress=None):
         results=_results(result, summary, info),
         truth=_truth(info),
         datasets=_datasets(result, info),
-        attrs={"ekf": {"model": result.model, "coupling": result.coupling,
-                       "states": list(result.layout.names)}},  # fmt: skip
+        attrs={
+            "ekf": {
+                "model": result.model,
+                "coupling": result.coupling,
+                "states": list(result.layout.names),
+            }
+        },
         report=_report(scenario, result, summary, info),
     )
 
@@ -74,8 +79,8 @@ def filter_config(f, dt, lever, dither_window):
         lever_arm=np.asarray(lever, float),
         arw=np.full(3, n.arw_deg_rth * DEG_RTH),
         vrw=np.full(3, n.vrw_ug_rthz * UG_RTHZ),
-        gyro_bias_rw=np.full(3, n.gyro_bias_walk_dph_per_s * DPH),
-        accel_bias_rw=np.full(3, n.accel_bias_walk_ug_per_s * UG),
+        gyro_bias_rw=np.full(3, n.gyro_bias_walk_dph * DPH / 60.0),  # per sqrt(3600 s)
+        accel_bias_rw=np.full(3, n.accel_bias_walk_ug * UG / 60.0),
         clock_bias_psd=C**2 * h0 / 2.0,
         clock_drift_psd=C**2 * 2.0 * math.pi**2 * hm2,
         initial_sigma=InitialSigma(
@@ -203,9 +208,16 @@ def _recorded(scenario):
     sources.check_imu_time(imu.time, dt, str(d.file))
     g = rec.gnss
     obs = measurements.make_observations(
-        g.week, g.time, g.start, g.prn, g.pseudorange,
-        range_rate=g.range_rate, sigma=g.sigma, snr=g.snr, signal=g.signal,
-    )  # fmt: skip
+        g.week,
+        g.time,
+        g.start,
+        g.prn,
+        g.pseudorange,
+        range_rate=g.range_rate,
+        sigma=g.sigma,
+        snr=g.snr,
+        signal=g.signal,
+    )
     t = obs.time - rec.imu_t0_sow
     inside = np.flatnonzero((t > imu.time[0] - 1.0) & (t < imu.time[-1] + 1.0))
     if inside.size == 0:
@@ -229,9 +241,15 @@ def _recorded(scenario):
     config = _checked(lambda: filter_config(scenario.filter, dt, d.lever_arm_m, window), "data")
     f = scenario.filter
     gnss_list, _ = sources.filter_epochs(
-        epochs, t, t + d.latency_s, f.pseudorange_sigma_m, f.range_rate_sigma_mps, mask,
-        fix.pos[fixed[0]], klob,
-    )  # fmt: skip
+        epochs,
+        t,
+        t + d.latency_s,
+        f.pseudorange_sigma_m,
+        f.range_rate_sigma_mps,
+        mask,
+        fix.pos[fixed[0]],
+        klob,
+    )
     t_start = float(imu.time[0] - dt)
     lla_imu = lla0 - np.array([0.0, 0.0, 0.0])
     initial = strapdown.NavState.from_attitude(init.mat_nb, np.zeros(3), lla_imu)

@@ -66,7 +66,7 @@ def filter_epochs(epochs, times, arrival, sigma_pr, sigma_rr, mask, fallback_pos
     fix = spp.solve(epochs, spp.SppOptions(mask_rad=mask, klobuchar=klobuchar))
     approx = _fill_fixes(fix.pos, fallback_pos)
     rx = approx[obs.epoch]
-    rng, _, los, _ = propagation.geometry(epochs.sat_pos, epochs.sat_vel, rx)
+    rng, _, _, _ = propagation.geometry(epochs.sat_pos, epochs.sat_vel, rx)
     pos = propagation.sagnac_rotate(epochs.sat_pos, rng / C)
     vel = propagation.sagnac_rotate(epochs.sat_vel, rng / C)
     pred = measurements.predict(epochs, rx, 0.0, 0.0, 0.0, klobuchar=klobuchar)
@@ -138,12 +138,16 @@ def simulated_epochs(truth, base, errors, dt, duration, eph, week, sow0, rx, see
     """
     seeds = np.random.SeedSequence(seed).spawn(3)
     rng_imu, rng_gnss, rng_clock = (np.random.default_rng(s) for s in seeds)
-    count = int(math.floor(duration + 1e-9))
+    count = math.floor(duration + 1e-9)
     pps = np.arange(1, count + 1, dtype=float)
     clock, drift = simulate.clock_random_walk(
-        np.concatenate([[0.0], pps]), rx.h0, rx.h_2, rng_clock,
-        bias0=rx.clock_bias, drift0=rx.clock_drift,
-    )  # fmt: skip
+        np.concatenate([[0.0], pps]),
+        rx.h0,
+        rx.h_2,
+        rng_clock,
+        bias0=rx.clock_bias,
+        drift0=rx.clock_drift,
+    )
     clock, drift = clock[1:], drift[1:]
     lat_samples = round(rx.latency / dt)
     edges = np.concatenate([[0], np.round(pps / dt).astype(np.int64) + lat_samples])

@@ -35,7 +35,7 @@ class FlightLeg(Section):
         None, description="ground speed to reach (m/s): takeoff needs it; else a speed change"
     )
     climb_rate_mps: NonNegFloat = Field(
-        0.0, description="climb / descend: vertical speed (m/s, the kind gives the sign)"
+        0.0, description="climb / descend: vertical speed (m/s), the kind gives the sign"
     )
     bank_deg: float = Field(0.0, description="turn: bank angle (deg), in (0, 90)")
     angle_deg: PositiveFloat = Field(360.0, description="turn: heading change (deg)")
@@ -58,7 +58,7 @@ class Flight(Section):
     """The simulated flight: site, ground heading, legs, IMU and dither."""
 
     site: Site = Field(default_factory=Site)
-    heading_deg: float = Field(180.0, description="heading on the ground (deg; 003: 180)")
+    heading_deg: float = Field(180.0, description="heading on the ground (deg), 180 in 003")
     aoa_deg: float = Field(2.0, ge=-20.0, le=20.0, description="angle of attack (deg)")
     legs: list[FlightLeg] = Field(min_length=1, description="the flight plan, in order")
     imu: Imu = Field(default_factory=lambda: Imu(sample_rate_hz=200.0))
@@ -149,9 +149,7 @@ class InitialSigma(Section):
     accel_misalignment_arcsec: PositiveFloat = Field(
         20.0, description="accelerometer misalignment (arcsec)"
     )
-    gyro_misalignment_arcsec: PositiveFloat = Field(
-        60.0, description="gyro misalignment (arcsec)"
-    )
+    gyro_misalignment_arcsec: PositiveFloat = Field(60.0, description="gyro misalignment (arcsec)")
     clock_bias_m: PositiveFloat = Field(1e4, description="receiver clock bias (m)")
     clock_drift_mps: PositiveFloat = Field(10.0, description="receiver clock drift (m/s)")
 
@@ -165,11 +163,11 @@ class FilterNoise(Section):
     vrw_ug_rthz: NonNegFloat = Field(
         20.0, le=1e5, description="accelerometer velocity random walk (ug/sqrt(Hz))"
     )
-    gyro_bias_walk_dph_per_s: NonNegFloat = Field(
-        0.0, le=1e3, description="gyro bias random walk density (deg/h/s * sqrt(s))"
+    gyro_bias_walk_dph: NonNegFloat = Field(
+        0.0, le=1e5, description="gyro bias random walk: 1-sigma growth over one hour (deg/h)"
     )
-    accel_bias_walk_ug_per_s: NonNegFloat = Field(
-        0.0, le=1e5, description="accelerometer bias random walk density (ug/s * sqrt(s))"
+    accel_bias_walk_ug: NonNegFloat = Field(
+        0.0, le=1e6, description="accelerometer bias random walk: 1-sigma growth over one hour (ug)"
     )
     clock_h0_s: NonNegFloat = Field(2e-19, le=1e-15, description="clock model h0 (s)")
     clock_hm2_per_s: NonNegFloat = Field(2e-20, le=1e-15, description="clock model h-2 (1/s)")
