@@ -148,6 +148,7 @@ def _ephemeris(c, duration):
 def _simulated(scenario, seed):
     fs, gs = scenario.flight, scenario.gnss
     plan = flight_plan(fs)
+    _check_imu(fs.imu)
     dt = 1.0 / fs.imu.sample_rate_hz
     errors = fs.imu.to_si()
     dither = fl.Dither(fs.dither.amplitude_arcsec * ARCSEC, fs.dither.frequency_hz)
@@ -182,14 +183,40 @@ def _simulated(scenario, seed):
     return result, info
 
 
+_CONFIG_KEYS = {  # FilterConfig key -> scenario key below the source ("gnss" / "data")
+    "lever_arm": "lever_arm_m",
+}
+
+
 def _checked(func, key):
-    """Run ``func``; an InputError without a key path gets ``key``."""
+    """Run ``func``; an InputError without a scenario key path gets one (``key``, or the
+    scenario key of a :class:`FilterConfig` field under ``key``)."""
     try:
         return func()
     except InputError as exc:
-        if exc.key in (None, "gnss", "lever_arm"):
+        if exc.key in _CONFIG_KEYS:
+            raise InputError(str(exc.args[0]), key=f"{key}.{_CONFIG_KEYS[exc.key]}") from None
+        if exc.key in (None, "gnss"):
             raise InputError(str(exc.args[0]), key=key) from None
         raise
+
+
+_IMU_LIMITS = (  # scenario key, value getter, upper bound (lab units): beyond any real IMU
+    ("gyro.arw_deg_rth", lambda i: max(i.gyro.arw_deg_rth), 100.0),
+    ("accel.vrw_ug_rthz", lambda i: max(i.accel.vrw_ug_rthz), 1e5),
+    ("gyro.bias_dph", lambda i: max(map(abs, i.gyro.bias_dph)), 3.6e5),
+    ("accel.bias_ug", lambda i: max(map(abs, i.accel.bias_ug)), 1e6),
+)
+
+
+def _check_imu(imu):
+    """Noise densities and biases out of any physical range (wrong units) are bad input."""
+    for key, get, high in _IMU_LIMITS:
+        if not get(imu) <= high:
+            raise InputError(
+                f"{get(imu):.6g} is beyond any real IMU (at most {high:g}): wrong unit?",
+                key=f"flight.imu.{key}",
+            )
 
 
 def _read(data):

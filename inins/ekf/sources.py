@@ -20,6 +20,7 @@ import numpy as np
 
 from inins.core import earth, rotation, strapdown
 from inins.ekf.config import EpochInput, TruthEpoch
+from inins.ekf.filter import _Strapdown
 from inins.ekf.flight import imu_stream
 from inins.ekf.measurements import GnssEpoch
 from inins.exceptions import InputError
@@ -267,8 +268,6 @@ def _mean_force(imu_time, dv, dt, window):
 
 def _free_run(mat_nb, lla, imu_time, dtheta, dv, dt, lo, hi):
     """Free-inertial run of samples ``lo:hi`` from rest; (quat, vel) after each sample."""
-    from inins.ekf.filter import _Strapdown
-
     nav = _Strapdown(strapdown.NavState.from_attitude(mat_nb, np.zeros(3), lla))
     _, (quat, vel, _) = nav.run(dtheta[lo:hi], dv[lo:hi], dt)
     return quat, vel

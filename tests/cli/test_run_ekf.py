@@ -83,6 +83,30 @@ def tc(tmp_path_factory):
     return path
 
 
+def test_import_flight_output_gives_the_same_run(tc, tmp_path):
+    """data.file may be the import-flight output instead of the .mat: same solution."""
+    done = CliRunner().invoke(
+        app,
+        [
+            "import-flight",
+            str(CONFIGS / "import-flight" / "psins-tc.yaml"),
+            "-o",
+            str(tmp_path / "i"),
+        ],
+    )
+    assert done.exit_code == 0, done.output
+    out = run(
+        CONFIGS / "run-ekf" / "psins-tc.yaml",
+        "-o",
+        tmp_path / "r",
+        "--set",
+        f"data.file={tmp_path / 'i' / 'import-flight.h5'}",
+    )
+    assert out.exit_code == 0, out.output
+    with h5py.File(tc / "run-ekf.h5") as a, h5py.File(tmp_path / "r" / "run-ekf.h5") as b:
+        np.testing.assert_allclose(a["nav/lla"][()], b["nav/lla"][()], rtol=0, atol=1e-12)
+
+
 def test_real_recording_runs_whole_record_consistently(tc):
     """135 epochs, nothing coasted, sigmas bounded; time-averaged NIS of the ~2,200 scalar
     measurements 0.90 (the 95 % band of independent chi-square(1) samples is about
@@ -123,7 +147,9 @@ def test_real_recording_heading_on_the_straight(tc):
     ("override", "key"),
     [
         ("gnss.mask_deg=89.9", "gnss.mask_deg"),
-        ("gnss.lever_arm_m=[1500, 0, 0]", "gnss"),
+        ("gnss.lever_arm_m=[1500, 0, 0]", "gnss.lever_arm_m"),
+        ("flight.imu.gyro.arw_deg_rth=5000", "flight.imu.gyro.arw_deg_rth"),
+        ("flight.imu.accel.vrw_ug_rthz=1e7", "flight.imu.accel.vrw_ug_rthz"),
         ("filter.noise.arw_deg_rth=5000", "filter.noise.arw_deg_rth"),
         ("flight.legs.0.duration_s=-5", "flight.legs.0.duration"),
         ("flight.legs.2.bank_deg=90", "flight.legs.2.bank"),
