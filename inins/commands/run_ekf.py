@@ -401,10 +401,12 @@ def _report(scenario, r, s, info):
     ]
     if info.get("heading_init") is not None:
         h = info["heading_init"]
+        axis = h.mat_nb @ info["forward"]
+        used = ", ".join(f"{t:g}" for t in h.epochs)
         lines.append(
-            f"initial attitude: levelled on {scenario.data.static_window_s} s; heading "
-            f"{h.heading / DEG:.2f} deg from the velocity at {list(h.epochs)} s "
-            f"(correction {h.correction / DEG:.2f} deg)"
+            f"initial attitude: levelled on {list(scenario.data.static_window_s)} s; heading "
+            f"of the forward axis {math.degrees(math.atan2(axis[1], axis[0])):.2f} deg "
+            f"(body x {h.heading / DEG:.2f} deg) from the velocity at {used} s"
         )
     lines += ["", "final states (SI)", format_table(rows, ["state", "estimate", "sigma"])]
     return "\n".join(lines)

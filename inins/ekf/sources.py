@@ -290,11 +290,11 @@ def velocity_heading(imu_time, dtheta, dv, dt, lla, static_window, fix_time, vel
     1. Level: ``mat_nb`` at the window start from the window's mean specific force,
        heading 0.
     2. Integrate the attitude through the window; at its end re-level on the last 5 s
-       (the heading integrated by the gyros kept) and run free-inertial from rest for
-       up to 10 s of motion.
+       (the heading integrated by the gyros kept) and run free-inertial from rest.
     3. The first epochs (up to 5) whose SPP ground speed exceeds ``min_speed`` give the
        rotation about the vertical that takes the inertial horizontal velocity onto the
-       SPP one, ``dpsi = atan2(sum v_ins x v_gps, sum v_ins . v_gps)``; the attitude at
+       SPP one, ``dpsi = atan2(sum v_ins x v_gps, sum v_ins . v_gps)`` (the free run
+       spans from the window end to the last of those epochs); the attitude at
        the start is turned by it (a rotation about the vertical commutes with the
        attitude integration to first order over this minute: Earth rate 0.4 deg).
 
@@ -331,11 +331,13 @@ def velocity_heading(imu_time, dtheta, dv, dt, lla, static_window, fix_time, vel
             "from the motion",
             key="data.motion_speed_mps",
         )
+    moving = moving[fix_time[moving] <= fix_time[moving[0]] + 10.0]
     stop = int(np.searchsorted(imu_time, fix_time[moving[-1]], side="right"))
-    stop = min(stop, hi + round(10.0 / dt))
     _, vel = _free_run(mat_end, lla, imu_time, dtheta, dv, dt, hi, stop)
-    at = np.clip(np.searchsorted(imu_time, fix_time[moving], side="right") - 1 - hi, 0, None)
-    ok = at < len(vel)
+    at = np.searchsorted(imu_time, fix_time[moving], side="right") - 1 - hi
+    ok = (at >= 0) & (at < len(vel))
+    if not ok.any():
+        raise InputError("no IMU data at the first moving epochs", key="data.static_window_s")
     v_ins, v_gps = vel[at[ok]], vel_n[moving[ok]]
     cross = np.sum(v_ins[:, 0] * v_gps[:, 1] - v_ins[:, 1] * v_gps[:, 0])
     dot = np.sum(v_ins[:, 0] * v_gps[:, 0] + v_ins[:, 1] * v_gps[:, 1])
