@@ -379,6 +379,9 @@ def _datasets(r, info):
         d["truth/heading_error"] = Series(r.heading_error, "rad", "", "heading minus truth")
     if r.nees.size:
         d["truth/nees"] = Series(r.nees, "1", "", "NEES of all states")
+    if info.get("spp_pos") is not None:
+        d["spp/pos_e"] = Series(info["spp_pos"], "m", "e", "SPP antenna position at each epoch")
+        d["spp/vel_n"] = Series(info["spp_vel_n"], "m/s", "n", "SPP range-rate velocity")
     d["nav/forward_heading"] = Series(
         forward_heading(r, info["forward"]), "rad", "", "heading of the body forward axis"
     )
