@@ -132,8 +132,26 @@ def flight_plan(flight):
     try:
         _ = plan.duration
     except InputError as exc:
-        raise InputError(str(exc.args[0]), key=f"flight.{exc.key}") from None
+        raise InputError(str(exc.args[0]), key=_leg_key(exc.key)) from None
     return plan
+
+
+_LEG_FIELDS = {
+    "duration": "duration_s",
+    "speed": "speed_mps",
+    "climb_rate": "climb_rate_mps",
+    "bank": "bank_deg",
+    "angle": "angle_deg",
+    "turn_rate": "turn_rate_dps",
+}
+
+
+def _leg_key(key):
+    """``legs.2.bank`` (flight-plan key) -> ``flight.legs[2].bank_deg`` (scenario key)."""
+    parts = (key or "").split(".")
+    if len(parts) == 3 and parts[0] == "legs":
+        return f"flight.legs[{parts[1]}].{_LEG_FIELDS.get(parts[2], parts[2])}"
+    return f"flight.{key}"
 
 
 def _ephemeris(c, duration):

@@ -156,9 +156,9 @@ def test_real_recording_heading_on_the_straight(tc):
         ("flight.imu.gyro.arw_deg_rth=5000", "flight.imu.gyro.arw_deg_rth"),
         ("flight.imu.accel.vrw_ug_rthz=1e7", "flight.imu.accel.vrw_ug_rthz"),
         ("filter.noise.arw_deg_rth=5000", "filter.noise.arw_deg_rth"),
-        ("flight.legs.0.duration_s=-5", "flight.legs.0.duration"),
-        ("flight.legs.2.bank_deg=90", "flight.legs.2.bank"),
-        ("flight.legs.2.turn_rate_dps=20", "flight.legs.2.turn_rate"),
+        ("flight.legs.0.duration_s=-5", "flight.legs[0].duration_s"),
+        ("flight.legs.2.bank_deg=90", "flight.legs[2].bank_deg"),
+        ("flight.legs.2.turn_rate_dps=20", "flight.legs[2].turn_rate_dps"),
     ],
 )
 def test_bad_input_names_the_key(tmp_path, override, key):
