@@ -47,7 +47,7 @@ def run(scenario, seed, *, sink=None, progress=None):
     if scenario.data is not None:
         result, info = _recorded(scenario)
     else:
-        result, info = _simulated(scenario, seed)
+        result, info = _simulated(scenario, seed, progress)
     summary = result.summary()
     if result.heading_error.size and np.any(result.time >= scenario.filter.turning_from_s):
         window = result.summary(window=(scenario.filter.turning_from_s, math.inf))
@@ -163,7 +163,17 @@ def _ephemeris(c, duration):
     return ephemeris.from_columns(nav.records), week, sow0
 
 
-def _simulated(scenario, seed):
+def _reporting(stream, total, progress):
+    """Pass the epochs on, calling ``progress(done, total)`` once a simulated minute."""
+    for i, epoch in enumerate(stream):
+        if progress is not None and i % 60 == 0:
+            progress(i, total)
+        yield epoch
+    if progress is not None:
+        progress(total, total)
+
+
+def _simulated(scenario, seed, progress=None):
     fs, gs = scenario.flight, scenario.gnss
     plan = flight_plan(fs)
     _check_imu(fs.imu)
@@ -193,8 +203,10 @@ def _simulated(scenario, seed):
     mat_base, _, _ = base.state([0.0])
     aligned = fl.gyrocompass_attitude(mat_base[0], lla0[0, 0], lla0[0, 2], errors)
     initial = strapdown.NavState.from_attitude(aligned @ mat_base[0].T @ mat0[0], vel0[0], lla0[0])
-    stream = sources.simulated_epochs(
-        truth, base, errors, dt, plan.duration, eph, week, sow0, rx, seed
+    stream = _reporting(
+        sources.simulated_epochs(truth, base, errors, dt, plan.duration, eph, week, sow0, rx, seed),
+        math.floor(plan.duration),
+        progress,
     )
     result = _checked(lambda: run_filter(config, initial, 0.0, stream, errors), "gnss.mask_deg")
     info = {"errors": errors, "forward": np.array([1.0, 0.0, 0.0]), "track": None}
