@@ -17,6 +17,7 @@ SHORT = (
     "flight.legs=[{kind: wait, duration_s: 30}, {kind: takeoff, duration_s: 40, speed_mps: 80},"
     " {kind: turn, bank_deg: 30, angle_deg: 180}, {kind: straight, duration_s: 20}]"
 )
+SHORT_ARGS = ("--set", SHORT, "--set", "checks=[]")  # the shipped checks are the full flight's
 P003 = CONFIGS / "paper003"
 
 
@@ -32,7 +33,7 @@ def test_short_simulated_flight(tmp_path):
     """80 s flight with a 180-deg turn: EKF2-FB stays on truth (metres, 0.1 m/s) and
     consistent; all summary keys are written."""
     out = run(
-        P003 / "ekf2-fb.yaml", "-o", tmp_path, "--set", SHORT, "--set", "filter.turning_from_s=0"
+        P003 / "ekf2-fb.yaml", "-o", tmp_path, *SHORT_ARGS, "--set", "filter.turning_from_s=0"
     )
     assert out.exit_code == 0, out.output
     r = results(tmp_path)
@@ -49,7 +50,7 @@ def test_short_simulated_flight(tmp_path):
 
 
 def test_ff_keeps_no_corrections(tmp_path):
-    out = run(P003 / "ekf1-ff.yaml", "-o", tmp_path, "--set", SHORT)
+    out = run(P003 / "ekf1-ff.yaml", "-o", tmp_path, *SHORT_ARGS)
     assert out.exit_code == 0, out.output
     r = results(tmp_path)
     assert r["fb_heading_correction_deg"] == 0.0
@@ -61,8 +62,7 @@ def test_walker_constellation_and_outage(tmp_path):
         P003 / "ekf2-fb.yaml",
         "-o",
         tmp_path,
-        "--set",
-        SHORT,
+        *SHORT_ARGS,
         "--set",
         "gnss.constellation.source=walker",
         "--set",
@@ -162,7 +162,7 @@ def test_real_recording_heading_on_the_straight(tc):
     ],
 )
 def test_bad_input_names_the_key(tmp_path, override, key):
-    out = run(P003 / "ekf2-fb.yaml", "-o", tmp_path, "--set", SHORT, "--set", override)
+    out = run(P003 / "ekf2-fb.yaml", "-o", tmp_path, *SHORT_ARGS, "--set", override)
     assert out.exit_code == 2, out.output
     assert key in out.stderr, out.stderr
     assert list(tmp_path.iterdir()) == []
