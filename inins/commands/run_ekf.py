@@ -308,7 +308,9 @@ def _recorded(scenario):
         klob,
     )
     t_start = float(imu.time[0] - dt)
-    lla_imu = lla0 - np.array([0.0, 0.0, 0.0])
+    # the IMU sits the lever arm behind the antenna's first fix
+    lever_e = earth.mat_en(lla0[0], lla0[1]) @ init.mat_nb @ np.asarray(d.lever_arm_m, float)
+    lla_imu = earth.llh_from_ecef(fix.pos[fixed[0]] - lever_e)
     initial = strapdown.NavState.from_attitude(init.mat_nb, np.zeros(3), lla_imu)
     stream = sources.recorded_epochs(imu.time, imu.dtheta, imu.dv, t_start, gnss_list)
     result = _checked(lambda: run_filter(config, initial, t_start, stream), "data.mask_deg")
