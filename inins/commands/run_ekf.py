@@ -321,6 +321,7 @@ def _recorded(scenario):
         "spp_pos": fix.pos[idx],
         "spp_vel_n": vel_n[idx],
         "heading_init": init,
+        "lever": np.asarray(d.lever_arm_m, float),
     }
     return result, info
 
@@ -355,7 +356,11 @@ def _results(result, s, info):
     out["fb_heading_correction_deg"] = float(result.cumulative[-1, i] / DEG)
     out["phi_d_est_final_deg"] = float(result.state[-1, i] / DEG)
     if info.get("spp_pos") is not None:
-        r = earth.ecef_from_llh(result.lla[:, 0], result.lla[:, 1], result.lla[:, 2])
+        lla = result.lla
+        mat_nb = rotation.mat_from_quat(result.quat_nb)
+        lever_n = mat_nb @ info["lever"]  # the antenna, compared with the SPP fix
+        r = earth.ecef_from_llh(lla[:, 0], lla[:, 1], lla[:, 2])
+        r = r + np.einsum("nij,nj->ni", earth.mat_en(lla[:, 0], lla[:, 1]), lever_n)
         ok = np.isfinite(info["spp_pos"][:, 0])
         dp = np.linalg.norm(r[ok] - info["spp_pos"][ok], axis=1)
         dv = np.linalg.norm(result.vel_n[ok] - info["spp_vel_n"][ok], axis=1)
