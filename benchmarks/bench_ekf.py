@@ -2,7 +2,9 @@
 
 ``run()`` simulates one hour of a bank-turn flight (200 Hz IMU with the sensor
 error model and RLG dither, 1 Hz pseudoranges and range rates from the nominal
-Walker constellation of the test helper, 30/6/1: 8-12 satellites above 5 deg),
+Walker constellation 30/6/1 of :func:`inins.gnss.constellation.walker` through the
+GNSS layer's receiver simulation, :func:`inins.ekf.sources.simulated_epochs`: 8-12
+satellites above 5 deg),
 warms the JIT up, then times :func:`inins.ekf.filter.run_filter` over the
 stored hour (target < 2 s, >= 1800x real time) and reports the per-epoch cost.
 A child process then streams a 4-hour flight through the filter (simulation
@@ -37,10 +39,10 @@ from inins.ekf.flight import (
     flight_trajectory,
     gyrocompass_attitude,
 )
+from inins.ekf.sources import Receiver, simulated_epochs
+from inins.gnss import constellation, gpstime
 
 ROOT = Path(__file__).resolve().parent.parent
-sys.path.insert(0, str(ROOT / "tests" / "ekf"))  # Walker stand-in until the GNSS layer lands
-from ekf_sim import Receiver, epoch_stream  # noqa: E402
 
 DT = 0.005
 ERRORS = imu.SensorErrors(
@@ -52,7 +54,19 @@ ERRORS = imu.SensorErrors(
     accel_vrw=20 * UG,
 )
 DITHER = Dither(60 * ARCSEC, 40.0)
-RECEIVER = Receiver(mask=5 * DEG, per_plane=5)  # Walker 30/6/1: 8-12 in view
+RECEIVER = Receiver(
+    lever_arm=(1.5, 0.2, -1.0),
+    mask=5 * DEG,
+    sigma_pr=2.0,
+    sigma_rr=0.05,
+    h0=2e-19,
+    h_2=2e-20,
+    clock_bias=3000.0,
+    clock_drift=0.5,
+    latency=0.15,
+    filter_sigma_pr=2.0,
+    filter_sigma_rr=0.05,
+)
 
 
 def _plan(hours):
@@ -91,9 +105,14 @@ def _setup(hours):
         arw=np.full(3, 0.002 * DEG_RTH),
         vrw=np.full(3, 20 * UG),
         dither_window=dither_window(DITHER, DT),
-        initial_sigma=InitialSigma(heading=0.1 * DEG, gyro_bias=0.02 * DPH),
+        initial_sigma=InitialSigma(heading=0.1 * DEG, gyro_bias=0.02 * DPH, clock_bias=1e4),
     )
-    stream = epoch_stream(truth, base, ERRORS, DT, 3600.0 * hours, RECEIVER, seed=5, nodes=2)
+    week, sow0 = gpstime.from_calendar(2015, 1, 8, 6, 0, 0.0)
+    duration = 3600.0 * hours
+    eph = constellation.walker(week, sow0, duration + 60.0, per_plane=5)  # 30/6/1
+    stream = simulated_epochs(
+        truth, base, ERRORS, DT, duration, eph, week, sow0, RECEIVER, seed=5, nodes=2
+    )
     # the filter's own cost: no truth comparison per epoch
     stream = (EpochInput(e.dtheta, e.dv, e.pps_index, e.gnss) for e in stream)
     return config, initial, stream

@@ -101,7 +101,6 @@ COMMANDS = (
         "run-ekf",
         "Tightly coupled INS/GPS EKF (17 or 26 states, feedforward or feedback) on a "
         "simulated flight (climbs, descents, repeated bank turns) or on recorded data.",
-        available=False,
     ),
     CommandSpec(
         "observability",

@@ -122,3 +122,75 @@ def _note_figure(path, text):
     ax.text(0.5, 0.5, text, ha="center", va="center")
     fig.savefig(path, dpi=100, format="png")
     plt.close(fig)
+
+
+def _ekf_states(result, names, path, title, scale, unit):
+    plt = _pyplot()
+    ds = result.datasets
+    states = result.attrs["ekf"]["states"]
+    time = ds["nav/time"].data
+    fig, ax = plt.subplots(figsize=(9, 4.5), layout="constrained")
+    for k, name in enumerate(n for n in names if n in states):
+        i = states.index(name)
+        color = plt.cm.tab10(k % 10)
+        est = ds["states/estimate"].data[:, i] / scale
+        sig = ds["states/sigma"].data[:, i] / scale
+        ax.plot(time, est, color=color, lw=1.0, label=name)
+        ax.plot(time, est + sig, color=color, lw=0.5, ls=":")
+        ax.plot(time, est - sig, color=color, lw=0.5, ls=":")
+    ax.set_xlabel("time (s)")
+    ax.set_ylabel(unit)
+    ax.set_title(title + " (dotted: 1-sigma)")
+    ax.legend(fontsize=7, ncol=3)
+    ax.grid(alpha=0.3)
+    fig.savefig(path, dpi=110, format="png")
+    plt.close(fig)
+
+
+def run_ekf_heading(result, path):
+    """run-ekf, 003 Figs. 8, 12: heading error against truth (or the estimated phi_D)."""
+    plt = _pyplot()
+    ds = result.datasets
+    time = ds["nav/time"].data
+    fig, ax = plt.subplots(figsize=(9, 4.5), layout="constrained")
+    if "truth/heading_error" in ds:
+        ax.plot(time, np.degrees(ds["truth/heading_error"].data), lw=1.0, label="output - truth")
+    i = result.attrs["ekf"]["states"].index("phi_D")
+    ax.plot(time, np.degrees(ds["states/estimate"].data[:, i]), lw=0.8, label="phi_D estimate")
+    ax.set_xlabel("time (s)")
+    ax.set_ylabel("heading error (deg)")
+    ax.legend(fontsize=8)
+    ax.grid(alpha=0.3)
+    fig.savefig(path, dpi=110, format="png")
+    plt.close(fig)
+
+
+def run_ekf_gyro_bias(result, path):
+    """run-ekf, 003 Figs. 9, 10: gyro bias states with 1-sigma (deg/h)."""
+    _ekf_states(result, ("bg_x", "bg_y", "bg_z"), path, "gyro bias", np.pi / 180 / 3600, "deg/h")
+
+
+def run_ekf_misalignment(result, path):
+    """run-ekf, 003 Fig. 11: gyro misalignment states with 1-sigma (arcsec)."""
+    names = ("mg_xy", "mg_xz", "mg_yx", "mg_yz", "mg_zx", "mg_zy")
+    if "mg_yz" not in result.attrs["ekf"]["states"]:
+        return _note_figure(path, "EKF1: no misalignment states")
+    _ekf_states(result, names, path, "gyro misalignment", ARCSEC, "arcsec")
+
+
+def run_ekf_corrections(result, path):
+    """run-ekf, 003 §3.3.2: cumulative FB corrections of the attitude (deg)."""
+    plt = _pyplot()
+    ds = result.datasets
+    states = result.attrs["ekf"]["states"]
+    fig, ax = plt.subplots(figsize=(9, 4.5), layout="constrained")
+    for name in ("phi_N", "phi_E", "phi_D"):
+        i = states.index(name)
+        ax.plot(ds["nav/time"].data, np.degrees(ds["states/cumulative"].data[:, i]), label=name)
+    ax.set_xlabel("time (s)")
+    ax.set_ylabel("cumulative correction (deg)")
+    ax.set_title(f"feedback corrections ({result.attrs['ekf']['coupling']}; zero in ff)")
+    ax.legend(fontsize=8)
+    ax.grid(alpha=0.3)
+    fig.savefig(path, dpi=110, format="png")
+    plt.close(fig)

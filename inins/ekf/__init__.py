@@ -1,6 +1,6 @@
 """Tightly coupled INS/GPS extended Kalman filters of paper 003 (run-ekf).
 
-Pure numerics: imports only ``inins.core`` (and ``inins.gnss`` once it exists).
+Pure numerics: imports only ``inins.core`` and ``inins.gnss``.
 
 - :mod:`inins.ekf.flight` — flight plans (ground wait, take-off, climbs, straight
   legs, coordinated bank turns) as analytic truth, RLG dither, the IMU stream
@@ -10,6 +10,9 @@ Pure numerics: imports only ``inins.core`` (and ``inins.gnss`` once it exists).
 - :mod:`inins.ekf.config` — :class:`~inins.ekf.config.FilterConfig` (EKF1/EKF2,
   FF/FB, noise, gating, dither window, outages), :class:`~inins.ekf.config.EpochInput`.
 - :mod:`inins.ekf.filter` — :func:`~inins.ekf.filter.run_filter`, the streaming run.
+- :mod:`inins.ekf.sources` — epoch streams: a simulated flight through the GNSS
+  layer's receiver simulation, a recording; levelling and the velocity-heading
+  initialisation of a recording.
 - :mod:`inins.ekf.result` — :class:`~inins.ekf.result.EkfResult`,
   :class:`~inins.ekf.result.EkfSummary`.
 - :mod:`inins.ekf.kernels`, :mod:`inins.ekf.step` — compiled per-epoch numerics.

@@ -309,10 +309,11 @@ def run_filter(config, initial, t0, epochs, true_sensor=None):
             "i_accepted",
         )
     }
-    start_wall = _time.perf_counter()
+    wall = 0.0  # the filter's own time: producing the epochs (simulation, file) is not counted
     t_end = t0
     out = np.empty(4), np.empty(3), np.empty(3)
     for index, ep in enumerate(epochs):
+        start_wall = _time.perf_counter()
         dth, dv = step.compensate(ep.dtheta, ep.dv, cfg.dt, run.comp) if fb else (ep.dtheta, ep.dv)
         start, series = run.nav.run(dth, dv, cfg.dt)
         t_k = ep.gnss.time
@@ -365,7 +366,7 @@ def run_filter(config, initial, t0, epochs, true_sensor=None):
             ("cum", cum),
         ):
             log[key].append(value)
-    wall = _time.perf_counter() - start_wall
+        wall += _time.perf_counter() - start_wall
     if log["n_sats"] and max(log["n_sats"]) == 0:
         raise InputError("no satellites above the mask in any epoch of the run", key="gnss")
     return EkfResult.from_logs(cfg, log, t_end - t0, wall)

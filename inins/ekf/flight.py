@@ -43,7 +43,8 @@ from inins.core.trajectory import Analytic
 from inins.core.units import DEG
 from inins.exceptions import InputError
 
-_SPEED_FLOOR = 1e-3  # m/s: keeps the track defined at rest (bias < 1e-10 rad in flight)
+_SPEED_FLOOR = 1e-3  # m/s: keeps roll and pitch defined at rest (bias < 1e-10 rad in flight)
+_TRACK_FLOOR = 1e-9  # m/s along the ground heading: the track at rest is that heading
 TURN_STEP = 15.0 * DEG
 """A turn is built from track steps of at most this angle (rad)."""
 
@@ -225,7 +226,7 @@ def _position(velocity, origin, scale, index, order, time):
     return offset + scale[index] * velocity(time, order)[..., index]
 
 
-def _attitude(velocity, aoa, index, time):
+def _attitude(velocity, aoa, heading, index, time):
     """Roll (coordinated bank), pitch (flight path + aoa) or heading (track), complex-safe."""
     vel = velocity(time, 0)
     v_n, v_e = vel[..., 0], vel[..., 1]
@@ -235,8 +236,14 @@ def _attitude(velocity, aoa, index, time):
         return np.arctan((v_n * acc[..., 1] - v_e * acc[..., 0]) / ground / earth.GAMMA_E)
     if index == 1:
         return np.arctan(-vel[..., 2] / ground) + aoa
-    north = 2.0 * np.arctan(v_e / (ground + v_n))  # track, branch by the real velocity
-    south = np.pi + 2.0 * np.arctan(-v_e / (ground - v_n))
+    # track of the velocity plus a 1e-9 m/s floor along the ground heading (at rest the
+    # track is that heading; < 1e-10 rad in flight), branch by the real velocity
+    v_n = v_n + _TRACK_FLOOR * math.cos(heading)
+    v_e = v_e + _TRACK_FLOOR * math.sin(heading)
+    ground = np.sqrt(v_n * v_n + v_e * v_e)
+    with np.errstate(divide="ignore", invalid="ignore"):  # the branch not taken may be 0/0
+        north = 2.0 * np.arctan(v_e / (ground + v_n))
+        south = np.pi + 2.0 * np.arctan(-v_e / (ground - v_n))
     return np.where(np.real(v_n) > 0.0, north, south)
 
 
@@ -251,7 +258,7 @@ def flight_trajectory(plan):
     scale = (1.0 / (rn + plan.height), 1.0 / ((re + plan.height) * math.cos(plan.lat)), -1.0)
     pos = [lambda t, i=i: _position(velocity, origin, scale, i, -1, t) for i in range(3)]
     rate = [lambda t, i=i: _position(velocity, origin, scale, i, 0, t) for i in range(3)]
-    angles = [lambda t, i=i: _attitude(velocity, plan.aoa, i, t) for i in range(3)]
+    angles = [lambda t, i=i: _attitude(velocity, plan.aoa, plan.heading, i, t) for i in range(3)]
     return Analytic(*angles, *pos, *rate)
 
 

@@ -93,7 +93,8 @@ class EkfResult:
         Wall time of propagation + update per epoch (s).
     innovations : Innovations
     flight_time, wall_time : float
-        Data span and wall time of the run (s).
+        Data span and the filter's own wall time (s): producing the epochs (a
+        simulation generator, a file reader) is not counted.
     """
 
     model: str

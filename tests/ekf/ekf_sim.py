@@ -1,6 +1,7 @@
 """Test helper: a nominal 24-satellite Walker constellation and a simulated epoch stream.
 
-Stand-in for the GNSS layer's receiver simulation (to be replaced on merge):
+Kept for the numerics tests of the filter (independent of the GNSS layer; the
+command and the benchmark use :func:`inins.ekf.sources.simulated_epochs`):
 circular orbits (Walker 24/6/1, i = 55 deg, a = 26,559.7 km), transmit time by
 iteration, Sagnac rotation into the receive-time ECEF frame, receiver clock bias
 and drift, white noise.

@@ -1,0 +1,240 @@
+"""Scenario of ``inins run-ekf`` (spec §6, §6a, paper 003): a simulated flight
+(``flight:`` + ``gnss:``) or a recording (``data:``), and the filter (``filter:``).
+
+Simulated: legs flown from a ground wait aligned by gyrocompass at the site, 200 Hz
+increments through the sensor error model with RLG dither, 1 Hz pseudoranges and
+range rates of a constellation (the shipped ABPO navigation file at a chosen GPS
+time, or a Walker constellation) with a TCXO clock, lever arm and latency.
+Recorded: an import-flight output (``.h5``) or the PSINS tc ``.mat`` file directly.
+"""
+
+from typing import Literal
+
+from pydantic import Field, model_validator
+
+from inins.scenario.base import ScenarioModel, ScenarioPath
+from inins.scenario.base import ScenarioSection as Section
+from inins.scenario.common import Imu, Site
+from inins.scenario.types import NonNegFloat, PositiveFloat
+from inins.scenario.validation import KeyPathError
+
+LegKindName = Literal["wait", "takeoff", "climb", "descend", "straight", "turn"]
+
+
+class FlightLeg(Section):
+    """One leg of the flight plan."""
+
+    kind: LegKindName = Field(
+        description="wait (on the ground), takeoff (accelerate to speed_mps), climb / descend "
+        "(at climb_rate_mps), straight, turn (coordinated bank turn)"
+    )
+    duration_s: float = Field(
+        0.0, description="leg length (s); a turn may give 0: as long as its angle needs"
+    )
+    speed_mps: PositiveFloat | None = Field(
+        None, description="ground speed to reach (m/s): takeoff needs it; else a speed change"
+    )
+    climb_rate_mps: NonNegFloat = Field(
+        0.0, description="climb / descend: vertical speed (m/s), the kind gives the sign"
+    )
+    bank_deg: float = Field(0.0, description="turn: bank angle (deg), in (0, 90)")
+    angle_deg: PositiveFloat = Field(360.0, description="turn: heading change (deg)")
+    direction: Literal["right", "left"] = Field("right", description="turn: direction")
+    turn_rate_dps: PositiveFloat | None = Field(
+        None,
+        description="turn: stated turn rate (deg/s), checked against the coordinated "
+        "g tan(bank) / V (5 %); default the coordinated rate",
+    )
+
+
+class Dither(Section):
+    """RLG mechanical dither of the sensor block (003 §2.2)."""
+
+    amplitude_arcsec: NonNegFloat = Field(60.0, description="peak dither angle (arcsec)")
+    frequency_hz: PositiveFloat = Field(40.0, description="dither frequency (Hz)")
+
+
+class Flight(Section):
+    """The simulated flight: site, ground heading, legs, IMU and dither."""
+
+    site: Site = Field(default_factory=Site)
+    heading_deg: float = Field(180.0, description="heading on the ground (deg), 180 in 003")
+    aoa_deg: float = Field(2.0, ge=-20.0, le=20.0, description="angle of attack (deg)")
+    legs: list[FlightLeg] = Field(min_length=1, description="the flight plan, in order")
+    imu: Imu = Field(default_factory=lambda: Imu(sample_rate_hz=200.0))
+    dither: Dither = Field(default_factory=Dither)
+
+
+class Constellation(Section):
+    """Where the satellites come from."""
+
+    source: Literal["abpo", "walker"] = Field(
+        "abpo",
+        description="abpo: the shipped broadcast navigation file data/abpo0080.15n.gz "
+        "(2015-01-08); walker: a nominal Walker 55 deg constellation",
+    )
+    start_hour_s: NonNegFloat = Field(
+        21600.0, lt=86400.0, description="GPS time of IMU t = 0: seconds into 2015-01-08 (s)"
+    )
+    per_plane: int = Field(5, ge=4, le=8, description="walker: satellites per plane (1)")
+
+
+class Gnss(Section):
+    """The simulated receiver."""
+
+    constellation: Constellation = Field(default_factory=Constellation)
+    mask_deg: float = Field(10.0, ge=-5.0, le=90.0, description="elevation mask (deg)")
+    pseudorange_sigma_m: PositiveFloat = Field(
+        2.0, le=100.0, description="pseudorange white noise (m)"
+    )
+    range_rate_sigma_mps: PositiveFloat = Field(
+        0.05, le=10.0, description="range-rate white noise (m/s)"
+    )
+    clock_h0_s: NonNegFloat = Field(
+        2e-19, le=1e-15, description="TCXO white frequency noise h0 (s)"
+    )
+    clock_hm2_per_s: NonNegFloat = Field(
+        2e-20, le=1e-15, description="TCXO random-walk frequency noise h-2 (1/s)"
+    )
+    clock_bias_m: float = Field(3000.0, description="receiver clock bias at t = 0 (m)")
+    clock_drift_mps: float = Field(0.5, description="receiver clock drift at t = 0 (m/s)")
+    lever_arm_m: tuple[float, float, float] = Field(
+        (1.5, 0.2, -1.0), description="antenna minus IMU, body axes (m), each within 100 m"
+    )
+    latency_s: NonNegFloat = Field(
+        0.15, le=0.9, description="data arrival after the 1PPS epoch (s)"
+    )
+
+
+class Data(Section):
+    """A recording instead of a simulation."""
+
+    file: ScenarioPath = Field(
+        description="import-flight output (.h5, recorded-flight layout) or the PSINS tc "
+        ".mat file, relative to this scenario file"
+    )
+    static_window_s: tuple[float, float] = Field(
+        description="IMU time (s) where the vehicle stands: levelling"
+    )
+    motion_speed_mps: PositiveFloat = Field(
+        1.5, description="SPP ground speed (m/s) above which the motion gives the heading"
+    )
+    forward_axis_b: tuple[float, float, float] = Field(
+        (1.0, 0.0, 0.0),
+        description="body axis the vehicle moves along (unit vector, body axes; 1), for "
+        "the heading reported against the track",
+    )
+    lever_arm_m: tuple[float, float, float] = Field(
+        (0.0, 0.0, 0.0), description="antenna minus IMU, body axes (m), each within 100 m"
+    )
+    latency_s: NonNegFloat = Field(0.0, le=0.9, description="data arrival after the epoch (s)")
+    mask_deg: float = Field(10.0, ge=-5.0, le=90.0, description="elevation mask (deg)")
+
+    @model_validator(mode="after")
+    def _window(self):
+        if not self.static_window_s[1] > self.static_window_s[0] + 5.0:
+            raise KeyPathError(("static_window_s",), "needs end > start + 5 s")
+        return self
+
+
+class InitialSigma(Section):
+    """Initial 1-sigma of the error states."""
+
+    position_m: PositiveFloat = Field(5.0, description="position, each axis (m)")
+    velocity_mps: PositiveFloat = Field(0.1, description="velocity, each axis (m/s)")
+    tilt_deg: PositiveFloat = Field(0.01, description="roll and pitch error (deg)")
+    heading_deg: PositiveFloat = Field(0.1, description="heading error (deg)")
+    accel_bias_ug: PositiveFloat = Field(100.0, description="accelerometer bias (ug)")
+    gyro_bias_dph: PositiveFloat = Field(0.02, description="gyro bias (deg/h)")
+    accel_misalignment_arcsec: PositiveFloat = Field(
+        20.0, description="accelerometer misalignment (arcsec)"
+    )
+    gyro_misalignment_arcsec: PositiveFloat = Field(60.0, description="gyro misalignment (arcsec)")
+    clock_bias_m: PositiveFloat = Field(1e4, description="receiver clock bias (m)")
+    clock_drift_mps: PositiveFloat = Field(10.0, description="receiver clock drift (m/s)")
+
+
+class FilterNoise(Section):
+    """Process noise of the filter."""
+
+    arw_deg_rth: NonNegFloat = Field(
+        0.002, le=100.0, description="gyro angle random walk (deg/sqrt(h))"
+    )
+    vrw_ug_rthz: NonNegFloat = Field(
+        20.0, le=1e5, description="accelerometer velocity random walk (ug/sqrt(Hz))"
+    )
+    gyro_bias_walk_dph: NonNegFloat = Field(
+        0.0, le=1e5, description="gyro bias random walk: 1-sigma growth over one hour (deg/h)"
+    )
+    accel_bias_walk_ug: NonNegFloat = Field(
+        0.0, le=1e6, description="accelerometer bias random walk: 1-sigma growth over one hour (ug)"
+    )
+    clock_h0_s: NonNegFloat = Field(2e-19, le=1e-15, description="clock model h0 (s)")
+    clock_hm2_per_s: NonNegFloat = Field(2e-20, le=1e-15, description="clock model h-2 (1/s)")
+
+
+class FilterSettings(Section):
+    """The tightly coupled filter (003 §2)."""
+
+    model: Literal["ekf1", "ekf2"] = Field(
+        "ekf2", description="ekf1: 17 states; ekf2: + accel (3) and gyro (6) misalignment"
+    )
+    coupling: Literal["ff", "fb"] = Field(
+        "fb", description="ff: corrections at the output; fb: fed back, states reset"
+    )
+    noise: FilterNoise = Field(default_factory=FilterNoise)
+    initial_sigma: InitialSigma = Field(default_factory=InitialSigma)
+    pseudorange_sigma_m: PositiveFloat = Field(
+        2.0, le=100.0, description="pseudorange 1-sigma the filter uses (m)"
+    )
+    range_rate_sigma_mps: PositiveFloat = Field(
+        0.05, le=10.0, description="range-rate 1-sigma the filter uses (m/s)"
+    )
+    use_range_rate: bool = Field(True, description="update with the range rates too")
+    gate_probability: float = Field(
+        0.9999, gt=0.5, le=1.0, description="chi-square(1) gate per measurement (1)"
+    )
+    dither_window: int | Literal["auto"] = Field(
+        "auto",
+        description="moving-average length (samples) of f_b, omega_b (003 §2.2); auto: "
+        "whole dither periods (1 for recordings)",
+    )
+    pps_storage: bool = Field(
+        True, description="update with the INS state stored at the 1PPS (003 §2.1)"
+    )
+    outages_s: list[tuple[float, float]] = Field(
+        [], description="GPS outage windows [start, end) (s): epochs inside are coasted"
+    )
+    turning_from_s: NonNegFloat = Field(
+        0.0, description="start of the window of the heading-error RMS (s)"
+    )
+
+    @model_validator(mode="after")
+    def _outages(self):
+        for i, (a, b) in enumerate(self.outages_s):
+            if not b > a:
+                raise KeyPathError(("outages_s", i), f"end {b} s not after start {a} s")
+        if isinstance(self.dither_window, int) and self.dither_window < 1:
+            raise KeyPathError(("dither_window",), "must be >= 1 sample")
+        return self
+
+
+class RunEkfScenario(ScenarioModel):
+    """Tightly coupled INS/GPS EKF on a simulated flight or a recording."""
+
+    flight: Flight | None = Field(None, description="simulated flight (with gnss)")
+    gnss: Gnss | None = Field(None, description="simulated receiver (with flight)")
+    data: Data | None = Field(None, description="a recording instead of flight and gnss")
+    filter: FilterSettings = Field(default_factory=FilterSettings)
+
+    @model_validator(mode="after")
+    def _one_source(self):
+        simulated = self.flight is not None or self.gnss is not None
+        if simulated == (self.data is not None):
+            raise KeyPathError(
+                ("data",), "give flight and gnss (simulation) or data (a recording), not both"
+            )
+        if simulated and (self.flight is None or self.gnss is None):
+            key = "flight" if self.flight is None else "gnss"
+            raise KeyPathError((key,), "a simulation needs both flight and gnss")
+        return self
