@@ -54,7 +54,7 @@ def run(scenario, seed, *, sink=None, progress=None):
     )
     return CommandResult(
         command="observability",
-        results=result_numbers(found),
+        results=result_numbers(found, segments),
         datasets=datasets(found, segments),
         attrs={
             "observability": {
@@ -63,7 +63,7 @@ def run(scenario, seed, *, sink=None, progress=None):
                 "method": found.pwcs.method,
             }
         },
-        report=report(scenario, found, segments),
+        report=report(scenario, found, segments) + turn_report(found, segments),
         warnings=found.warnings,
     )
 
@@ -94,6 +94,8 @@ def build_segments(scenario, los_n):
     lla = scenario.site.lla()
     if scenario.trajectory is not None:
         return trajectory_segments(scenario.trajectory, los_n)
+    if scenario.flight is not None:
+        return flight_segments(scenario.flight, los_n)
     out = []
     for i, s in enumerate(scenario.segments):
         mat_nb = rotation.mat_from_euler(s.roll_deg * DEG, s.pitch_deg * DEG, s.heading_deg * DEG)
@@ -157,6 +159,36 @@ def trajectory_segments(trajectory, los_n):
     )
 
 
+def flight_segments(source, los_n):
+    """Segments of a run-ekf scenario's simulated flight, sampled at ``sample_rate_hz``."""
+    from inins.commands.run_ekf import flight_plan
+    from inins.ekf.flight import flight_trajectory
+    from inins.scenario.base import load_scenario
+    from inins.scenario.run_ekf import RunEkfScenario
+
+    ekf_scenario = load_scenario(RunEkfScenario, source.scenario, [], None)[0]
+    if ekf_scenario.flight is None:
+        raise InputError(
+            "the run-ekf scenario has no flight: section", source=str(source.scenario), key="flight"
+        )
+    plan = flight_plan(ekf_scenario.flight)
+    truth = flight_trajectory(plan)
+    time = np.arange(0.0, plan.duration + 1e-9, 1.0 / source.sample_rate_hz)
+    mat_nb, vel_n, lla = truth.state(time)
+    omega_ib_b, f_b = truth.rates(time)
+    return cut_segments(
+        time,
+        mat_nb,
+        f_b,
+        omega_ib_b,
+        vel_n,
+        lla,
+        attitude_threshold=source.attitude_threshold_deg * DEG,
+        force_threshold=source.force_threshold_mps2,
+        los_n=los_n,
+    )
+
+
 def priors(p, names):
     """Initial 1-sigma per state (SI) from the prior groups."""
     group_of = {name: group for group, members in GROUPS.items() for name in members}
@@ -172,7 +204,7 @@ def priors(p, names):
     return np.array(out)
 
 
-def result_numbers(found):
+def result_numbers(found, segments):
     """Flat results: ranks and per state ``observable_<state>``, ``sigma_ratio_<state>``."""
     out = {
         "rank": found.rank,
@@ -180,12 +212,20 @@ def result_numbers(found):
         "n_unobservable": found.n_unobservable,
         "gramian_rank": found.gramian_rank,
         "segments": len(found.pwcs.segment_rank),
+        "full_rank_after_s": _full_rank_time(found, segments),
     }
     for s in found.states:
         out[f"observable_{s.name}"] = bool(s.observable)
     for s in found.states:
         out[f"sigma_ratio_{s.name}"] = None if not np.isfinite(s.sigma_ratio) else s.sigma_ratio
     return out
+
+
+def _full_rank_time(found, segments):
+    """End time (s) of the first segment after which every state is observable, or None."""
+    ends = np.cumsum([s.duration for s in segments])
+    full = [j for j, r in enumerate(found.pwcs.segment_rank) if r == found.n_states]
+    return float(ends[full[0]]) if full else None
 
 
 def datasets(found, segments):
@@ -221,6 +261,48 @@ def datasets(found, segments):
             c.eigenvalues, "1", "", "eigenvalues of the normalised covariance at each segment end"
         )
     return out
+
+
+TURN_ROLL = 10.0 * DEG
+"""A segment banked more than this is part of a turn."""
+
+
+def turns(segments):
+    """(start, end) times (s) of the turns: runs of segments banked beyond :data:`TURN_ROLL`."""
+    ends = np.cumsum([s.duration for s in segments])
+    banked = [abs(rotation.euler_from_mat(s.mat_nb)[0]) > TURN_ROLL for s in segments]
+    out, start = [], None
+    for j, b in enumerate(banked):
+        if b and start is None:
+            start = float(ends[j] - segments[j].duration)
+        if start is not None and not b:
+            out.append((start, float(ends[j - 1])))
+            start = None
+    if start is not None:
+        out.append((start, float(ends[-1])))
+    return out
+
+
+def turn_report(found, segments):
+    """Degree of observability turn by turn: sigma / prior of the sensor-error states
+    before the first turn and at the end of each turn (flights only)."""
+    spans = turns(segments)
+    cov = found.covariance
+    if not spans or cov is None:
+        return ""
+    times = [spans[0][0], *(end for _, end in spans)]
+    k = np.searchsorted(cov.time, times).clip(0, len(cov.time) - 1)
+    rows = [
+        [name, *(cov.sigma[k, i] / cov.sigma[0, i])]
+        for i, name in enumerate(found.pwcs.names)
+        if name.startswith(("mg_", "ma_", "bg_", "ba_"))
+    ]
+    heads = ["state", "before", *(f"turn {j + 1}" for j in range(len(spans)))]
+    text = ", ".join(f"{a:.0f}-{b:.0f}" for a, b in spans)
+    return (
+        "\n\nsigma / prior before the first turn and at the end of each turn "
+        f"(turns {text} s)\n" + format_table(rows, heads, fmt=".3g")
+    )
 
 
 def _sigma_text(value, unit):

@@ -1,6 +1,7 @@
 """Scenario of ``inins observability`` (spec §7, paper 002): an error-state model,
-aiding measurements, satellite geometry, and piecewise-constant segments (listed, or
-cut from a trajectory file), with the priors of the covariance analysis.
+aiding measurements, satellite geometry, and piecewise-constant segments (listed, cut
+from a trajectory file, or cut from the simulated flight of a run-ekf scenario), with
+the priors of the covariance analysis.
 
 Segments: each entry is one constant operating point held for ``duration_s``. The
 attitude is a heading (level body) or roll, pitch and heading; the velocity is NED
@@ -107,6 +108,25 @@ class Trajectory(Section):
     )
 
 
+class FlightSource(Section):
+    """Segments cut from the simulated flight of a run-ekf scenario (its ``flight:``
+    legs: ground wait, take-off, climbs, straight legs, bank turns)."""
+
+    scenario: ScenarioPath = Field(
+        description="a run-ekf scenario with a flight: section (e.g. "
+        "configs/paper003/ekf2-fb.yaml), relative to this scenario file"
+    )
+    sample_rate_hz: PositiveFloat = Field(
+        1.0, description="rate the flight's attitude and specific force are sampled at (Hz)"
+    )
+    attitude_threshold_deg: PositiveFloat = Field(
+        5.0, description="a new segment starts when the attitude has turned this far (deg)"
+    )
+    force_threshold_mps2: PositiveFloat = Field(
+        0.5, description="... or the body specific force has changed this much (m/s^2)"
+    )
+
+
 class Priors(Section):
     """Initial 1-sigma per state group for the covariance analysis (absent groups: not
     in the model, or left at the default)."""
@@ -153,6 +173,9 @@ class ObservabilityScenario(ScenarioModel):
     trajectory: Trajectory | None = Field(
         None, description="cut the segments from a trajectory file instead"
     )
+    flight: FlightSource | None = Field(
+        None, description="cut the segments from a run-ekf scenario's simulated flight instead"
+    )
     update_interval_s: PositiveFloat = Field(
         1.0, description="measurement interval of the covariance analysis (s)"
     )
@@ -162,9 +185,11 @@ class ObservabilityScenario(ScenarioModel):
 
     @model_validator(mode="after")
     def _sources(self):
-        if bool(self.segments) == (self.trajectory is not None):
+        sources = [bool(self.segments), self.trajectory is not None, self.flight is not None]
+        if sum(sources) != 1:
             raise KeyPathError(
-                ("segments",), "give segments or a trajectory file, not both and not neither"
+                ("segments",),
+                "give exactly one of segments, trajectory (a file) and flight (a run-ekf scenario)",
             )
         needs_sky = [
             i for i, m in enumerate(self.measurements) if m.kind not in ("velocity", "position")
