@@ -13,6 +13,7 @@ codes. Keep this package cheap to import: ``inins --help`` must not load numpy,
 scipy, numba, h5py or pydantic.
 """
 
+import sys
 from typing import Annotated
 
 import typer
@@ -80,4 +81,20 @@ def main() -> None:
 
     if hasattr(signal, "SIGTERM"):
         signal.signal(signal.SIGTERM, _terminate)
-    app(prog_name="inins")
+    try:
+        app(prog_name="inins")
+    except SystemExit as exc:
+        _exit_past_failed_hdf5(exc.code)
+        raise
+
+
+def _exit_past_failed_hdf5(code) -> None:
+    """End the process at once if HDF5 was left with a file it failed to write (a disk
+    that filled up under it): its own clean-up at exit would crash on that file."""
+    import os
+
+    hdf5 = sys.modules.get("inins.io.hdf5")
+    if hdf5 is not None and hdf5._abandoned:
+        sys.stdout.flush()
+        sys.stderr.flush()
+        os._exit(code if isinstance(code, int) else 1)

@@ -398,3 +398,28 @@ def _paper_table(outcome, names, case):
         + "\n"
         + "\n".join("note: " + s for s in PAPER_NOTES)
     )
+
+
+# -- declared names and size, before the run ------------------------------------------
+_ESTIMATES = ("attitude", "velocity", "eq38", "eq44", "eq45", "")
+
+
+def declared_results(scenario):
+    """``(results, truth)`` names a run may give, for validating checks before it.
+
+    Every horizontal axis could be either of x, y, z (the geometry is found from the
+    data), so the names cover all three; a name this run does not give makes its check
+    fail ("not available") rather than be bad input.
+    """
+    betas = [f"beta_{a}_{m}_dph".replace("__", "_") for a in AXES for m in _ESTIMATES]
+    results = [*betas, *(b.replace("_dph", "_sigma_dph") for b in betas)]
+    results += [f"mount_{a}_{s}arcsec" for a in AXES for s in ("", "sigma_")]
+    results += ["initial_heading_err_deg", "hold_a_s", "hold_b_s", "heading_deg"]
+    return tuple(results), (*betas, "initial_heading_err_deg")
+
+
+def estimate(scenario):
+    """Size of the run: the in-memory simulation, or None for a data file (read in chunks)."""
+    from inins.commands.budget import table_estimate
+
+    return None if scenario.simulate is None else table_estimate(scenario.simulate, True)

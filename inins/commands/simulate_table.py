@@ -15,6 +15,22 @@ from inins.scenario.simulate_table import SimulateTableScenario
 from inins.table import simulate
 
 SCENARIO_MODEL = SimulateTableScenario
+RESULT_NAMES = ("samples", "duration_s", "sample_rate_hz", "steps")
+TRUTH_NAMES = tuple(
+    f"{s}_bias_{a}_{u}" for s, u in (("gyro", "dph"), ("accel", "ug")) for a in "xyz"
+)
+
+
+def declared_results(scenario):
+    """Names of the results and truth a run gives (checks are validated against them)."""
+    return RESULT_NAMES, TRUTH_NAMES
+
+
+def estimate(scenario):
+    """Samples, output bytes and memory of the run (streamed: memory is a few chunks)."""
+    from inins.commands.budget import table_estimate
+
+    return table_estimate(scenario, in_memory=False)
 
 
 def run(scenario, seed, *, sink=None, progress=None):

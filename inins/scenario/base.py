@@ -130,10 +130,36 @@ ScenarioPath = Annotated[Path, AfterValidator(_relative_to_scenario)]
 """A file path; a relative path is relative to the scenario file's directory."""
 
 
+def input_file_problem(path: Path) -> str | None:
+    """What is wrong with an input file path (not UTF-8, a directory, missing), or None."""
+    try:
+        str(path).encode("utf-8")
+    except UnicodeEncodeError:
+        return "the path is not valid UTF-8"
+    if path.is_dir():
+        return f"{path} is a directory, expected a file"
+    if not path.exists():
+        return f"file not found: {path}"
+    return None
+
+
+def _existing_file(value: Path) -> Path:
+    """An input file must exist and be a file, checked when the scenario is loaded (so
+    the message names the key and line)."""
+    problem = input_file_problem(value)
+    if problem:
+        raise PydanticCustomError("input_file", "{problem}", {"problem": problem})
+    return value
+
+
+InputFile = Annotated[Path, AfterValidator(_relative_to_scenario), AfterValidator(_existing_file)]
+"""A :data:`ScenarioPath` that must name an existing file when the scenario is loaded."""
+
+
 class ScenarioModel(ScenarioSection):
     """Top level of a command's scenario: adds ``seed`` and ``checks``."""
 
-    seed: Annotated[int, Field(ge=0)] | None = Field(
+    seed: Annotated[int, Field(ge=0, le=2**63 - 1)] | None = Field(
         None,
         description="Random seed (integer >= 0). --seed overrides it; "
         f"if neither is given the seed is {DEFAULT_SEED}",

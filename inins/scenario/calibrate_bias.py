@@ -5,7 +5,7 @@ from typing import Literal
 
 from pydantic import Field, model_validator
 
-from inins.scenario.base import ScenarioPath, ScenarioSection
+from inins.scenario.base import InputFile, ScenarioSection
 from inins.scenario.simulate_table import TableSource
 from inins.scenario.types import NonNegFloat, NonNegVec3, PositiveFloat
 from inins.scenario.validation import KeyPathError
@@ -32,7 +32,7 @@ class AlignmentSettings(ScenarioSection):
     heading_sigma_arcsec: NonNegFloat = Field(
         0.0, description="1-sigma of a known heading (arcsec)"
     )
-    ett_file: ScenarioPath | None = Field(
+    ett_file: InputFile | None = Field(
         None,
         description="align-ett.h5 written by inins align-ett on the same mounting, "
         "for method ett (relative to this scenario file); default: ETT on this data",

@@ -7,7 +7,7 @@ from pydantic import Field, field_validator, model_validator
 
 from inins.core import rotation
 from inins.core.units import ARCSEC
-from inins.scenario.base import ScenarioModel, ScenarioPath
+from inins.scenario.base import ScenarioModel, ScenarioPath, input_file_problem
 from inins.scenario.base import ScenarioSection as Section
 from inins.scenario.common import Imu, Site
 from inins.scenario.types import NonNegFloat, PositiveFloat, Vec3
@@ -254,4 +254,7 @@ class TableSource(ScenarioModel):
                 "give either data (a table-data file) or a "
                 "simulate: section, not both and not neither",
             )
+        problem = None if self.data is None else input_file_problem(self.data)
+        if problem:
+            raise KeyPathError(("data",), problem)
         return self
