@@ -374,8 +374,15 @@ def _bad(name, key, message):
     return InputError(message, source=name, key=key)
 
 
+IMU_LIMITS = {"imu/dtheta": np.pi, "imu/dv": 1000.0}
+"""Largest plausible increment per sample (rad, m/s): half a turn, 1000 m/s."""
+MAX_ABS = 1e12
+"""Largest magnitude of any other number in the layout (times in s, angles in rad)."""
+
+
 def _numeric(f, key, name, shape_tail, finite=True, chunk=CHUNK_SAMPLES):
-    """The dataset ``key``: numeric, rows of ``shape_tail``, every value finite."""
+    """The dataset ``key``: numeric, rows of ``shape_tail``, every value finite (and for
+    IMU increments within :data:`IMU_LIMITS`)."""
     dset = _require(f, key, name)
     if not isinstance(dset, h5py.Dataset) or dset.dtype.kind not in "iuf":
         raise _bad(
@@ -384,14 +391,28 @@ def _numeric(f, key, name, shape_tail, finite=True, chunk=CHUNK_SAMPLES):
     if dset.ndim != 1 + len(shape_tail) or tuple(dset.shape[1:]) != tuple(shape_tail):
         want = "x".join(["n", *map(str, shape_tail)])
         raise _bad(name, key, f"expected shape ({want}), got {dset.shape}")
-    if finite and dset.dtype.kind == "f":
+    limit = IMU_LIMITS.get(key, MAX_ABS if dset.dtype.kind == "f" else None)
+    if finite and (dset.dtype.kind == "f" or limit is not None):
         for k0 in range(0, dset.shape[0], chunk):
             rows = dset[k0 : k0 + chunk]
             bad = ~np.isfinite(rows)
             if bad.any():
                 row = k0 + int(np.argwhere(bad)[0][0])
                 raise _bad(name, key, f"row {row} is not finite (NaN or infinity)")
+            if limit is not None:
+                _within(dset, rows, k0, limit, key, name)
     return dset
+
+
+def _within(dset, rows, k0, limit, key, name):
+    weight = dset.attrs.get("pulse_weight")
+    with np.errstate(all="ignore"):
+        si = np.abs(rows * np.asarray(weight, float)) if weight is not None else np.abs(rows)
+    bad = ~(si <= limit)
+    if bad.any():
+        row = k0 + int(np.argwhere(bad)[0][0])
+        unit = LAYOUT[key].units if key in LAYOUT else ""
+        raise _bad(name, key, f"row {row} exceeds {limit:g} {unit} in magnitude")
 
 
 def _finite_attr(obj, attr, key, name, positive=False):
@@ -423,14 +444,14 @@ def validate(f, name) -> int:
         _finite_attr(imu, attr, "imu", name, positive=attr == "dt_s")
     lengths = set()
     for key in ("imu/dtheta", "imu/dv"):
-        dset = _numeric(f, key, name, (3,))
-        if "pulse_weight" in dset.attrs:
+        dset = _require(f, key, name)
+        if isinstance(dset, h5py.Dataset) and "pulse_weight" in dset.attrs:
             w = _finite_attr(dset, "pulse_weight", key, name)
             if w.shape != (3,):
                 raise _bad(name, key, f"pulse_weight must be 3 numbers, got shape {w.shape}")
-        elif dset.dtype.kind != "f":
+        elif isinstance(dset, h5py.Dataset) and dset.dtype.kind in "iu":
             raise _bad(name, key, f"integer counts ({dset.dtype}) need a pulse_weight attribute")
-        lengths.add(dset.shape[0])
+        lengths.add(_numeric(f, key, name, (3,)).shape[0])
     if len(lengths) != 1:
         raise _bad(name, "imu", "imu/dtheta and imu/dv differ in length")
     n = lengths.pop()
@@ -451,7 +472,23 @@ def validate(f, name) -> int:
     if _numeric(f, "table/encoder", name, (g,)).shape[0] != f["table/time"].shape[0]:
         raise _bad(name, "table/encoder", "not as long as table/time")
     _validate_steps(f, name, n, g)
+    if "truth" in f:
+        _validate_truth(f, name, g)
     return n
+
+
+def _validate_truth(f, name, g):
+    """The simulation truth: shapes as in :data:`LAYOUT`, one length, finite."""
+    lengths = set()
+    for key in TRUTH_SERIES:
+        path = f"truth/{key}"
+        lengths.add(_numeric(f, path, name, LAYOUT[path].shape(g)).shape[0])
+    if len(lengths) != 1:
+        raise _bad(name, "truth", "the truth datasets differ in length")
+    _monotonic(f["truth/time"][()], "truth/time", name)
+    norms = np.linalg.norm(f["truth/quat_nb"][()], axis=1)
+    if norms.size and np.max(np.abs(norms - 1.0)) > 1e-6:
+        raise _bad(name, "truth/quat_nb", "quaternions must have unit norm")
 
 
 def _monotonic(values, key, name):
@@ -475,8 +512,17 @@ def _validate_steps(f, name, n, g):
     start, stop = f["steps/start_index"][()], f["steps/stop_index"][()]
     if np.any(start < 0) or np.any(stop > n) or np.any(stop < start):
         raise _bad(name, "steps/start_index", f"step sample ranges must lie within 0..{n}")
-    if np.any(f["steps/end_time"][()] < f["steps/start_time"][()]):
+    t_start, t_end = f["steps/start_time"][()], f["steps/end_time"][()]
+    if np.any(t_end < t_start):
         raise _bad(name, "steps/end_time", "a step ends before it starts")
+    _monotonic(t_start, "steps/start_time", name)
+    t0, dt = float(f["imu"].attrs["t0_s"]), float(f["imu"].attrs["dt_s"])
+    first = np.ceil((t_start - t0) / dt - 1e-6)
+    last = np.floor((t_end - t0) / dt + 1e-6)
+    if np.any(np.abs(np.clip(first, 0, n) - start) > 1) or np.any(
+        np.abs(np.clip(last, 0, n) - stop) > 1
+    ):
+        raise _bad(name, "steps/start_time", "step times and sample indices disagree (t0_s, dt_s)")
     axis = f["steps/axis"][()]
     if np.any((axis < -1) | (axis >= g)):
         raise _bad(name, "steps/axis", f"gimbal index must be -1..{g - 1}")
