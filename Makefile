@@ -16,7 +16,6 @@ $(STAMP): pyproject.toml
 venv: $(STAMP)
 
 demo: $(STAMP)
-	@$(BIN)/python -c "import inins.core.warmup as w; w.main()"
 	$(BIN)/inins calibrate-bias -o $(OUT)/demo
 	@echo; echo "the full report: $(OUT)/demo/calibrate-bias.txt"
 

@@ -115,7 +115,8 @@ def print_datasets(datasets, out: Console | None = None) -> None:
 
 
 class ProgressBar:
-    """A transient progress bar on stderr for long runs: ``bar(done, total)``.
+    """A transient progress bar on stderr for long runs: ``bar(done, total)``, labelled
+    by phase (``bar.phase("simulate")``; each phase gets its own bar).
 
     Shown only on a terminal; in a pipe or a CI log it stays silent.
     """
@@ -123,8 +124,10 @@ class ProgressBar:
     def __init__(self, label: str):
         from rich.progress import BarColumn, Progress, TextColumn, TimeRemainingColumn
 
+        self._label = label
+        self._phase = "running"
         self._progress = Progress(
-            TextColumn(label),
+            TextColumn("{task.description}"),
             BarColumn(),
             TextColumn("{task.percentage:>3.0f}%"),
             TimeRemainingColumn(),
@@ -133,6 +136,7 @@ class ProgressBar:
             disable=not Console(stderr=True).is_terminal,
         )
         self._task = None
+        self._last = 0
 
     def __enter__(self):
         self._progress.__enter__()
@@ -141,7 +145,39 @@ class ProgressBar:
     def __exit__(self, *exc):
         return self._progress.__exit__(*exc)
 
+    def phase(self, name: str) -> None:
+        """Start a new phase: later progress goes to a new bar labelled ``name``."""
+        if self._task is not None:
+            self._progress.update(self._task, visible=False)
+        self._phase, self._task, self._last = name, None, 0
+
     def __call__(self, done: int, total: int) -> None:
+        if self._task is not None and done < self._last:  # the work started over
+            self.phase(self._phase)
         if self._task is None:
-            self._task = self._progress.add_task("", total=total)
-        self._progress.update(self._task, completed=done)
+            self._task = self._progress.add_task(f"{self._label}: {self._phase}", total=total)
+        self._last = done
+        self._progress.update(self._task, completed=done, total=total)
+
+
+def kernels_compiled() -> bool:
+    """True if numba's cache holds the compiled kernels (so a run starts at once).
+
+    Looks where numba caches them by default, next to the modules, or under
+    ``NUMBA_CACHE_DIR``; a cache elsewhere reads as not compiled (the notice is then
+    shown once too often, never missing).
+    """
+    import os
+    from pathlib import Path
+
+    import inins
+
+    roots = [Path(inins.__file__).parent / "core" / "__pycache__"]
+    if os.environ.get("NUMBA_CACHE_DIR"):
+        roots.append(Path(os.environ["NUMBA_CACHE_DIR"]))
+    return any(
+        next(root.rglob("strapdown._navigate-*.nbi"), None) for root in roots if root.is_dir()
+    )
+
+
+COMPILE_NOTICE = "compiling numerical kernels (first run only, ~30 s)"

@@ -54,10 +54,9 @@ def make_command(spec):
             int | None,
             typer.Option(
                 "--seed",
-                min=0,
-                max=2**63 - 1,
+                metavar="N",
                 show_default=False,
-                help="Random seed; wins over the scenario's seed (default 0).",
+                help="Random seed, 0 to 2**63-1; wins over the scenario's seed (default 0).",
             ),
         ] = None,
         debug: Annotated[
@@ -149,9 +148,11 @@ def echo_err(message: str) -> None:
 
 
 def _run(spec, scenario, outdir, overrides, seed, plot=False, force=False) -> int:
-    from inins.cli._display import ProgressBar, print_outcome
+    from inins.cli._display import COMPILE_NOTICE, ProgressBar, kernels_compiled, print_outcome
     from inins.commands.execute import execute
 
+    if not kernels_compiled():
+        echo_err(f"inins {spec.name}: {COMPILE_NOTICE}")
     start = time.perf_counter()
     with ProgressBar(spec.name) as bar:
         done = execute(

@@ -250,9 +250,20 @@ def _write_all(command, module, loaded, seed, group, makers, progress, current):
     return summary, result
 
 
+PHASES = {
+    "simulate-table": "simulate",
+    "import-log": "import",
+    "calibrate-bias": "calibrate",
+    "align-ett": "align",
+}
+"""Progress label of each command's main work (then ``write``)."""
+
+
 def run_located(module, loaded, seed, sink, progress):
     """``module.run``; a bad-input error keyed by a scenario key path but not placed in a
     file (``steps[2]: ...``) is placed in the scenario file, at its line."""
+    command = getattr(loaded.model, "__module__", "").rsplit(".", 1)[-1].replace("_", "-")
+    _phase(progress, PHASES.get(command, "run"))
     try:
         return module.run(loaded.model, seed, sink=sink, progress=progress)
     except InputError as exc:

@@ -143,9 +143,17 @@ def input_file_problem(path: Path) -> str | None:
     return None
 
 
-def _existing_file(value: Path) -> Path:
+def loaded_from_file(info) -> bool:
+    """True when validation runs in :func:`load_scenario` (a scenario file), where input
+    files are checked; a model built in code (a test, a sweep) is not."""
+    return bool(info is not None and (info.context or {}).get("check_files"))
+
+
+def _existing_file(value: Path, info) -> Path:
     """An input file must exist and be a file, checked when the scenario is loaded (so
     the message names the key and line)."""
+    if not loaded_from_file(info):
+        return value
     problem = input_file_problem(value)
     if problem:
         raise PydanticCustomError("input_file", "{problem}", {"problem": problem})
@@ -231,7 +239,9 @@ def load_scenario(model_cls, path, overrides, default_path):
         text = f"# {source} with overrides:\n{header}" + yaml_source.dump_yaml(data)
     try:
         scenario_dir = Path(default_path if path is None else path).resolve().parent
-        model = model_cls.model_validate(data, context={"base_dir": scenario_dir})
+        model = model_cls.model_validate(
+            data, context={"base_dir": scenario_dir, "check_files": True}
+        )
     except ValidationError as exc:
         raise to_input_error(
             exc, data=data, lines=lines, source=source, model_cls=model_cls, overrides=set_by
