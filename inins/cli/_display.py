@@ -4,6 +4,8 @@ User text is never parsed as rich markup (key paths like ``bias_dph[1]`` and
 check expressions would be mangled).
 """
 
+import re
+
 from rich import box
 from rich.console import Console
 from rich.table import Table
@@ -12,6 +14,8 @@ from rich.text import Text
 from inins.results import format_value
 
 MAX_ROWS = 40
+FEW = 12
+"""Up to this many results are all shown."""
 
 
 def console() -> Console:
@@ -19,29 +23,57 @@ def console() -> Console:
     return Console(highlight=False, soft_wrap=True)
 
 
+def _sigma_name(name: str) -> str | None:
+    """``beta_x_dph`` -> ``beta_x_sigma_dph`` (the 1-sigma result of a value), or None."""
+    stem, _, unit = name.rpartition("_")
+    return f"{stem}_sigma_{unit}" if stem else None
+
+
+def shown_results(summary: dict) -> list[str]:
+    """The results worth a row on the terminal: those with a truth or named in a check
+    (all of them if there are at most :data:`FEW`); 1-sigma results go in a column."""
+    results, truth = summary.get("results", {}), summary.get("truth", {})
+    sigmas = {_sigma_name(n) for n in results} & set(results)
+    names = [n for n in results if n not in sigmas]
+    if len(names) <= FEW:
+        return names
+    checked = " ".join(c.get("name", "") for c in summary.get("checks", []))
+    keep = [n for n in names if n in truth or re.search(rf"\b{re.escape(n)}\b", checked)]
+    return keep or names[:FEW]
+
+
 def results_table(summary: dict) -> Table | None:
-    """Results with truth and error where known (at most :data:`MAX_ROWS` rows)."""
+    """The results that matter (:func:`shown_results`) with 1-sigma, truth and error where
+    known; the rest are in summary.json."""
     results, truth = summary.get("results", {}), summary.get("truth", {})
     if not results:
         return None
-    has_truth = any(k in truth for k in results)
+    names = shown_results(summary)[:MAX_ROWS]
+    has_truth = any(k in truth for k in names)
+    has_sigma = any(_sigma_name(k) in results for k in names)
     table = Table(
         title="results", title_justify="left", show_edge=False, pad_edge=False, box=box.SIMPLE_HEAD
     )
     table.add_column("name")
     table.add_column("value", justify="right")
+    if has_sigma:
+        table.add_column("1-sigma", justify="right")
     if has_truth:
         table.add_column("truth", justify="right")
         table.add_column("error", justify="right")
-    for name, value in list(results.items())[:MAX_ROWS]:
+    for name in names:
+        value = results[name]
         row = [Text(name), Text(format_value(value))]
+        if has_sigma:
+            row.append(Text(format_value(results.get(_sigma_name(name)))))
         if has_truth:
             true = truth.get(name)
             err = value - true if _numbers(value, true) else None
             row += [Text(format_value(true)), Text(format_value(err))]
         table.add_row(*row)
-    if len(results) > MAX_ROWS:
-        table.caption = f"... {len(results) - MAX_ROWS} more in summary.json"
+    hidden = len(results) - len(names) - sum(_sigma_name(n) in results for n in names)
+    if hidden > 0:
+        table.caption = f"... {hidden} more in summary.json"
     return table
 
 

@@ -270,6 +270,8 @@ def _report(outcome, record, settings, names, paper_case):
     t_a, t_b = seq.hold_times
     roll, pitch, heading = al.euler / DEG
     lines = [
+        *verdict_lines(outcome),
+        "",
         f"data: {record.source}, {record.n_samples} samples at {1 / record.dt:g} Hz",
         "sequence (000 Table 1): "
         + ", ".join(
@@ -330,9 +332,12 @@ def _estimate_table(outcome, names):
     for name, (value, sigma) in names.items():
         axis = AXES.index(name.split("_")[1])
         err = None if value is None or truth is None else (value - truth[axis]) / DPH
-        rows.append([name + "_dph", _dph(value), _dph(sigma), err])
+        rows.append([name + "_dph", _dph(value), _dph(sigma), err, chosen_mark(outcome, name)])
     return format_table(
-        rows, ["result", "value", "1-sigma", "error"], ["", "deg/h", "deg/h", "deg/h"], fmt=".5g"
+        rows,
+        ["result", "value", "1-sigma", "error", "chosen"],
+        ["", "deg/h", "deg/h", "deg/h", ""],
+        fmt=".5g",
     )
 
 
@@ -423,3 +428,30 @@ def estimate(scenario):
     from inins.commands.budget import table_estimate
 
     return None if scenario.simulate is None else table_estimate(scenario.simulate, True)
+
+
+# -- the verdict: which estimate to trust -------------------------------------------
+def chosen_mark(outcome, name):
+    """``"<- chosen"`` on the estimate the automatic choice took for its axis, else ""."""
+    for axis, pick in outcome.chosen.items():
+        if pick is not None and name == f"beta_{AXES[axis]}_{pick[2]}":
+            return "<- chosen"
+    return ""
+
+
+def verdict_lines(outcome):
+    """The report's opening three lines: beta_x and beta_y with 1-sigma (the chosen
+    estimates), and the formula chosen and why."""
+    out = []
+    for axis in sorted(outcome.chosen):
+        pick = outcome.chosen[axis]
+        name = f"beta_{AXES[axis]}"
+        if pick is None:
+            out.append(f"{name}: no valid formula (see the choice below)")
+        else:
+            value, sigma, formula = pick
+            out.append(
+                f"{name} = {_dph(value):.5f} +/- {_dph(sigma):.5f} deg/h (1-sigma), from {formula}"
+            )
+    out.append(_choice_line(outcome))
+    return out
