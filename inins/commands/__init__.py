@@ -65,8 +65,7 @@ class CommandSpec:
         """Help text for ``inins NAME --help``."""
         if not self.available:
             return (
-                f"{self.help}\n\nNot yet available in this version: running it exits "
-                "with code 4."
+                f"{self.help}\n\nNot yet available in this version: running it exits with code 4."
             )
         return f"{self.help}\n\n" + _OUTPUTS.format(name=self.name, default=self.default)
 

@@ -26,6 +26,7 @@ The IMU heading at any table position is the heading of ``mat_nt(encoder) @ mat_
 import numpy as np
 
 from inins.calibration.ett import EttOptions, EttResult, align_ett, paper_angles
+from inins.commands import figures
 from inins.commands._table import load_record
 from inins.core import rotation
 from inins.core.units import ARCSEC, DEG, DEG_RTH, UG, UG_RTHZ
@@ -34,6 +35,7 @@ from inins.results import CommandResult, Series, format_table
 from inins.scenario.align_ett import AlignEttScenario
 
 SCENARIO_MODEL = AlignEttScenario
+FIGURES = {"align-ett.png": figures.align_ett_geometry}
 RESULT_NAMES = (
     "heading_deg",
     "heading_sigma_deg",

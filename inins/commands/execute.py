@@ -240,7 +240,7 @@ def _write_all(command, module, loaded, seed, group, makers, progress, current):
         h5.set_attrs("", {"summary_json": summary_text(summary)})
     for name, make in makers.items():
         current[0] = group[name].path
-        make(result, group[name].tmp)
+        _draw(make, result, group[name].tmp, group[f"{command}.h5"].tmp)
     report = build_report(prov, result.report, result.warnings, summary["checks"])
     current[0] = group[f"{command}.txt"].path
     group[f"{command}.txt"].tmp.write_text(report, encoding="utf-8")
@@ -284,6 +284,17 @@ def _key_path(key: str) -> tuple:
     return tuple(
         int(part) if part.isdigit() else part for part in re.split(r"[.\[\]]+", key) if part
     )
+
+
+def _draw(make, result, path, data) -> None:
+    """Call a figure function with the results file if it takes one (see
+    :mod:`inins.commands.figures`)."""
+    import inspect
+
+    if len(inspect.signature(make).parameters) >= 3:
+        make(result, path, data)
+    else:
+        make(result, path)
 
 
 def _phase(progress, name) -> None:

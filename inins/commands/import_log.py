@@ -14,6 +14,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from inins.calibration import stationary
+from inins.commands import figures
 from inins.core import earth
 from inins.core.records import Step, StepKind
 from inins.core.units import ARCSEC, DEG, DEG_RTH, DPH, UG, UG_RTHZ
@@ -41,6 +42,7 @@ from inins.scenario.import_log import (
 from inins.table import kinematics
 
 SCENARIO_MODEL = ImportLogScenario
+FIGURES = {"import-log.png": figures.import_log_checks}
 HOLD_NAMES = (
     "roll_deg",
     "pitch_deg",

@@ -7,6 +7,7 @@ summary numbers and the report.
 
 import numpy as np
 
+from inins.commands import figures
 from inins.commands._table import table_simulation, truth_attrs
 from inins.core.units import DEG_RTH, DPH, PPM, UG, UG_RTHZ
 from inins.io import tabledata
@@ -15,6 +16,7 @@ from inins.scenario.simulate_table import SimulateTableScenario
 from inins.table import simulate
 
 SCENARIO_MODEL = SimulateTableScenario
+FIGURES = {"simulate-table.png": figures.simulate_table_motion}
 RESULT_NAMES = ("samples", "duration_s", "sample_rate_hz", "steps")
 TRUTH_NAMES = tuple(
     f"{s}_bias_{a}_{u}" for s, u in (("gyro", "dph"), ("accel", "ug")) for a in "xyz"
