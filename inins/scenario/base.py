@@ -45,6 +45,8 @@ from inins.scenario.labunits import (  # noqa: F401 (re-exported: the scenario a
 
 DEFAULT_SEED = 0
 """Seed used when neither ``--seed`` nor the scenario's ``seed`` is given."""
+MAX_MAGNITUDE = 1e15
+"""Largest magnitude of a number in a scenario (any lab unit)."""
 
 
 def _add_units(schema: dict, model: type) -> None:
@@ -91,6 +93,21 @@ class ScenarioSection(BaseModel):
             return data
         numeric = cls._numeric_fields()
         return {k: _bool_as_text(v) if k in numeric else v for k, v in data.items()}
+
+    @model_validator(mode="after")
+    def _no_huge_numbers(self):
+        """No number in a scenario exceeds :data:`MAX_MAGNITUDE` (lab units): larger ones
+        overflow the arithmetic (a run too long is refused by its estimate instead)."""
+        from inins.scenario.validation import KeyPathError
+
+        for name in type(self)._numeric_fields():
+            value = getattr(self, name, None)
+            values = value if isinstance(value, list | tuple) else [value]
+            for i, v in enumerate(values):
+                if isinstance(v, float) and abs(v) > MAX_MAGNITUDE:
+                    path = (name, i) if isinstance(value, list | tuple) else (name,)
+                    raise KeyPathError(path, f"{v:g} is beyond {MAX_MAGNITUDE:g} in magnitude")
+        return self
 
     @classmethod
     def _numeric_fields(cls) -> frozenset:

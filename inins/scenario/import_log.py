@@ -134,6 +134,13 @@ class Log(Section):
             raise KeyPathError(
                 ("columns",), f"a {self.format} log needs the column mapping (time, gyro, accel)"
             )
+        if self.columns is not None:
+            for name in ("gyro", "accel"):
+                refs = getattr(self.columns, name)
+                if isinstance(refs, list) and len(refs) != 3:
+                    raise KeyPathError(
+                        ("columns", name), f"give 3 columns (x, y, z), got {len(refs)}"
+                    )
         if self.format == "csv" and self.columns is not None:
             for name in ("gyro", "accel", "table_angles"):
                 if isinstance(getattr(self.columns, name), str):
