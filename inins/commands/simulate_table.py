@@ -10,6 +10,7 @@ import numpy as np
 from inins.commands import figures
 from inins.commands._table import table_simulation, truth_attrs
 from inins.core.units import DEG_RTH, DPH, PPM, UG, UG_RTHZ
+from inins.exceptions import InputError
 from inins.io import tabledata
 from inins.results import CommandResult, NullSink, format_table
 from inins.scenario.simulate_table import SimulateTableScenario
@@ -80,7 +81,16 @@ def stream(sim, rng, sink, progress=None):
         sink, len(sim.gimbal_names), weights, truth=True, expected=(sim.n_samples, n_rows)
     )
     for chunk in simulate.simulation_chunks(sim, rng, progress):
-        tabledata.append_chunk(sink, chunk, weights)
+        try:
+            tabledata.append_chunk(sink, chunk, weights)
+        except ValueError as exc:
+            if "overflow int32" not in str(exc):
+                raise
+            raise InputError(
+                "the increments per sample exceed 2**31 pulses: the rates (motion, biases) "
+                "are too large for the pulse weights",
+                key="imu.gyro.pulse_weight_arcsec, imu.accel.pulse_weight_ug_s",
+            ) from None
     return sink
 
 
