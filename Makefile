@@ -5,7 +5,7 @@ BIN    := $(VENV)/bin
 STAMP  := $(VENV)/.installed
 OUT    ?= out
 
-.PHONY: demo test lint bench bench-quick clean venv
+.PHONY: demo test fuzz lint bench bench-quick clean venv
 
 $(STAMP): pyproject.toml
 	$(PYTHON) -m venv $(VENV)
@@ -18,7 +18,7 @@ venv: $(STAMP)
 
 demo: $(STAMP)
 	$(BIN)/inins calibrate-bias -o $(OUT)/demo
-	@echo; cat $(OUT)/demo/calibrate-bias.txt
+	@echo; echo "the full report: $(OUT)/demo/calibrate-bias.txt"
 
 lint: $(STAMP)
 	$(BIN)/ruff check inins tests benchmarks
@@ -27,6 +27,12 @@ lint: $(STAMP)
 
 test: lint
 	$(BIN)/python -m pytest -n auto --dist loadscope
+
+# More examples of the property tests (tests/cli/test_fuzz.py), random seed:
+# FUZZ_EXAMPLES per test (make test runs 250 of each, derandomized).
+FUZZ_EXAMPLES ?= 5000
+fuzz: $(STAMP)
+	ININS_FUZZ_EXAMPLES=$(FUZZ_EXAMPLES) $(BIN)/python -m pytest tests/cli/test_fuzz.py -q
 
 bench: $(STAMP)
 	$(BIN)/python -m benchmarks

@@ -31,3 +31,8 @@ class InputError(Exception):
             where.append(str(self.key))
         prefix = ": ".join(where)
         return f"{prefix}: {self.message}" if prefix else self.message
+
+
+class OutputError(InputError):
+    """The output folder cannot take the results (full disk, read-only, no permission):
+    exit code 2 like bad input, since the folder is part of what the user gave."""

@@ -13,6 +13,7 @@ codes. Keep this package cheap to import: ``inins --help`` must not load numpy,
 scipy, numba, h5py or pydantic.
 """
 
+import sys
 from typing import Annotated
 
 import typer
@@ -29,9 +30,30 @@ _HELP = (
     "Calibration and analysis of strapdown inertial navigation systems.\n\n"
     "Each command reads a YAML scenario (or runs its shipped default), writes "
     "OUTDIR/CMD.h5, OUTDIR/CMD.txt and OUTDIR/summary.json.\n\n"
-    "Exit codes: 0 done, 1 a check failed, 2 bad input, 3 internal error, "
-    "4 command not available in this version, 130 interrupted."
+    "Exit codes: 0 done, 1 a check failed, 2 bad input (also an output folder that "
+    "cannot take the results, a full disk, or a run too large for the machine: see "
+    "--force), 3 internal error (a bug: please report it with --debug), 4 command not "
+    "available in this version, 130 interrupted (nothing written)."
 )
+
+
+def _no_flag_placeholders() -> None:
+    """Typer's help shows an on/off flag with a ``<bool>`` placeholder as if it took a
+    value: show flags bare, as ``--plot``, ``--help``."""
+    from typer.core import TyperOption
+
+    shown = TyperOption.display_type_rich
+    if getattr(shown, "_inins_flags_bare", False):
+        return
+
+    def display_type_rich(self, ctx):
+        return None if self.is_flag else shown(self, ctx)
+
+    display_type_rich._inins_flags_bare = True
+    TyperOption.display_type_rich = display_type_rich
+
+
+_no_flag_placeholders()
 
 
 def _version(value: bool) -> None:
@@ -88,4 +110,20 @@ def main() -> None:
 
     if hasattr(signal, "SIGTERM"):
         signal.signal(signal.SIGTERM, _terminate)
-    app(prog_name="inins")
+    try:
+        app(prog_name="inins")
+    except SystemExit as exc:
+        _exit_past_failed_hdf5(exc.code)
+        raise
+
+
+def _exit_past_failed_hdf5(code) -> None:
+    """End the process at once if HDF5 was left with a file it failed to write (a disk
+    that filled up under it): its own clean-up at exit would crash on that file."""
+    import os
+
+    hdf5 = sys.modules.get("inins.io.hdf5")
+    if hdf5 is not None and hdf5._abandoned:
+        sys.stdout.flush()
+        sys.stderr.flush()
+        os._exit(code if isinstance(code, int) else 1)

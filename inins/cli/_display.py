@@ -4,6 +4,8 @@ User text is never parsed as rich markup (key paths like ``bias_dph[1]`` and
 check expressions would be mangled).
 """
 
+import re
+
 from rich import box
 from rich.console import Console
 from rich.table import Table
@@ -12,6 +14,8 @@ from rich.text import Text
 from inins.results import format_value
 
 MAX_ROWS = 40
+FEW = 12
+"""Up to this many results are all shown."""
 
 
 def console() -> Console:
@@ -19,29 +23,57 @@ def console() -> Console:
     return Console(highlight=False, soft_wrap=True)
 
 
+def _sigma_name(name: str) -> str | None:
+    """``beta_x_dph`` -> ``beta_x_sigma_dph`` (the 1-sigma result of a value), or None."""
+    stem, _, unit = name.rpartition("_")
+    return f"{stem}_sigma_{unit}" if stem else None
+
+
+def shown_results(summary: dict) -> list[str]:
+    """The results worth a row on the terminal: those with a truth or named in a check
+    (all of them if there are at most :data:`FEW`); 1-sigma results go in a column."""
+    results, truth = summary.get("results", {}), summary.get("truth", {})
+    sigmas = {_sigma_name(n) for n in results} & set(results)
+    names = [n for n in results if n not in sigmas]
+    if len(names) <= FEW:
+        return names
+    checked = " ".join(c.get("name", "") for c in summary.get("checks", []))
+    keep = [n for n in names if n in truth or re.search(rf"\b{re.escape(n)}\b", checked)]
+    return keep or names[:FEW]
+
+
 def results_table(summary: dict) -> Table | None:
-    """Results with truth and error where known (at most :data:`MAX_ROWS` rows)."""
+    """The results that matter (:func:`shown_results`) with 1-sigma, truth and error where
+    known; the rest are in summary.json."""
     results, truth = summary.get("results", {}), summary.get("truth", {})
     if not results:
         return None
-    has_truth = any(k in truth for k in results)
+    names = shown_results(summary)[:MAX_ROWS]
+    has_truth = any(k in truth for k in names)
+    has_sigma = any(_sigma_name(k) in results for k in names)
     table = Table(
         title="results", title_justify="left", show_edge=False, pad_edge=False, box=box.SIMPLE_HEAD
     )
     table.add_column("name")
     table.add_column("value", justify="right")
+    if has_sigma:
+        table.add_column("1-sigma", justify="right")
     if has_truth:
         table.add_column("truth", justify="right")
         table.add_column("error", justify="right")
-    for name, value in list(results.items())[:MAX_ROWS]:
+    for name in names:
+        value = results[name]
         row = [Text(name), Text(format_value(value))]
+        if has_sigma:
+            row.append(Text(format_value(results.get(_sigma_name(name)))))
         if has_truth:
             true = truth.get(name)
             err = value - true if _numbers(value, true) else None
             row += [Text(format_value(true)), Text(format_value(err))]
         table.add_row(*row)
-    if len(results) > MAX_ROWS:
-        table.caption = f"... {len(results) - MAX_ROWS} more in summary.json"
+    hidden = len(results) - len(names) - sum(_sigma_name(n) in results for n in names)
+    if hidden > 0:
+        table.caption = f"... {hidden} more in summary.json"
     return table
 
 
@@ -115,7 +147,8 @@ def print_datasets(datasets, out: Console | None = None) -> None:
 
 
 class ProgressBar:
-    """A transient progress bar on stderr for long runs: ``bar(done, total)``.
+    """A transient progress bar on stderr for long runs: ``bar(done, total)``, labelled
+    by phase (``bar.phase("simulate")``; each phase gets its own bar).
 
     Shown only on a terminal; in a pipe or a CI log it stays silent.
     """
@@ -123,8 +156,10 @@ class ProgressBar:
     def __init__(self, label: str):
         from rich.progress import BarColumn, Progress, TextColumn, TimeRemainingColumn
 
+        self._label = label
+        self._phase = "running"
         self._progress = Progress(
-            TextColumn(label),
+            TextColumn("{task.description}"),
             BarColumn(),
             TextColumn("{task.percentage:>3.0f}%"),
             TimeRemainingColumn(),
@@ -133,6 +168,7 @@ class ProgressBar:
             disable=not Console(stderr=True).is_terminal,
         )
         self._task = None
+        self._last = 0
 
     def __enter__(self):
         self._progress.__enter__()
@@ -141,7 +177,39 @@ class ProgressBar:
     def __exit__(self, *exc):
         return self._progress.__exit__(*exc)
 
+    def phase(self, name: str) -> None:
+        """Start a new phase: later progress goes to a new bar labelled ``name``."""
+        if self._task is not None:
+            self._progress.update(self._task, visible=False)
+        self._phase, self._task, self._last = name, None, 0
+
     def __call__(self, done: int, total: int) -> None:
+        if self._task is not None and done < self._last:  # the work started over
+            self.phase(self._phase)
         if self._task is None:
-            self._task = self._progress.add_task("", total=total)
-        self._progress.update(self._task, completed=done)
+            self._task = self._progress.add_task(f"{self._label}: {self._phase}", total=total)
+        self._last = done
+        self._progress.update(self._task, completed=done, total=total)
+
+
+def kernels_compiled() -> bool:
+    """True if numba's cache holds the compiled kernels (so a run starts at once).
+
+    Looks where numba caches them by default, next to the modules, or under
+    ``NUMBA_CACHE_DIR``; a cache elsewhere reads as not compiled (the notice is then
+    shown once too often, never missing).
+    """
+    import os
+    from pathlib import Path
+
+    import inins
+
+    roots = [Path(inins.__file__).parent / "core" / "__pycache__"]
+    if os.environ.get("NUMBA_CACHE_DIR"):
+        roots.append(Path(os.environ["NUMBA_CACHE_DIR"]))
+    return any(
+        next(root.rglob("strapdown._navigate-*.nbi"), None) for root in roots if root.is_dir()
+    )
+
+
+COMPILE_NOTICE = "compiling numerical kernels (first run only, ~30 s)"

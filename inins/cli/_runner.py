@@ -2,9 +2,11 @@
 :func:`inins.commands.execute.execute`, print, choose the exit code.
 
 Exit codes: 0 done, 1 a check failed, 2 bad input (:class:`InputError`, and
-pydantic or YAML errors that slip through), 3 internal error (a bug), 4 command
-not available in this version, 130 interrupted. Messages are one line (plus listed
-extra problems) on stderr; tracebacks only with ``--debug``.
+pydantic or YAML errors that slip through; also an output folder that cannot take
+the results: unwritable, full disk, :class:`~inins.exceptions.OutputError`; and a
+run too large for the machine), 3 internal error (a bug), 4 command not available
+in this version, 130 interrupted (nothing written). Messages are one line (plus
+listed extra problems) on stderr; tracebacks only with ``--debug``.
 """
 
 import sys
@@ -52,9 +54,9 @@ def make_command(spec):
             int | None,
             typer.Option(
                 "--seed",
-                min=0,
+                metavar="N",
                 show_default=False,
-                help="Random seed; wins over the scenario's seed (default 0).",
+                help="Random seed, 0 to 2**63-1; wins over the scenario's seed (default 0).",
             ),
         ] = None,
         debug: Annotated[
@@ -66,20 +68,32 @@ def make_command(spec):
                 "--plot", help="Also write PNG figures (needs the plot extra: matplotlib)."
             ),
         ] = False,
+        force: Annotated[
+            bool,
+            typer.Option(
+                "--force",
+                help="Run even if the estimated samples, output size or memory exceed "
+                "the limits (free disk, available memory, 1e9 samples).",
+            ),
+        ] = False,
     ) -> None:
-        raise typer.Exit(run_command(spec, scenario, outdir, overrides or [], seed, debug, plot))
+        raise typer.Exit(
+            run_command(spec, scenario, outdir, overrides or [], seed, debug, plot, force)
+        )
 
     command.__doc__ = spec.full_help()
     command.__name__ = spec.name.replace("-", "_")
     return command
 
 
-def run_command(spec, scenario, outdir, overrides, seed, debug=False, plot=False) -> int:
+def run_command(
+    spec, scenario, outdir, overrides, seed, debug=False, plot=False, force=False
+) -> int:
     """Run one command end to end; return the exit code (never raises)."""
     return guarded(
         f"inins {spec.name}",
         debug,
-        lambda: _run(spec, scenario, Path(outdir), list(overrides), seed, plot),
+        lambda: _run(spec, scenario, Path(outdir), list(overrides), seed, plot, force),
     )
 
 
@@ -93,6 +107,12 @@ def guarded(label: str, debug: bool, body) -> int:
     except CommandUnavailable as exc:
         echo_err(str(exc))
         return EXIT_UNAVAILABLE
+    except MemoryError:
+        echo_err(
+            f"{label}: error: out of memory; the run is too large for this machine "
+            "(shorten it, lower the sample rate, or stream it with simulate-table)"
+        )
+        return EXIT_BAD_INPUT
     except Exception as exc:
         if debug:
             traceback.print_exception(exc, file=sys.stderr)
@@ -127,12 +147,21 @@ def echo_err(message: str) -> None:
     typer.echo(message, err=True)
 
 
-def _run(spec, scenario, outdir, overrides, seed, plot=False) -> int:
-    from inins.cli._display import ProgressBar, print_outcome
+def _run(spec, scenario, outdir, overrides, seed, plot=False, force=False) -> int:
+    from inins.cli._display import COMPILE_NOTICE, ProgressBar, kernels_compiled, print_outcome
     from inins.commands.execute import execute
 
+    if not kernels_compiled():
+        echo_err(f"inins {spec.name}: {COMPILE_NOTICE}")
     start = time.perf_counter()
     with ProgressBar(spec.name) as bar:
-        done = execute(spec, scenario, overrides, seed, outdir, figures=plot, progress=bar)
+        done = execute(
+            spec, scenario, overrides, seed, outdir, figures=plot, progress=bar, force=force
+        )
     print_outcome(done.summary, done.paths, time.perf_counter() - start)
+    if done.interrupted is not None:
+        echo_err(
+            f"inins {spec.name}: an interrupt arrived while the finished outputs were "
+            "being renamed; all of them are complete and in place"
+        )
     return EXIT_OK if done.summary["passed"] else EXIT_CHECK_FAILED

@@ -27,7 +27,8 @@ _OUTPUTS = (
     "Writes OUTDIR/{name}.h5 (results), OUTDIR/{name}.txt (report) and "
     "OUTDIR/summary.json. With no SCENARIO runs the shipped scenario "
     "configs/{name}/{default}.yaml. Exit codes: 0 done, 1 a check failed, "
-    "2 bad input, 3 internal error, 130 interrupted."
+    "2 bad input (or an output folder that cannot take the results, or a run too large: "
+    "see --force), 3 internal error, 130 interrupted."
 )
 
 
@@ -63,7 +64,9 @@ class CommandSpec:
     def full_help(self) -> str:
         """Help text for ``inins NAME --help``."""
         if not self.available:
-            return f"{self.help}\n\nNot yet available in this version."
+            return (
+                f"{self.help}\n\nNot yet available in this version: running it exits with code 4."
+            )
         return f"{self.help}\n\n" + _OUTPUTS.format(name=self.name, default=self.default)
 
 

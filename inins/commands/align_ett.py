@@ -26,6 +26,7 @@ The IMU heading at any table position is the heading of ``mat_nt(encoder) @ mat_
 import numpy as np
 
 from inins.calibration.ett import EttOptions, EttResult, align_ett, paper_angles
+from inins.commands import figures
 from inins.commands._table import load_record
 from inins.core import rotation
 from inins.core.units import ARCSEC, DEG, DEG_RTH, UG, UG_RTHZ
@@ -34,6 +35,46 @@ from inins.results import CommandResult, Series, format_table
 from inins.scenario.align_ett import AlignEttScenario
 
 SCENARIO_MODEL = AlignEttScenario
+FIGURES = {"align-ett.png": figures.align_ett_geometry}
+RESULT_NAMES = (
+    "heading_deg",
+    "heading_sigma_deg",
+    "heading_sigma_noise_deg",
+    "heading_sigma_bias_deg",
+    "heading_sigma_table_deg",
+    "azimuth_offset_arcsec",
+    "tilt_x_arcsec",
+    "tilt_y_arcsec",
+    "time_used_s",
+    "gyrocompass_heading_deg",
+    "gyrocompass_heading_sigma_deg",
+    "gyrocompass_time_s",
+    "heading_err_deg",
+    "heading_err_pred_deg",
+    "gyrocompass_heading_err_deg",
+    "gyrocompass_heading_err_pred_deg",
+    "err_ratio",
+)
+"""Every result name (the ``*_err*`` ones and ``err_ratio`` only where truth is known)."""
+TRUTH_NAMES = (
+    "heading_deg",
+    "gyrocompass_heading_deg",
+    "azimuth_offset_arcsec",
+    "tilt_x_arcsec",
+    "tilt_y_arcsec",
+)
+
+
+def declared_results(scenario):
+    """Names of the results and truth a run gives (checks are validated against them)."""
+    return RESULT_NAMES, TRUTH_NAMES
+
+
+def estimate(scenario):
+    """Size of the run: the in-memory simulation, or None for a data file (read in chunks)."""
+    from inins.commands.budget import table_estimate
+
+    return None if scenario.simulate is None else table_estimate(scenario.simulate, True)
 
 
 def run(scenario, seed, *, sink=None, progress=None):

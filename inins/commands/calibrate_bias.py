@@ -376,6 +376,8 @@ def _report(outcome, record, settings, names, paper_case):
     t_a, t_b = seq.hold_times
     roll, pitch, heading = al.euler / DEG
     lines = [
+        *verdict_lines(outcome),
+        "",
         f"data: {record.source}, {record.n_samples} samples at {1 / record.dt:g} Hz",
         "sequence (000 Table 1): "
         + ", ".join(
@@ -469,10 +471,13 @@ def _estimate_table(outcome, names):
         if value is None:
             continue  # not applicable (null in summary.json)
         axis = AXES.index(name.split("_")[1])
-        err = None if truth is None else (value - truth[axis]) / DPH
-        rows.append([name + "_dph", _dph(value), _dph(sigma), err])
+        err = None if value is None or truth is None else (value - truth[axis]) / DPH
+        rows.append([name + "_dph", _dph(value), _dph(sigma), err, chosen_mark(outcome, name)])
     return format_table(
-        rows, ["result", "value", "1-sigma", "error"], ["", "deg/h", "deg/h", "deg/h"], fmt=".5g"
+        rows,
+        ["result", "value", "1-sigma", "error", "chosen"],
+        ["", "deg/h", "deg/h", "deg/h", ""],
+        fmt=".5g",
     )
 
 
@@ -538,3 +543,55 @@ def _paper_table(outcome, names, case):
         + "\n"
         + "\n".join("note: " + s for s in PAPER_NOTES)
     )
+
+
+# -- declared names and size, before the run ------------------------------------------
+_ESTIMATES = ("attitude", "velocity", "eq38", "eq44", "eq45", "")
+
+
+def declared_results(scenario):
+    """``(results, truth)`` names a run may give, for validating checks before it.
+
+    Every horizontal axis could be either of x, y, z (the geometry is found from the
+    data), so the names cover all three; a name this run does not give makes its check
+    fail ("not available") rather than be bad input.
+    """
+    betas = [f"beta_{a}_{m}_dph".replace("__", "_") for a in AXES for m in _ESTIMATES]
+    results = [*betas, *(b.replace("_dph", "_sigma_dph") for b in betas)]
+    results += [f"mount_{a}_{s}arcsec" for a in AXES for s in ("", "sigma_")]
+    results += ["initial_heading_err_deg", "hold_a_s", "hold_b_s", "heading_deg"]
+    return tuple(results), (*betas, "initial_heading_err_deg")
+
+
+def estimate(scenario):
+    """Size of the run: the in-memory simulation, or None for a data file (read in chunks)."""
+    from inins.commands.budget import table_estimate
+
+    return None if scenario.simulate is None else table_estimate(scenario.simulate, True)
+
+
+# -- the verdict: which estimate to trust -------------------------------------------
+def chosen_mark(outcome, name):
+    """``"<- chosen"`` on the estimate the automatic choice took for its axis, else ""."""
+    for axis, pick in outcome.chosen.items():
+        if pick is not None and name == f"beta_{AXES[axis]}_{pick[2]}":
+            return "<- chosen"
+    return ""
+
+
+def verdict_lines(outcome):
+    """The report's opening three lines: beta_x and beta_y with 1-sigma (the chosen
+    estimates), and the formula chosen and why."""
+    out = []
+    for axis in sorted(outcome.chosen):
+        pick = outcome.chosen[axis]
+        name = f"beta_{AXES[axis]}"
+        if pick is None:
+            out.append(f"{name}: no valid formula (see the choice below)")
+        else:
+            value, sigma, formula = pick
+            out.append(
+                f"{name} = {_dph(value):.5f} +/- {_dph(sigma):.5f} deg/h (1-sigma), from {formula}"
+            )
+    out.append(_choice_line(outcome))
+    return out

@@ -16,6 +16,7 @@
 It raises (:class:`inins.exceptions.InputError` for bad input) and never prints.
 """
 
+import os
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -38,11 +39,15 @@ class LoadedScenario:
 @dataclass(frozen=True)
 class Execution:
     """One finished run: its summary (the content of summary.json), the files written
-    (empty without an output folder) and the command's result."""
+    (empty without an output folder), the command's result and any interrupt held
+    during the final renames."""
 
     summary: dict
     paths: tuple
     result: CommandResult
+    interrupted: int | None = None
+    """A signal that arrived while the finished outputs were being renamed (held until
+    they were all in place), else None."""
 
 
 def load(spec: CommandSpec, scenario=None, overrides=()):
@@ -65,6 +70,7 @@ def execute(
     outdir=None,
     figures=False,
     progress=None,
+    force=False,
 ) -> Execution:
     """Run command ``spec`` on a scenario file (or its shipped default).
 
@@ -75,36 +81,90 @@ def execute(
     overrides : sequence of str
         ``key.path=value``, as ``--set``.
     seed : int, optional
-        Wins over the scenario's seed.
+        Wins over the scenario's seed; 0 <= seed <= :data:`MAX_SEED`.
     outdir : Path, optional
         Where to write the outputs; None writes nothing (a sweep point).
     figures : bool
         Also draw the command's figures (needs matplotlib).
     progress : callable, optional
-        ``progress(done, total)``.
+        ``progress(done, total)``; with a ``phase(name)`` method it is also told the
+        phase of the run (``simulate``, ``calibrate``, ``write``, ...).
+    force : bool
+        Run even if the estimated size exceeds the limits (:mod:`inins.commands.budget`).
+
+    Raises
+    ------
+    InputError
+        Bad input, found before the run where possible: the scenario, the seed, check
+        names, a run too large for the machine, an unusable output folder.
     """
+    from inins.commands.budget import check_budget
     from inins.scenario.base import resolve_seed
 
+    check_path(scenario, "SCENARIO")
+    check_seed(seed)
     module, loaded = load(spec, scenario, overrides)
+    validate_check_names(module, loaded)
     makers = figure_makers(spec, module) if figures else {}
     seed_used = resolve_seed(seed, getattr(loaded.model, "seed", None))
+    estimate = getattr(module, "estimate", None)
     if outdir is None:
-        result = module.run(loaded.model, seed_used, sink=NullSink(), progress=progress)
-        return Execution(summarize(spec.name, loaded, seed_used, result), (), result)
-    return write_outputs(
-        spec.name, module.run, loaded, seed_used, prepare_outdir(outdir), makers, progress
-    )
+        check_budget(estimate and estimate(loaded.model), None, force)
+        result = run_located(module, loaded, seed_used, NullSink(), progress)
+        return Execution(summarize(spec.name, loaded, seed_used, result, module), (), result)
+    outdir = prepare_outdir(outdir)
+    check_budget(estimate and estimate(loaded.model), outdir, force)
+    return write_outputs(spec.name, module, loaded, seed_used, outdir, makers, progress)
+
+
+MAX_SEED = 2**63 - 1
+"""Largest seed (stored as a 64-bit integer in CMD.h5)."""
+
+
+def check_seed(seed) -> None:
+    """Bad input for a seed outside 0..:data:`MAX_SEED`."""
+    if seed is not None and not 0 <= int(seed) <= MAX_SEED:
+        raise InputError(f"seed {seed} is outside 0..{MAX_SEED} (2**63 - 1)", key="--seed")
+
+
+def check_path(path, what) -> None:
+    """Bad input for a path that is not valid UTF-8 (it could not be recorded)."""
+    if path is None:
+        return
+    try:
+        str(path).encode("utf-8")
+    except UnicodeEncodeError:
+        shown = str(path).encode("utf-8", "backslashreplace").decode("ascii", "replace")
+        raise InputError(
+            "the path is not valid UTF-8 (it could not be recorded in the outputs); rename it",
+            source=shown,
+            key=what,
+        ) from None
 
 
 def prepare_outdir(outdir) -> Path:
-    """Create the output folder; bad input if impossible."""
+    """Create the output folder, make sure files can be created in it, and remove
+    temporary files left there by runs that were killed; bad input if impossible."""
+    from inins.exceptions import OutputError
+    from inins.io.atomic import remove_stale_partials
+
+    check_path(outdir, "--outdir")
     outdir = Path(outdir)
     try:
         outdir.mkdir(parents=True, exist_ok=True)
     except OSError as exc:
-        raise InputError(
+        raise OutputError(
             f"cannot create the output directory ({exc.strerror})", source=str(outdir)
         ) from None
+    probe = outdir / f".inins-probe-{os.getpid()}"
+    try:
+        probe.write_bytes(b"")
+        probe.unlink()
+    except OSError as exc:
+        raise OutputError(
+            f"cannot write in the output directory ({exc.strerror})", source=str(outdir)
+        ) from None
+    remove_stale_partials(outdir)
     return outdir
 
 
@@ -123,55 +183,182 @@ def figure_makers(spec, module):
     return makers
 
 
-def summarize(command, loaded, seed, result):
+def summarize(command, loaded, seed, result, module=None):
     """The summary dict of a result: checks evaluated, verdict."""
     from inins.io.summary import build_summary
 
-    checks = evaluate_checks(loaded, result)
+    checks = evaluate_checks(loaded, result, declared_names(module, loaded))
     return build_summary(
         command, inins.__version__, loaded.source, seed, result.results, result.truth, checks
     )
 
 
-def write_outputs(command, run, loaded, seed, outdir, makers=None, progress=None):
-    """Call ``run`` and write the three outputs (and any figures) atomically."""
+def write_outputs(command, module, loaded, seed, outdir, makers=None, progress=None):
+    """Call ``module.run`` and write the three outputs (and any figures) atomically.
+
+    A full disk at any point is one :class:`~inins.exceptions.OutputError` naming the
+    device and file; nothing is left behind.
+    """
     from inins.io.atomic import AtomicGroup
+    from inins.io.diskspace import disk_full_error, is_disk_full
+
+    makers = makers or {}
+    names = (*makers, f"{command}.h5", f"{command}.txt", "summary.json")
+    group = AtomicGroup(outdir, names)
+    current = [outdir / f"{command}.h5"]
+    try:
+        with group:
+            summary, result = _write_all(
+                command, module, loaded, seed, group, makers, progress, current
+            )
+    except (OSError, RuntimeError) as exc:
+        if is_disk_full(exc):
+            raise disk_full_error(current[0]) from None
+        if isinstance(exc, PermissionError | IsADirectoryError):
+            raise InputError(f"cannot write ({exc.strerror})", source=str(current[0])) from None
+        raise
+    paths = tuple(outdir / n for n in names)
+    return Execution(summary, paths, result, group.interrupted)
+
+
+def _write_all(command, module, loaded, seed, group, makers, progress, current):
     from inins.io.hdf5 import ResultsWriter
     from inins.io.provenance import make_provenance
     from inins.io.report import build_report
     from inins.io.summary import summary_text
 
     prov = make_provenance(command, loaded.text, loaded.source, seed, list(loaded.overrides))
-    makers = makers or {}
-    names = (*makers, f"{command}.h5", f"{command}.txt", "summary.json")
-    with AtomicGroup(outdir, names) as group:
-        with ResultsWriter(group[f"{command}.h5"]) as h5:
-            h5.set_attrs("", prov)
-            with h5.sink(threaded=True) as sink:
-                result = run(loaded.model, seed, sink=sink, progress=progress)
-            if not isinstance(result, CommandResult):
-                raise TypeError(f"run() returned {type(result).__name__}, expected a CommandResult")
-            h5.write_result(result)
-            summary = summarize(command, loaded, seed, result)
-            h5.set_attrs("", {"summary_json": summary_text(summary)})
-        for name, make in makers.items():
-            make(result, group[name].tmp)
-        report = build_report(prov, result.report, result.warnings, summary["checks"])
-        group[f"{command}.txt"].tmp.write_text(report, encoding="utf-8")
-        group["summary.json"].tmp.write_text(summary_text(summary), encoding="utf-8")
-    return Execution(summary, tuple(outdir / n for n in names), result)
+    with ResultsWriter(group[f"{command}.h5"]) as h5:
+        h5.set_attrs("", prov)
+        with h5.sink(threaded=True) as sink:
+            result = run_located(module, loaded, seed, sink, progress)
+        if not isinstance(result, CommandResult):
+            raise TypeError(f"run() returned {type(result).__name__}, expected a CommandResult")
+        _phase(progress, "write")
+        h5.write_result(result)
+        summary = summarize(command, loaded, seed, result, module)
+        h5.set_attrs("", {"summary_json": summary_text(summary)})
+    for name, make in makers.items():
+        current[0] = group[name].path
+        _draw(make, result, group[name].tmp, group[f"{command}.h5"].tmp)
+    report = build_report(prov, result.report, result.warnings, summary["checks"])
+    current[0] = group[f"{command}.txt"].path
+    group[f"{command}.txt"].tmp.write_text(report, encoding="utf-8")
+    current[0] = group["summary.json"].path
+    group["summary.json"].tmp.write_text(summary_text(summary), encoding="utf-8")
+    current[0] = group.directory
+    return summary, result
 
 
-def evaluate_checks(loaded, result):
-    """Evaluate the scenario's checks; locate a bad one in the file."""
+PHASES = {
+    "simulate-table": "simulate",
+    "import-log": "import",
+    "calibrate-bias": "calibrate",
+    "align-ett": "align",
+}
+"""Progress label of each command's main work (then ``write``)."""
+
+
+def run_located(module, loaded, seed, sink, progress):
+    """``module.run``; a bad-input error keyed by a scenario key path but not placed in a
+    file (``steps[2]: ...``) is placed in the scenario file, at its line."""
+    command = getattr(loaded.model, "__module__", "").rsplit(".", 1)[-1].replace("_", "-")
+    _phase(progress, PHASES.get(command, "run"))
+    try:
+        return module.run(loaded.model, seed, sink=sink, progress=progress)
+    except InputError as exc:
+        if exc.source is None and exc.key:
+            exc.source = loaded.source
+            if not loaded.overrides:
+                from inins.scenario.yaml_source import line_of, parse_yaml
+
+                lines = parse_yaml(loaded.text, loaded.source)[1]
+                exc.line = line_of(lines, _key_path(exc.key))
+        raise
+
+
+def _key_path(key: str) -> tuple:
+    """``"steps[2].start_s"`` -> ``("steps", 2, "start_s")``."""
+    import re
+
+    return tuple(
+        int(part) if part.isdigit() else part for part in re.split(r"[.\[\]]+", key) if part
+    )
+
+
+def _draw(make, result, path, data) -> None:
+    """Call a figure function with the results file if it takes one (see
+    :mod:`inins.commands.figures`)."""
+    import inspect
+
+    if len(inspect.signature(make).parameters) >= 3:
+        make(result, path, data)
+    else:
+        make(result, path)
+
+
+def _phase(progress, name) -> None:
+    """Tell a progress display which phase the run is in (if it wants to know)."""
+    phase = getattr(progress, "phase", None)
+    if phase is not None:
+        phase(name)
+
+
+def declared_names(module, loaded):
+    """``(results, truth)`` names the command declares for this scenario, or None.
+
+    A command module declares them with ``declared_results(scenario) -> (results,
+    truth)`` (each a set of names); checks are validated against them before the run.
+    """
+    declare = getattr(module, "declared_results", None)
+    return None if declare is None else declare(loaded.model)
+
+
+def validate_check_names(module, loaded) -> None:
+    """Every name in the scenario's checks must be a declared result (or truth) name;
+    checked before the run, located in the file or the ``--set`` item."""
+    from inins.scenario.checks import validate_names
+
+    names = declared_names(module, loaded)
+    checks = getattr(loaded.model, "checks", [])
+    if names is None or not checks:
+        return
+    try:
+        validate_names(checks, *names)
+    except InputError as exc:
+        raise _locate_check_error(exc, loaded) from None
+
+
+def evaluate_checks(loaded, result, names=None):
+    """Evaluate the scenario's checks; locate a bad one in the file.
+
+    ``names``: the declared ``(results, truth)``; a declared result this run did not
+    produce makes its check fail ("not available") instead of being bad input.
+    """
     from inins.scenario.checks import evaluate_checks as evaluate
+
+    results = result.results
+    if names is not None:
+        results = {**dict.fromkeys(names[0]), **results}
+    try:
+        return evaluate(getattr(loaded.model, "checks", []), results, result.truth)
+    except InputError as exc:
+        raise _locate_check_error(exc, loaded) from None
+
+
+def _locate_check_error(exc, loaded):
+    """``exc`` (keyed ``checks[i]``) with the file and line, or the ``--set`` item."""
     from inins.scenario.yaml_source import line_of, parse_yaml
 
-    try:
-        return evaluate(getattr(loaded.model, "checks", []), result.results, result.truth)
-    except InputError as exc:
-        exc.source = loaded.source
-        if not loaded.overrides and exc.key and exc.key.startswith("checks["):
+    exc.source = loaded.source
+    if exc.key and exc.key.startswith("checks["):
+        set_item = next(
+            (o for o in loaded.overrides if o.split("=", 1)[0].strip().startswith("checks")),
+            None,
+        )
+        if set_item is not None:
+            exc.key = f"{exc.key} (from --set {set_item})"
+        elif not loaded.overrides:
             index = int(exc.key[len("checks[") : -1])
             exc.line = line_of(parse_yaml(loaded.text, loaded.source)[1], ("checks", index))
-        raise
+    return exc

@@ -1,14 +1,25 @@
 """PNG figures (matplotlib, the optional ``plot`` extra), drawn from a CommandResult.
 
+A figure function is ``f(result, path)``, or ``f(result, path, data)`` where ``data``
+is the run's results file (still under its temporary name) for the series streamed
+there rather than kept in the result.
+
 calibrate-bias: roll and pitch through the 000 Table 1 sequence with the epoch
-windows of the formulas marked, like 000 Figs. 5-12. 000's roll R is the tilt
-about the body axis that points north at the first position, its pitch P the
-tilt about the axis that points east.
+windows of the formulas marked, like 000 Figs. 5-12, the 1-sigma scatter of each
+epoch window, and the formula chosen. 000's roll R is the tilt about the body axis
+that points north at the first position, its pitch P the tilt about the axis that
+points east.
+
+simulate-table: table angles, angular rate and specific force (block means).
+align-ett: the specific force at the two ETT positions and the heading estimates
+with 1-sigma against the truth. import-log: block-mean rates with the holds, the
+Earth rate seen in each block, and the Allan deviation of each gyro axis.
 """
 
 import numpy as np
 
-from inins.core.units import ARCSEC
+from inins.core import earth
+from inins.core.units import ARCSEC, DEG, DPH
 
 FORMULAS = {
     "roll": ("eq. 38: (R1 + R3 - R2 - R4) / 2T", ("eq38",)),
@@ -37,11 +48,30 @@ def _epoch_figure(result, kind, path):
     minutes = ds["nav/time"].data / 60.0
     tilt = ds["nav/tilt"].data[:, column] / ARCSEC
     fig, ax = plt.subplots(figsize=(9, 4.5), layout="constrained")
-    ax.plot(minutes, tilt, lw=0.8, color="tab:blue")
+    ax.plot(minutes, tilt, lw=0.8, color="tab:blue", label=f"{kind} tilt")
+    time = ds["nav/time"].data
     for k, ((start, end), value) in enumerate(
         zip(ds["epochs/window"].data, ds["epochs/tilt"].data[:, column] / ARCSEC, strict=True)
     ):
-        ax.axvspan(start / 60.0, end / 60.0, color="tab:orange", alpha=0.35, lw=0)
+        ax.axvspan(
+            start / 60.0,
+            end / 60.0,
+            color="tab:orange",
+            alpha=0.35,
+            lw=0,
+            label="epoch windows" if k == 0 else None,
+        )
+        inside = (time >= start) & (time <= end)
+        spread = float(np.std(tilt[inside])) if inside.sum() > 1 else 0.0
+        ax.fill_between(
+            [start / 60.0, end / 60.0],
+            value - spread,
+            value + spread,
+            color="tab:red",
+            alpha=0.3,
+            lw=0,
+            label="epoch mean +/- 1-sigma scatter" if k == 0 else None,
+        )
         below = k in (1, 4)  # epochs 3 and 4 are close in time: put them on opposite sides
         ax.annotate(
             f'{letter}({k}) = {value:.2f}"',
@@ -56,7 +86,11 @@ def _epoch_figure(result, kind, path):
     values = ", ".join(
         f"beta_{axis} ({n}) = {_fmt(result.results.get(f'beta_{axis}_{n}_dph'))}" for n in names
     )
-    ax.set_title(f"{kind} (tilt about body {axis})  {text}\n{values} deg/h", fontsize=9)
+    ax.set_title(
+        f"{kind} (tilt about body {axis})  {text}\n{values} deg/h\n{_chosen_text(result)}",
+        fontsize=9,
+    )
+    ax.legend(loc="best", fontsize=8)
     ax.set_xlabel("time (min)")
     ax.set_ylabel(f"{kind} tilt (arcsec)")
     ax.margins(y=0.22)
@@ -147,6 +181,70 @@ def _ekf_states(result, names, path, title, scale, unit):
     plt.close(fig)
 
 
+def _chosen_text(result):
+    """``chosen: beta_x = ... +/- ... deg/h (eq44); beta_y ...`` or "no valid formula"."""
+    parts = []
+    for axis in "xyz":
+        value = result.results.get(f"beta_{axis}_dph", "absent")
+        if value == "absent":
+            continue
+        sigma = result.results.get(f"beta_{axis}_sigma_dph")
+        if value is None or not np.isfinite(value):
+            parts.append(f"beta_{axis}: no valid formula")
+            continue
+        formula = next(
+            (
+                n
+                for n in ("eq38", "eq44", "eq45")
+                if result.results.get(f"beta_{axis}_{n}_dph") == value
+            ),
+            "?",
+        )
+        parts.append(f"beta_{axis} = {value:.5f} +/- {_fmt(sigma)} deg/h ({formula})")
+    return "chosen: " + ("; ".join(parts) or "no valid formula")
+
+
+def _block_means(data_path, points=2000):
+    """Block means of the IMU rates of a table-data file: time (s), rate (rad/s, k x 3),
+    specific force (m/s^2, k x 3), with about ``points`` blocks."""
+    from inins.io.tabledata import read_table_data
+
+    record = read_table_data(data_path)
+    n = record.n_samples
+    block = max(1, n // points)
+    times, rates, forces = [], [], []
+    for k0, dtheta, dv in record.imu_chunks(0, n - n % block or n):
+        m = dtheta.shape[0] // block * block
+        if m == 0:
+            continue
+        times.append(record.t0 + (k0 + block * (np.arange(m // block) + 0.5)) * record.dt)
+        rates.append(dtheta[:m].reshape(-1, block, 3).mean(axis=1) / record.dt)
+        forces.append(dv[:m].reshape(-1, block, 3).mean(axis=1) / record.dt)
+    return record, np.concatenate(times), np.concatenate(rates), np.concatenate(forces)
+
+
+def simulate_table_motion(result, path, data):
+    """Table angles, angular rate and specific force of the simulated IMU."""
+    plt = _pyplot()
+    record, t, rate, force = _block_means(data)
+    fig, axes = plt.subplots(3, 1, figsize=(9, 8), sharex=True, layout="constrained")
+    for g, name in enumerate(record.gimbals):
+        axes[0].plot(record.encoder_time / 60.0, record.encoder[:, g] / DEG, label=name)
+    axes[0].set_ylabel("table angle (deg)")
+    for i, axis in enumerate("xyz"):
+        axes[1].plot(t / 60.0, rate[:, i] / DEG, lw=0.8, label=f"omega_{axis}")
+        axes[2].plot(t / 60.0, force[:, i], lw=0.8, label=f"f_{axis}")
+    axes[1].set_ylabel("angular rate, b (deg/s)")
+    axes[2].set_ylabel("specific force, b (m/s^2)")
+    axes[2].set_xlabel("time (min)")
+    for ax in axes:
+        ax.grid(alpha=0.3)
+        ax.legend(loc="upper right", fontsize=8)
+    axes[0].set_title(f"simulate-table: {result.results.get('samples')} samples", fontsize=9)
+    fig.savefig(path, dpi=110, format="png")
+    plt.close(fig)
+
+
 def run_ekf_heading(result, path):
     """run-ekf, 003 Figs. 8, 12: heading error against truth (or the estimated phi_D)."""
     plt = _pyplot()
@@ -161,6 +259,40 @@ def run_ekf_heading(result, path):
     ax.set_ylabel("heading error (deg)")
     ax.legend(fontsize=8)
     ax.grid(alpha=0.3)
+    fig.savefig(path, dpi=110, format="png")
+    plt.close(fig)
+
+
+def align_ett_geometry(result, path):
+    """The specific force at the vertical and level positions, and the ETT and
+    gyrocompass headings with 1-sigma (and the truth where known)."""
+    plt = _pyplot()
+    r = result.results
+    f_b = result.datasets["ett/f_b"].data
+    fig, (left, right) = plt.subplots(1, 2, figsize=(10, 4.2), layout="constrained")
+    x = np.arange(3)
+    for row, (name, shift) in enumerate((("vertical", -0.18), ("level", 0.18))):
+        left.bar(x + shift, f_b[row], width=0.35, label=f"{name} position")
+    left.set_xticks(x, ["f_x", "f_y", "f_z"])
+    left.set_ylabel("mean specific force, b (m/s^2)")
+    left.set_title("ETT positions (000 §3.1)", fontsize=9)
+    left.legend(fontsize=8)
+    left.grid(alpha=0.3, axis="y")
+    names = [
+        ("ETT", "heading_deg", "heading_sigma_deg"),
+        ("gyrocompass", "gyrocompass_heading_deg", "gyrocompass_heading_sigma_deg"),
+    ]
+    for k, (label, key, sigma) in enumerate(names):
+        right.errorbar(k, r[key], yerr=r[sigma], fmt="o", capsize=6, label=f"{label} +/- 1-sigma")
+    truth = result.truth.get("heading_deg")
+    if truth is not None:
+        right.axhline(truth, color="k", lw=0.8, ls="--", label="truth")
+    right.set_xticks([0, 1], ["ETT", "gyrocompass"])
+    right.set_xlim(-0.6, 1.6)
+    right.set_ylabel("IMU heading at the level position (deg)")
+    right.set_title("heading estimates", fontsize=9)
+    right.legend(fontsize=8)
+    right.grid(alpha=0.3)
     fig.savefig(path, dpi=110, format="png")
     plt.close(fig)
 
@@ -192,5 +324,68 @@ def run_ekf_corrections(result, path):
     ax.set_title(f"feedback corrections ({result.attrs['ekf']['coupling']}; zero in ff)")
     ax.legend(fontsize=8)
     ax.grid(alpha=0.3)
+    fig.savefig(path, dpi=110, format="png")
+    plt.close(fig)
+
+
+def allan_deviation(rate, dt, points=20):
+    """Non-overlapping Allan deviation of a rate series (IEEE Std 952 eq. C.1).
+
+    Parameters
+    ----------
+    rate : ndarray, shape (n,)
+        Rate samples (any unit).
+    dt : float
+        Sample interval (s).
+
+    Returns
+    -------
+    tau : ndarray, shape (m,)
+        Cluster times (s), log-spaced, at least 3 clusters each.
+    adev : ndarray, shape (m,)
+        sigma(tau) = sqrt(mean((ybar_{k+1} - ybar_k)^2) / 2), same unit as ``rate``.
+    """
+    n = rate.shape[0]
+    sizes = np.unique(np.logspace(0, np.log10(max(1, n // 3)), points).astype(int))
+    out = []
+    for m in sizes:
+        means = rate[: n // m * m].reshape(-1, m).mean(axis=1)
+        out.append(np.sqrt(0.5 * np.mean(np.diff(means) ** 2)) if means.size > 2 else np.nan)
+    return sizes * dt, np.array(out)
+
+
+def import_log_checks(result, path, data):
+    """Block-mean rates with the holds shaded, the Earth rate of each block against the
+    WGS84 rate, and the Allan deviation of each gyro axis."""
+    from inins.io.tabledata import read_table_data
+
+    plt = _pyplot()
+    ds = result.datasets
+    t, omega = ds["check/time"].data, ds["check/omega_b"].data
+    fig, axes = plt.subplots(1, 3, figsize=(14, 4.2), layout="constrained")
+    for i, axis in enumerate("xyz"):
+        axes[0].plot(t, omega[:, i] / DPH, lw=0.8, label=f"omega_{axis}")
+    kinds = ds["steps/kind"].data
+    for k, (a, b) in enumerate(
+        zip(ds["steps/start_time"].data, ds["steps/end_time"].data, strict=True)
+    ):
+        if (kinds[k].decode() if isinstance(kinds[k], bytes) else str(kinds[k])) == "hold":
+            axes[0].axvspan(
+                a, b, color="tab:green", alpha=0.12, lw=0, label="holds" if k == 0 else None
+            )
+    axes[0].set(xlabel="time (s)", ylabel="block-mean rate, b (deg/h)", title="per-block means")
+    axes[1].plot(t, np.linalg.norm(omega, axis=1) / DPH, lw=0.8, label="|omega| per block")
+    axes[1].axhline(earth.RATE / DPH, color="k", ls="--", lw=0.8, label="Earth rate (WGS84)")
+    axes[1].set(xlabel="time (s)", ylabel="deg/h", title="Earth rate seen at rest")
+    record = read_table_data(data)
+    k1 = min(record.n_samples, 1 << 21)
+    dtheta, _ = record.imu(0, k1)
+    for i, axis in enumerate("xyz"):
+        tau, adev = allan_deviation(dtheta[:, i] / record.dt / DPH, record.dt)
+        axes[2].loglog(tau, adev, label=f"gyro {axis}")
+    axes[2].set(xlabel="tau (s)", ylabel="Allan deviation (deg/h)", title="Allan deviation")
+    for ax in axes:
+        ax.grid(alpha=0.3, which="both")
+        ax.legend(fontsize=8)
     fig.savefig(path, dpi=110, format="png")
     plt.close(fig)

@@ -14,6 +14,7 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from inins.calibration import stationary
+from inins.commands import figures
 from inins.core import earth
 from inins.core.records import Step, StepKind
 from inins.core.units import ARCSEC, DEG, DEG_RTH, DPH, UG, UG_RTHZ
@@ -40,6 +41,46 @@ from inins.scenario.import_log import (
 from inins.table import kinematics
 
 SCENARIO_MODEL = ImportLogScenario
+FIGURES = {"import-log.png": figures.import_log_checks}
+HOLD_NAMES = (
+    "roll_deg",
+    "pitch_deg",
+    "heading_deg",
+    "heading_sigma_deg",
+    "earth_rate_dph",
+    "earth_rate_err_pct",
+    "earth_rate_horizontal_dph",
+    "earth_rate_horizontal_err_pct",
+    "implied_lat_deg",
+    "implied_lat_err_deg",
+    "gravity_err_ug",
+    "hold_s",
+    "quiet_s",
+    "heading_unscreened_deg",
+    "earth_rate_horizontal_unscreened_dph",
+    "implied_lat_unscreened_deg",
+    *(f"arw_{a}_deg_rth" for a in "xyz"),
+    *(f"vrw_{a}_ug_rthz" for a in "xyz"),
+)
+"""Results of the first checked hold (:func:`hold_numbers`); absent if no hold is checked."""
+RESULT_NAMES = ("samples", "duration_s", "sample_rate_hz", "steps", "holds_checked", *HOLD_NAMES)
+
+
+def declared_results(scenario):
+    """Names of the results and truth a run gives (checks are validated against them)."""
+    return RESULT_NAMES, ()
+
+
+def estimate(scenario):
+    """Size of the import: the output is at most about the log's size (text and 16-bit
+    binary logs are larger per sample than the stored increments)."""
+    from inins.commands.budget import Estimate
+
+    try:
+        size = scenario.log.file.stat().st_size
+    except OSError:
+        return None  # the reader says what is wrong with the file
+    return Estimate(0, 2 * size, 256 << 20, "log.file")
 
 
 @dataclass(frozen=True)

@@ -7,14 +7,33 @@ summary numbers and the report.
 
 import numpy as np
 
+from inins.commands import figures
 from inins.commands._table import table_simulation, truth_attrs
 from inins.core.units import DEG_RTH, DPH, PPM, UG, UG_RTHZ
+from inins.exceptions import InputError
 from inins.io import tabledata
 from inins.results import CommandResult, NullSink, format_table
 from inins.scenario.simulate_table import SimulateTableScenario
 from inins.table import simulate
 
 SCENARIO_MODEL = SimulateTableScenario
+FIGURES = {"simulate-table.png": figures.simulate_table_motion}
+RESULT_NAMES = ("samples", "duration_s", "sample_rate_hz", "steps")
+TRUTH_NAMES = tuple(
+    f"{s}_bias_{a}_{u}" for s, u in (("gyro", "dph"), ("accel", "ug")) for a in "xyz"
+)
+
+
+def declared_results(scenario):
+    """Names of the results and truth a run gives (checks are validated against them)."""
+    return RESULT_NAMES, TRUTH_NAMES
+
+
+def estimate(scenario):
+    """Samples, output bytes and memory of the run (streamed: memory is a few chunks)."""
+    from inins.commands.budget import table_estimate
+
+    return table_estimate(scenario, in_memory=False)
 
 
 def run(scenario, seed, *, sink=None, progress=None):
@@ -62,7 +81,16 @@ def stream(sim, rng, sink, progress=None):
         sink, len(sim.gimbal_names), weights, truth=True, expected=(sim.n_samples, n_rows)
     )
     for chunk in simulate.simulation_chunks(sim, rng, progress):
-        tabledata.append_chunk(sink, chunk, weights)
+        try:
+            tabledata.append_chunk(sink, chunk, weights)
+        except ValueError as exc:
+            if "overflow int32" not in str(exc):
+                raise
+            raise InputError(
+                "the increments per sample exceed 2**31 pulses: the rates (motion, biases) "
+                "are too large for the pulse weights",
+                key="imu.gyro.pulse_weight_arcsec, imu.accel.pulse_weight_ug_s",
+            ) from None
     return sink
 
 

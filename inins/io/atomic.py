@@ -5,18 +5,37 @@ so the rename is atomic on POSIX and Windows) and moved over ``OUT/name`` with
 :func:`os.replace` on commit. On failure or interrupt the temporary file is
 removed and an earlier ``OUT/name`` is left as it was. A run killed outright
 (SIGKILL, power loss) can leave a hidden ``.partial-<pid>`` file, never a
-truncated file under the final name.
+truncated file under the final name; :func:`remove_stale_partials` deletes
+those whose process is gone (every run calls it on its output folder).
 
 :class:`AtomicGroup` commits several files in a stated order after all of
 them are complete (the runner puts ``summary.json`` last, so its presence
-marks a finished run), holding SIGINT/SIGTERM for the few renames.
+marks a finished run). For the renames it
+
+- holds SIGINT/SIGTERM: a signal that arrives then is recorded in
+  :attr:`AtomicGroup.interrupted` and *not* re-raised, since the outputs are
+  complete by the time it could act (the caller says so and finishes);
+- holds an exclusive ``flock`` on the output folder itself (no lock file), so
+  concurrent runs into one folder commit one after the other and the folder
+  always holds one run's complete set, never a mix.
 """
 
 import contextlib
 import os
+import re
 import signal
 import threading
 from pathlib import Path
+
+try:
+    import fcntl
+except ImportError:  # Windows: no folder lock
+    fcntl = None
+
+_PARTIAL = re.compile(r"^\..+\.partial-(\d+)$")
+_before_rename = None
+"""Test hook: ``_before_rename(path)`` is called before each rename of a group commit
+(a test sends a signal or sleeps there to hit the window)."""
 
 
 def partial_path(path) -> Path:
@@ -84,22 +103,29 @@ class AtomicGroup:
     """
 
     def __init__(self, directory, names, durable: bool = True):
-        self.files = {name: AtomicFile(Path(directory) / name, durable) for name in names}
+        self.directory = Path(directory)
+        self.files = {name: AtomicFile(self.directory / name, durable) for name in names}
+        self.interrupted = None
+        """Signal number received (and held) during :meth:`commit`, else None."""
 
     def __getitem__(self, name) -> AtomicFile:
         return self.files[name]
 
     def commit(self) -> None:
-        """Rename every file to its final name, in order (interrupts held)."""
+        """Rename every file to its final name, in order, with interrupts held and the
+        folder locked; a held interrupt is recorded in :attr:`interrupted`."""
         pending = list(self.files.values())
-        with deferred_interrupts():
+        with deferred_interrupts(redeliver=False) as received, folder_lock(self.directory):
             try:
                 while pending:
+                    if _before_rename is not None:
+                        _before_rename(pending[0].path)
                     pending[0].commit()
                     pending.pop(0)
             finally:
                 for f in pending:
                     f.discard()
+        self.interrupted = received[0] if received else None
 
     def discard(self) -> None:
         """Remove every temporary file."""
@@ -118,25 +144,90 @@ class AtomicGroup:
 
 
 @contextlib.contextmanager
-def deferred_interrupts():
-    """Hold SIGINT and SIGTERM until the block ends, then deliver them.
+def deferred_interrupts(redeliver: bool = True):
+    """Hold SIGINT and SIGTERM until the block ends; yields the list of signals held.
 
-    Only in the main thread (elsewhere signals cannot be handled and the block
-    runs unprotected).
+    With ``redeliver`` the first held signal is raised again when the block ends;
+    without, the caller reads the list and decides. Only in the main thread
+    (elsewhere signals cannot be handled and the block runs unprotected).
     """
-    if threading.current_thread() is not threading.main_thread():
-        yield
-        return
     received = []
+    if threading.current_thread() is not threading.main_thread():
+        yield received
+        return
     sigs = [signal.SIGINT] + ([signal.SIGTERM] if hasattr(signal, "SIGTERM") else [])
     old = {sig: signal.signal(sig, lambda signum, frame: received.append(signum)) for sig in sigs}
     try:
-        yield
+        yield received
     finally:
         for sig, handler in old.items():
             signal.signal(sig, handler)
-        if received:
+        if received and redeliver:
             signal.raise_signal(received[0])
+
+
+@contextlib.contextmanager
+def folder_lock(directory):
+    """Exclusive ``flock`` on ``directory`` itself for the block (waits for other holders).
+
+    Where folder locks are not supported (Windows, some network file systems) the
+    block runs unlocked.
+    """
+    fd = None
+    if fcntl is not None:
+        try:
+            fd = os.open(directory, os.O_RDONLY)
+            fcntl.flock(fd, fcntl.LOCK_EX)
+        except OSError:
+            if fd is not None:
+                os.close(fd)
+            fd = None
+    try:
+        yield
+    finally:
+        if fd is not None:
+            fcntl.flock(fd, fcntl.LOCK_UN)
+            os.close(fd)
+
+
+def _process_gone(pid: int) -> bool:
+    """True if no process ``pid`` exists (a process of another user counts as alive)."""
+    if pid == os.getpid():
+        return False
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return True
+    except (PermissionError, OSError):
+        return False
+    return False
+
+
+def remove_stale_partials(directory) -> list:
+    """Delete ``.NAME.partial-<pid>`` files in ``directory`` whose process is gone.
+
+    A run killed outright (SIGKILL, power loss) leaves its temporary files; a later
+    run into the same folder removes them. Files of a live process are kept.
+
+    Returns
+    -------
+    list of Path
+        The files removed.
+    """
+    removed = []
+    try:
+        entries = list(os.scandir(directory))
+    except OSError:
+        return removed
+    for entry in entries:
+        match = _PARTIAL.match(entry.name)
+        if match is None or not entry.is_file(follow_symlinks=False):
+            continue
+        if _process_gone(int(match.group(1))):
+            with contextlib.suppress(OSError):
+                os.unlink(entry.path)
+                removed.append(Path(entry.path))
+    return removed
 
 
 def write_text_atomic(path, text: str) -> None:

@@ -22,14 +22,17 @@ stored natively. A dict is flattened into dotted names
 else (None, lists of dicts, mixed lists) is stored as its JSON text.
 """
 
+import contextlib
 import json
+import os
 from pathlib import Path
 
 import h5py
 import numpy as np
 
-from inins.exceptions import InputError
+from inins.exceptions import InputError, OutputError
 from inins.io.atomic import AtomicFile
+from inins.io.diskspace import FullDiskWatch, check_room, disk_full_error, is_disk_full
 from inins.io.provenance import PROVENANCE_KEYS
 
 LONG_ROWS = 10_000
@@ -37,6 +40,11 @@ LONG_ROWS = 10_000
 CHUNK_BYTES = 1 << 20
 """Target chunk size in bytes."""
 GZIP_LEVEL = 1
+
+
+_abandoned = []
+"""Files HDF5 failed to write (full disk), left open: closing them can crash HDF5. Their
+temporary file is already removed; the space returns when the process ends."""
 
 
 def chunk_rows(row_shape, dtype) -> int:
@@ -147,36 +155,80 @@ class ResultsWriter:
         self.atomic = AtomicFile(target) if self._owns else target
         self.file = None
         self._sinks = []
+        self._watch = FullDiskWatch()
 
     def __enter__(self):
-        self.file = h5py.File(self.atomic.tmp, "w")
+        self._watch = FullDiskWatch().__enter__()
+        try:
+            self.file = h5py.File(self.atomic.tmp, "w")
+        except BaseException:
+            self._watch.__exit__()
+            raise
         return self
 
     def __exit__(self, exc_type, exc, tb):
-        if exc_type is None:
-            self.close()
-            if self._owns:
-                self.atomic.commit()
-        else:
-            self.abort()
+        try:
+            if exc_type is None:
+                try:
+                    self.close()
+                except BaseException:
+                    self.abort()
+                    raise
+                if self._owns:
+                    self.atomic.commit()
+            else:
+                self.abort()
+        finally:
+            self._watch.__exit__()
+        if exc is not None and is_disk_full(exc) and not isinstance(exc, OutputError):
+            raise disk_full_error(self.atomic.path) from None
         return False
 
     def close(self) -> None:
-        """Finish open sinks and close the file (it stays under its temporary name)."""
+        """Finish open sinks, flush and close the file (it stays under its temporary name).
+
+        Raises
+        ------
+        OutputError
+            The disk is full (checked before the final flush, since HDF5 reports a
+            failed write only at flush or close).
+        """
         for sink in self._sinks:
             sink.close()
         self._sinks.clear()
         if self.file is not None:
+            if self._watch.full:
+                raise disk_full_error(self.atomic.path)
+            check_room(self.atomic.tmp, 0)
+            try:
+                self.file.flush()
+            except (OSError, RuntimeError) as exc:
+                if is_disk_full(exc):
+                    raise disk_full_error(self.atomic.path) from None
+                raise
+            if self._watch.full:
+                raise disk_full_error(self.atomic.path)
             self.file.close()
             self.file = None
 
     def abort(self) -> None:
-        """Drop everything: stop sinks, close and remove the temporary file."""
+        """Drop everything: stop sinks, close and remove the temporary file.
+
+        The temporary file is emptied first, so that HDF5's closing flush finds room
+        even on a full disk (it cannot be stopped from flushing, and a failed flush
+        on close can crash it).
+        """
         for sink in self._sinks:
             sink.abort()
         self._sinks.clear()
         if self.file is not None:
-            self.file.close()
+            with contextlib.suppress(OSError):
+                os.truncate(self.atomic.tmp, 0)
+            if self._watch.full:  # HDF5 has failed writes behind it: closing can crash
+                _abandoned.append(self.file)
+            else:
+                with contextlib.suppress(Exception):
+                    self.file.close()
             self.file = None
         self.atomic.discard()
 

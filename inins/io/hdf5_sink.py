@@ -13,6 +13,11 @@ memory stays bounded: ``max_pending + 1`` chunks in flight plus one chunk
 buffer per dataset. Rows are copied on ``append``; the caller may reuse its
 array. An exception in the writer thread is raised in the caller at its next
 ``create``/``append``/``set_attrs``/``close``.
+
+Before each chunk write the free space is checked (:func:`inins.io.diskspace.check_room`):
+HDF5 reports a failed write late (at flush or close) and may crash on a file whose
+writes failed, so the sink stops with :class:`inins.exceptions.OutputError` while
+:data:`inins.io.diskspace.WRITE_MARGIN` bytes are still free.
 """
 
 import queue
@@ -20,6 +25,7 @@ import threading
 
 import numpy as np
 
+from inins.io.diskspace import check_room
 from inins.io.hdf5 import LONG_ROWS, chunk_rows, encode_attrs, storage_options
 
 
@@ -211,6 +217,9 @@ class H5SeriesSink:
                 dset.attrs[key] = value
         elif kind == "write":
             _, _, start, block = op
+            filename = getattr(self._file, "filename", None)
+            if filename is not None:
+                check_room(filename, block.nbytes)
             dset = self._file[path]
             dset.resize(start + block.shape[0], axis=0)
             dset[start : start + block.shape[0]] = block

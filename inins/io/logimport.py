@@ -332,7 +332,15 @@ class LogReader:
                     )
                 # the median step, its rate rounded to 9 digits (undoes the float error of
                 # differences of large times: 1000.2 - 1000.1 = 0.09999999999990905)
-                self.dt = 1.0 / float(f"{1.0 / float(np.median(np.diff(t[:1001]))):.9g}")
+                step = float(np.median(np.diff(t[:1001])))
+                if not step > 0:
+                    raise InputError(
+                        f"the time column does not increase (median step {step:g}); "
+                        "is it the time?",
+                        source=source,
+                        key="log.columns.time",
+                    )
+                self.dt = 1.0 / float(f"{1.0 / step:.9g}")
             dt = self.dt
             if has_time:
                 timecheck(block, t, dt)

@@ -319,14 +319,18 @@ def _truth(f):
 
 
 def read_table_data(path):
-    """Open a table-data file and read everything but the IMU increments.
+    """Open a table-data file, check it (:func:`validate`) and read everything but the
+    IMU increments.
 
     Raises
     ------
     InputError
-        The file is missing, not HDF5, or lacks part of the layout.
+        The file is missing, a directory, not HDF5, lacks part of the layout, or holds
+        data of the wrong shape, type or values (naming the dataset).
     """
     path = Path(path)
+    if path.is_dir():
+        raise InputError("is a directory, expected a table-data HDF5 file", source=str(path))
     if not path.is_file():
         raise InputError("file not found", source=str(path))
     try:
@@ -335,25 +339,195 @@ def read_table_data(path):
         raise InputError(f"cannot read as HDF5 ({exc})", source=str(path)) from None
     with f:
         name = str(path)
-        imu = _require(f, "imu", name)
-        n = _require(f, "imu/dtheta", name).shape[0]
-        if _require(f, "imu/dv", name).shape[0] != n:
-            raise InputError("imu/dtheta and imu/dv differ in length", source=name, key="imu")
-        site = _require(f, "site", name).attrs
-        table = _require(f, "table", name)
-        steps = _require(f, "steps", name)
-        return TableData(
-            t0=float(imu.attrs["t0_s"]),
-            dt=float(imu.attrs["dt_s"]),
-            lla=np.array([site["lat_rad"], site["lon_rad"], site["height_m"]], dtype=float),
-            gimbals=_text(table.attrs["gimbals"]),
-            axes=np.asarray(table.attrs["axes"], dtype=float).reshape(-1, 3),
-            mat_n_base=np.asarray(table.attrs["mat_n_base"], dtype=float).reshape(3, 3),
-            steps=decode_steps({k: steps[k][()] for k in STEP_FIELDS}),
-            encoder_time=table["time"][()],
-            encoder=table["encoder"][()],
-            truth=_truth(f),
-            source=name,
-            path=path,
-            length=n,
+        try:
+            return _read(f, path, name)
+        except (KeyError, ValueError, TypeError, IndexError, OSError) as exc:
+            raise InputError(
+                f"not a readable table-data file ({type(exc).__name__}: {exc})", source=name
+            ) from None
+
+
+def _read(f, path, name):
+    imu = _require(f, "imu", name)
+    n = validate(f, name)
+    site = _require(f, "site", name).attrs
+    table = _require(f, "table", name)
+    steps = _require(f, "steps", name)
+    return TableData(
+        t0=float(imu.attrs["t0_s"]),
+        dt=float(imu.attrs["dt_s"]),
+        lla=np.array([site["lat_rad"], site["lon_rad"], site["height_m"]], dtype=float),
+        gimbals=_text(table.attrs["gimbals"]),
+        axes=np.asarray(table.attrs["axes"], dtype=float).reshape(-1, 3),
+        mat_n_base=np.asarray(table.attrs["mat_n_base"], dtype=float).reshape(3, 3),
+        steps=decode_steps({k: steps[k][()] for k in STEP_FIELDS}),
+        encoder_time=table["time"][()],
+        encoder=table["encoder"][()],
+        truth=_truth(f),
+        source=name,
+        path=path,
+        length=n,
+    )
+
+
+def _bad(name, key, message):
+    return InputError(message, source=name, key=key)
+
+
+IMU_LIMITS = {"imu/dtheta": np.pi, "imu/dv": 1000.0}
+"""Largest plausible increment per sample (rad, m/s): half a turn, 1000 m/s."""
+MAX_ABS = 1e12
+"""Largest magnitude of any other number in the layout (times in s, angles in rad)."""
+
+
+def _numeric(f, key, name, shape_tail, finite=True, chunk=CHUNK_SAMPLES):
+    """The dataset ``key``: numeric, rows of ``shape_tail``, every value finite (and for
+    IMU increments within :data:`IMU_LIMITS`)."""
+    dset = _require(f, key, name)
+    if not isinstance(dset, h5py.Dataset) or dset.dtype.kind not in "iuf":
+        raise _bad(
+            name, key, f"expected a numeric dataset, got {getattr(dset, 'dtype', 'a group')}"
+        )
+    if dset.ndim != 1 + len(shape_tail) or tuple(dset.shape[1:]) != tuple(shape_tail):
+        want = "x".join(["n", *map(str, shape_tail)])
+        raise _bad(name, key, f"expected shape ({want}), got {dset.shape}")
+    limit = IMU_LIMITS.get(key, MAX_ABS if dset.dtype.kind == "f" else None)
+    if finite and (dset.dtype.kind == "f" or limit is not None):
+        for k0 in range(0, dset.shape[0], chunk):
+            rows = dset[k0 : k0 + chunk]
+            bad = ~np.isfinite(rows)
+            if bad.any():
+                row = k0 + int(np.argwhere(bad)[0][0])
+                raise _bad(name, key, f"row {row} is not finite (NaN or infinity)")
+            if limit is not None:
+                _within(dset, rows, k0, limit, key, name)
+    return dset
+
+
+def _within(dset, rows, k0, limit, key, name):
+    weight = dset.attrs.get("pulse_weight")
+    with np.errstate(all="ignore"):
+        si = np.abs(rows * np.asarray(weight, float)) if weight is not None else np.abs(rows)
+    bad = ~(si <= limit)
+    if bad.any():
+        row = k0 + int(np.argwhere(bad)[0][0])
+        unit = LAYOUT[key].units if key in LAYOUT else ""
+        raise _bad(name, key, f"row {row} exceeds {limit:g} {unit} in magnitude")
+
+
+def _finite_attr(obj, attr, key, name, positive=False):
+    if attr not in obj.attrs:
+        raise _bad(name, key, f"missing attribute {attr}")
+    try:
+        value = np.asarray(obj.attrs[attr], dtype=float)
+    except (TypeError, ValueError):
+        raise _bad(name, key, f"attribute {attr} is not a number") from None
+    if not np.all(np.isfinite(value)) or (positive and not np.all(value > 0)):
+        raise _bad(name, key, f"attribute {attr} must be finite{' and > 0' if positive else ''}")
+    return value
+
+
+def validate(f, name) -> int:
+    """Check an open table-data file against :data:`LAYOUT`; return the sample count.
+
+    Shapes and dtypes of the IMU, step and encoder datasets, finite values (IMU
+    increments, pulse weights, times, angles), ``dt_s > 0``, encoder times and step
+    times non-decreasing, step sample ranges inside the record.
+
+    Raises
+    ------
+    InputError
+        Naming the file and the dataset (or attribute) at fault.
+    """
+    imu = _require(f, "imu", name)
+    for attr in ("t0_s", "dt_s"):
+        _finite_attr(imu, attr, "imu", name, positive=attr == "dt_s")
+    lengths = set()
+    for key in ("imu/dtheta", "imu/dv"):
+        dset = _require(f, key, name)
+        if isinstance(dset, h5py.Dataset) and "pulse_weight" in dset.attrs:
+            w = _finite_attr(dset, "pulse_weight", key, name)
+            if w.shape != (3,):
+                raise _bad(name, key, f"pulse_weight must be 3 numbers, got shape {w.shape}")
+        elif isinstance(dset, h5py.Dataset) and dset.dtype.kind in "iu":
+            raise _bad(name, key, f"integer counts ({dset.dtype}) need a pulse_weight attribute")
+        lengths.add(_numeric(f, key, name, (3,)).shape[0])
+    if len(lengths) != 1:
+        raise _bad(name, "imu", "imu/dtheta and imu/dv differ in length")
+    n = lengths.pop()
+    site = _require(f, "site", name)
+    for attr in ("lat_rad", "lon_rad", "height_m"):
+        _finite_attr(site, attr, "site", name)
+    table = _require(f, "table", name)
+    for attr in ("gimbals", "axes", "mat_n_base"):
+        if attr not in table.attrs:
+            raise _bad(name, "table", f"missing attribute {attr}")
+    g = len(table.attrs["gimbals"])
+    axes = _finite_attr(table, "axes", "table", name)
+    if axes.size != 3 * g:
+        raise _bad(name, "table", f"axes must be {g}x3 for {g} gimbals, got {axes.shape}")
+    if _finite_attr(table, "mat_n_base", "table", name).size != 9:
+        raise _bad(name, "table", "mat_n_base must be 3x3")
+    _monotonic(_numeric(f, "table/time", name, ())[()], "table/time", name)
+    if _numeric(f, "table/encoder", name, (g,)).shape[0] != f["table/time"].shape[0]:
+        raise _bad(name, "table/encoder", "not as long as table/time")
+    _validate_steps(f, name, n, g)
+    if "truth" in f:
+        _validate_truth(f, name, g)
+    return n
+
+
+def _validate_truth(f, name, g):
+    """The simulation truth: shapes as in :data:`LAYOUT`, one length, finite."""
+    lengths = set()
+    for key in TRUTH_SERIES:
+        path = f"truth/{key}"
+        lengths.add(_numeric(f, path, name, LAYOUT[path].shape(g)).shape[0])
+    if len(lengths) != 1:
+        raise _bad(name, "truth", "the truth datasets differ in length")
+    _monotonic(f["truth/time"][()], "truth/time", name)
+    norms = np.linalg.norm(f["truth/quat_nb"][()], axis=1)
+    if norms.size and np.max(np.abs(norms - 1.0)) > 1e-6:
+        raise _bad(name, "truth/quat_nb", "quaternions must have unit norm")
+
+
+def _monotonic(values, key, name):
+    if values.size > 1 and np.any(np.diff(values) < 0):
+        row = int(np.argmax(np.diff(values) < 0)) + 1
+        raise _bad(name, key, f"times must not decrease (row {row})")
+
+
+def _validate_steps(f, name, n, g):
+    for field in STEP_FIELDS:
+        _require(f, f"steps/{field}", name)
+    counts = {f[f"steps/{field}"].shape[:1] for field in STEP_FIELDS}
+    if len(counts) != 1:
+        raise _bad(name, "steps", "the steps datasets differ in length")
+    for field in ("start_time", "end_time"):
+        _numeric(f, f"steps/{field}", name, ())
+    for field in ("angles_start", "angles_end"):
+        _numeric(f, f"steps/{field}", name, (g,))
+    for field in ("axis", "start_index", "stop_index"):
+        _numeric(f, f"steps/{field}", name, ())
+    start, stop = f["steps/start_index"][()], f["steps/stop_index"][()]
+    if np.any(start < 0) or np.any(stop > n) or np.any(stop < start):
+        raise _bad(name, "steps/start_index", f"step sample ranges must lie within 0..{n}")
+    t_start, t_end = f["steps/start_time"][()], f["steps/end_time"][()]
+    if np.any(t_end < t_start):
+        raise _bad(name, "steps/end_time", "a step ends before it starts")
+    _monotonic(t_start, "steps/start_time", name)
+    t0, dt = float(f["imu"].attrs["t0_s"]), float(f["imu"].attrs["dt_s"])
+    first = np.ceil((t_start - t0) / dt - 1e-6)
+    last = np.floor((t_end - t0) / dt + 1e-6)
+    if np.any(np.abs(np.clip(first, 0, n) - start) > 1) or np.any(
+        np.abs(np.clip(last, 0, n) - stop) > 1
+    ):
+        raise _bad(name, "steps/start_time", "step times and sample indices disagree (t0_s, dt_s)")
+    axis = f["steps/axis"][()]
+    if np.any((axis < -1) | (axis >= g)):
+        raise _bad(name, "steps/axis", f"gimbal index must be -1..{g - 1}")
+    kinds = {v.decode() if isinstance(v, bytes) else str(v) for v in f["steps/kind"][()]}
+    if not kinds <= {k.value for k in StepKind}:
+        raise _bad(
+            name, "steps/kind", f"unknown step kinds {sorted(kinds - {'hold', 'rotate', 'spin'})}"
         )

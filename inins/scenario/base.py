@@ -45,6 +45,8 @@ from inins.scenario.labunits import (  # noqa: F401 (re-exported: the scenario a
 
 DEFAULT_SEED = 0
 """Seed used when neither ``--seed`` nor the scenario's ``seed`` is given."""
+MAX_MAGNITUDE = 1e15
+"""Largest magnitude of a number in a scenario (any lab unit)."""
 
 
 def _add_units(schema: dict, model: type) -> None:
@@ -92,6 +94,21 @@ class ScenarioSection(BaseModel):
         numeric = cls._numeric_fields()
         return {k: _bool_as_text(v) if k in numeric else v for k, v in data.items()}
 
+    @model_validator(mode="after")
+    def _no_huge_numbers(self):
+        """No number in a scenario exceeds :data:`MAX_MAGNITUDE` (lab units): larger ones
+        overflow the arithmetic (a run too long is refused by its estimate instead)."""
+        from inins.scenario.validation import KeyPathError
+
+        for name in type(self)._numeric_fields():
+            value = getattr(self, name, None)
+            values = value if isinstance(value, list | tuple) else [value]
+            for i, v in enumerate(values):
+                if isinstance(v, float) and abs(v) > MAX_MAGNITUDE:
+                    path = (name, i) if isinstance(value, list | tuple) else (name,)
+                    raise KeyPathError(path, f"{v:g} is beyond {MAX_MAGNITUDE:g} in magnitude")
+        return self
+
     @classmethod
     def _numeric_fields(cls) -> frozenset:
         fields = _NUMERIC_FIELDS.get(cls)
@@ -130,10 +147,44 @@ ScenarioPath = Annotated[Path, AfterValidator(_relative_to_scenario)]
 """A file path; a relative path is relative to the scenario file's directory."""
 
 
+def input_file_problem(path: Path) -> str | None:
+    """What is wrong with an input file path (not UTF-8, a directory, missing), or None."""
+    try:
+        str(path).encode("utf-8")
+    except UnicodeEncodeError:
+        return "the path is not valid UTF-8"
+    if path.is_dir():
+        return f"{path} is a directory, expected a file"
+    if not path.exists():
+        return f"file not found: {path}"
+    return None
+
+
+def loaded_from_file(info) -> bool:
+    """True when validation runs in :func:`load_scenario` (a scenario file), where input
+    files are checked; a model built in code (a test, a sweep) is not."""
+    return bool(info is not None and (info.context or {}).get("check_files"))
+
+
+def _existing_file(value: Path, info) -> Path:
+    """An input file must exist and be a file, checked when the scenario is loaded (so
+    the message names the key and line)."""
+    if not loaded_from_file(info):
+        return value
+    problem = input_file_problem(value)
+    if problem:
+        raise PydanticCustomError("input_file", "{problem}", {"problem": problem})
+    return value
+
+
+InputFile = Annotated[Path, AfterValidator(_relative_to_scenario), AfterValidator(_existing_file)]
+"""A :data:`ScenarioPath` that must name an existing file when the scenario is loaded."""
+
+
 class ScenarioModel(ScenarioSection):
     """Top level of a command's scenario: adds ``seed`` and ``checks``."""
 
-    seed: Annotated[int, Field(ge=0)] | None = Field(
+    seed: Annotated[int, Field(ge=0, le=2**63 - 1)] | None = Field(
         None,
         description="Random seed (integer >= 0). --seed overrides it; "
         f"if neither is given the seed is {DEFAULT_SEED}",
@@ -205,7 +256,9 @@ def load_scenario(model_cls, path, overrides, default_path):
         text = f"# {source} with overrides:\n{header}" + yaml_source.dump_yaml(data)
     try:
         scenario_dir = Path(default_path if path is None else path).resolve().parent
-        model = model_cls.model_validate(data, context={"base_dir": scenario_dir})
+        model = model_cls.model_validate(
+            data, context={"base_dir": scenario_dir, "check_files": True}
+        )
     except ValidationError as exc:
         raise to_input_error(
             exc, data=data, lines=lines, source=source, model_cls=model_cls, overrides=set_by

@@ -5,7 +5,7 @@ from typing import Literal
 
 from pydantic import Field, model_validator
 
-from inins.scenario.base import ScenarioPath, ScenarioSection
+from inins.scenario.base import InputFile, ScenarioSection
 from inins.scenario.simulate_table import TableSource
 from inins.scenario.types import NonNegFloat, NonNegVec3, PositiveFloat
 from inins.scenario.validation import KeyPathError
@@ -38,7 +38,7 @@ class AlignmentSettings(ScenarioSection):
         "alignment is refused where it reaches half the horizontal Earth rate W cos(lat) "
         "(heading error 30 deg). Default: the simulated bias, else checked on the result",
     )
-    ett_file: ScenarioPath | None = Field(
+    ett_file: InputFile | None = Field(
         None,
         description="align-ett.h5 written by inins align-ett on the same mounting, "
         "for method ett (relative to this scenario file); default: ETT on this data",

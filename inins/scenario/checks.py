@@ -173,6 +173,29 @@ def evaluate_checks(checks, results: dict, truth: dict) -> list[dict]:
     return out
 
 
+def validate_names(checks, results, truth) -> None:
+    """Check, before a run, that every name in ``checks`` is one the command declares.
+
+    Parameters
+    ----------
+    checks : sequence of str
+    results, truth : collection of str
+        Names the command's results (and truth) may carry.
+
+    Raises
+    ------
+    InputError
+        A syntax error or an unknown name (``key`` is ``checks[i]``).
+    """
+    for i, expr in enumerate(checks):
+        key = f"checks[{i}]"
+        try:
+            tree = parse_check(expr)
+        except CheckSyntaxError as exc:
+            raise InputError(str(exc), key=key) from None
+        _check_names(tree, frozenset(results), frozenset(truth), key)
+
+
 def _check_names(tree, results, truth, key) -> None:
     known = set(results) | set(truth)
     bases = {id(n.value) for n in ast.walk(tree) if isinstance(n, ast.Attribute)}

@@ -23,7 +23,7 @@ frame, so roll, pitch and heading read as those of the forward axis. The log
 frame is taken to be right-handed; the mapping must be a rotation.
 """
 
-from typing import Literal
+from typing import Annotated, Literal
 
 import numpy as np
 from pydantic import Field, model_validator
@@ -36,7 +36,7 @@ from inins.scenario.validation import KeyPathError
 
 GimbalName = Literal["yaw", "pitch", "roll"]
 AxisSign = Literal["+x", "-x", "+y", "-y", "+z", "-z"]
-ColumnRef = int | str
+ColumnRef = Annotated[int, Field(ge=0)] | str
 
 GYRO_UNITS = {
     "count": ("increment", 1.0),
@@ -134,6 +134,13 @@ class Log(Section):
             raise KeyPathError(
                 ("columns",), f"a {self.format} log needs the column mapping (time, gyro, accel)"
             )
+        if self.columns is not None:
+            for name in ("gyro", "accel"):
+                refs = getattr(self.columns, name)
+                if isinstance(refs, list) and len(refs) != 3:
+                    raise KeyPathError(
+                        ("columns", name), f"give 3 columns (x, y, z), got {len(refs)}"
+                    )
         if self.format == "csv" and self.columns is not None:
             for name in ("gyro", "accel", "table_angles"):
                 if isinstance(getattr(self.columns, name), str):

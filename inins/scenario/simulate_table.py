@@ -7,7 +7,12 @@ from pydantic import Field, field_validator, model_validator
 
 from inins.core import rotation
 from inins.core.units import ARCSEC
-from inins.scenario.base import ScenarioModel, ScenarioPath
+from inins.scenario.base import (
+    ScenarioModel,
+    ScenarioPath,
+    input_file_problem,
+    loaded_from_file,
+)
 from inins.scenario.base import ScenarioSection as Section
 from inins.scenario.common import Imu, Site
 from inins.scenario.types import NonNegFloat, PositiveFloat, Vec3
@@ -247,11 +252,16 @@ class TableSource(ScenarioModel):
     )
 
     @model_validator(mode="after")
-    def _one_source(self):
+    def _one_source(self, info):
         if (self.data is None) == (self.simulate is None):
             raise KeyPathError(
                 ("data",),
                 "give either data (a table-data file) or a "
                 "simulate: section, not both and not neither",
             )
+        problem = None
+        if self.data is not None and loaded_from_file(info):
+            problem = input_file_problem(self.data)
+        if problem:
+            raise KeyPathError(("data",), problem)
         return self

@@ -18,7 +18,7 @@ HEAVY = ("numpy", "scipy", "numba", "h5py", "pydantic", "yaml")
 
 
 def test_schema_of_fake_command(invoke):
-    result = invoke("schema", "fake")
+    result = invoke("schema", "fake", "--json")
     assert result.exit_code == 0, result.output
     schema = json.loads(result.stdout)
     props = schema["properties"]

@@ -90,7 +90,7 @@ def test_bad_log_exits_2_and_writes_nothing(tmp_path):
 
 
 def test_schema_documents_every_key():
-    result = CliRunner().invoke(app, ["schema", "import-log"])
+    result = CliRunner().invoke(app, ["schema", "import-log", "--json"])
     assert result.exit_code == 0
     props = json.loads(result.stdout)["$defs"]
     assert props["LogGyro"]["properties"]["pulse_weight_arcsec"]["unit"] == "arcsec"

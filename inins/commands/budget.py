@@ -1,0 +1,123 @@
+"""What a run will cost, estimated from its scenario before it starts, and the limits.
+
+Each command module may define ``estimate(scenario) -> Estimate``;
+:func:`check_budget` refuses a run (exit 2, with the estimate) whose samples exceed
+:data:`MAX_SAMPLES`, whose output would not fit the free disk, or whose memory
+exceeds the memory available, unless the user passes ``--force``.
+"""
+
+from dataclasses import dataclass
+
+from inins.exceptions import InputError, OutputError
+
+MAX_SAMPLES = 1_000_000_000
+"""Stated limit of IMU samples in one run (~48 GB of float64 increments)."""
+_F8 = 8
+
+
+@dataclass(frozen=True)
+class Estimate:
+    """Size of a run, estimated before it starts.
+
+    Attributes
+    ----------
+    samples : int
+        IMU samples simulated or read.
+    output_bytes : int
+        Upper bound of the output files (uncompressed datasets).
+    memory_bytes : int
+        Peak memory of the arrays the run holds at once.
+    keys : str
+        The scenario keys that set the size (named in a refusal).
+    """
+
+    samples: int
+    output_bytes: int
+    memory_bytes: int
+    keys: str
+
+    def describe(self) -> str:
+        """``3.2e+14 samples, output up to 15 PB, memory 4.5 EB``."""
+        samples = f"{self.samples:.3g} samples, " if self.samples else ""
+        return (
+            f"{samples}output up to {human_bytes(self.output_bytes)}, "
+            f"memory about {human_bytes(self.memory_bytes)}"
+        )
+
+
+def human_bytes(n: float) -> str:
+    """``1536`` -> ``1.5 kB`` (powers of 1024, named kB, MB, ...)."""
+    n = float(n)
+    for unit in ("B", "kB", "MB", "GB", "TB", "PB"):
+        if abs(n) < 1024 or unit == "PB":
+            return f"{n:.3g} {unit}" if unit != "B" else f"{int(n)} B"
+        n /= 1024
+    return f"{n:.3g} PB"
+
+
+def table_estimate(setup, in_memory: bool) -> Estimate:
+    """Size of a rate-table simulation (a simulate-table scenario or a ``simulate:``
+    section): IMU increments, truth and encoder rows.
+
+    ``in_memory``: the record is kept in memory (calibrate-bias, align-ett) rather
+    than streamed in chunks to the output (simulate-table).
+    """
+    from inins.commands._table import table_simulation
+    from inins.table.simulate import CHUNK_SAMPLES
+
+    try:
+        sim = table_simulation(setup)
+    except (ValueError, ArithmeticError) as exc:
+        raise InputError(f"cannot build the motion program: {exc}", key="motion") from None
+    n, d, g = sim.n_samples, sim.truth_decimation, len(sim.gimbal_names)
+    keys = "imu.sample_rate_hz and the motion durations"
+    if n <= 0:
+        raise InputError(
+            f"the motion program ({sim.trajectory.program.duration:g} s) is shorter than one "
+            f"truth interval ({d} samples at {sim.sample_rate:g} Hz)",
+            key="imu.sample_rate_hz / output.truth_rate_hz",
+        )
+    rows = n // d
+    imu = n * 6 * _F8
+    series = rows * (1 + 4 + g + 3 + 3 + 3 + 1 + g) * _F8
+    if in_memory:  # chunks, then their concatenation; navigation works on the record
+        return Estimate(n, 1 << 20, 3 * (imu + series), keys)
+    chunk = min(n, CHUNK_SAMPLES)
+    return Estimate(n, imu + series, 4 * chunk * 6 * _F8 + (64 << 20), keys)
+
+
+def check_budget(estimate: Estimate | None, outdir=None, force: bool = False) -> None:
+    """Refuse a run that exceeds :data:`MAX_SAMPLES`, the free disk of ``outdir`` or the
+    available memory (``force`` skips the check).
+
+    Raises
+    ------
+    InputError
+        Too many samples or too much memory (key: the scenario keys that set the size).
+    OutputError
+        The output would not fit on the disk of ``outdir``.
+    """
+    if estimate is None or force:
+        return
+    from inins.io.diskspace import available_memory, device_of, free_bytes
+
+    said = f"this run would need {estimate.describe()}"
+    hint = "; pass --force to run anyway"
+    if estimate.samples > MAX_SAMPLES:
+        raise InputError(
+            f"{said}: more than the limit of {MAX_SAMPLES:.3g} samples per run{hint}",
+            key=estimate.keys,
+        )
+    memory = available_memory()
+    if memory is not None and estimate.memory_bytes > memory:
+        raise InputError(
+            f"{said}: more memory than the {human_bytes(memory)} available{hint}",
+            key=estimate.keys,
+        )
+    if outdir is not None:
+        free = free_bytes(outdir)
+        if free is not None and estimate.output_bytes > free:
+            raise OutputError(
+                f"{said}: more than the {human_bytes(free)} free on {device_of(outdir)} "
+                f"for {outdir}{hint}"
+            )

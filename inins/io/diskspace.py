@@ -1,0 +1,142 @@
+"""Free disk space, available memory and full-disk errors: the machine's limits.
+
+Used before a run (is there room for the estimated output?) and while writing
+(:class:`inins.io.hdf5_sink.H5SeriesSink` stops before HDF5 itself meets a full
+disk, which it does not survive cleanly).
+"""
+
+import errno
+import os
+import re
+from pathlib import Path
+
+from inins.exceptions import OutputError
+
+WRITE_MARGIN = 8 << 20
+"""Bytes kept free while writing (room for HDF5 to flush its metadata on close)."""
+_FULL = {errno.ENOSPC, errno.EDQUOT}
+
+
+def existing_parent(path) -> Path:
+    """``path`` or its nearest existing ancestor."""
+    path = Path(os.path.abspath(path))
+    while not path.exists() and path != path.parent:
+        path = path.parent
+    return path
+
+
+def free_bytes(path) -> int | None:
+    """Bytes an unprivileged user may still write on the file system of ``path``
+    (None where unknown)."""
+    try:
+        st = os.statvfs(existing_parent(path))
+    except (OSError, AttributeError):
+        return None
+    return st.f_bavail * st.f_frsize
+
+
+def available_memory() -> int | None:
+    """Memory available to a new allocation without swapping (bytes; Linux
+    ``MemAvailable``), None where unknown."""
+    try:
+        with open("/proc/meminfo", encoding="ascii") as f:
+            for line in f:
+                if line.startswith("MemAvailable:"):
+                    return int(line.split()[1]) * 1024
+    except (OSError, ValueError, IndexError):
+        pass
+    return None
+
+
+def device_of(path) -> str:
+    """``DEVICE (mounted on MOUNT)`` for the file system holding ``path``."""
+    mount = existing_parent(path)
+    while not os.path.ismount(mount) and mount != mount.parent:
+        mount = mount.parent
+    device = None
+    try:
+        with open("/proc/self/mounts", encoding="utf-8", errors="replace") as f:
+            for line in f:
+                parts = line.split()
+                if len(parts) > 1 and parts[1] == str(mount):
+                    device = parts[0]
+    except OSError:
+        pass
+    return f"{device} (mounted on {mount})" if device else str(mount)
+
+
+def is_disk_full(exc: BaseException) -> bool:
+    """True for an error that means the disk (or quota) is full: an OSError with
+    ENOSPC/EDQUOT, or an HDF5 error reporting errno 28 (h5py raises RuntimeError)."""
+    if isinstance(exc, OSError) and exc.errno in _FULL:
+        return True
+    if isinstance(exc, OSError | RuntimeError):
+        text = str(exc)
+        return "errno = 28" in text or "No space left on device" in text
+    return False
+
+
+def disk_full_error(path) -> OutputError:
+    """The one message for a full disk while writing ``path`` (a temporary
+    ``.NAME.partial-PID`` is named by its final name)."""
+    path = Path(path)
+    match = re.match(r"^\.(.+)\.partial-\d+$", path.name)
+    if match:
+        path = path.with_name(match.group(1))
+    return OutputError(
+        f"no space left on {device_of(path)} writing {path}; "
+        "earlier results untouched, no partial file left"
+    )
+
+
+def check_room(path, need: int) -> None:
+    """Raise :class:`~inins.exceptions.OutputError` if the file system of ``path`` has
+    fewer than ``need`` bytes free (plus :data:`WRITE_MARGIN`)."""
+    free = free_bytes(path)
+    if free is not None and free < need + WRITE_MARGIN:
+        raise disk_full_error(path)
+
+
+class FullDiskWatch:
+    """Catch HDF5's late reports of a full disk while a file is open.
+
+    HDF5 writes cached metadata when h5py objects are released, and a failed write
+    there surfaces only as a printed traceback (``sys.excepthook``) and an "Exception
+    ignored" message (``sys.unraisablehook``); after one, flushing or closing the file
+    can crash the process. While active, these hooks record disk-full reports (keeping
+    them off stderr) so that the writer can stop and abandon the file; other reports
+    pass on.
+    """
+
+    def __init__(self):
+        self.full = False
+        self._previous = None
+
+    def __enter__(self):
+        import sys
+
+        self._previous = (sys.unraisablehook, sys.excepthook)
+        unraisable_hook, except_hook = self._previous
+
+        def on_unraisable(unraisable):
+            if is_disk_full(unraisable.exc_value):
+                self.full = True
+            else:
+                unraisable_hook(unraisable)
+
+        def on_exception(kind, value, tb):
+            if is_disk_full(value):
+                self.full = True
+            else:
+                except_hook(kind, value, tb)
+
+        sys.unraisablehook, sys.excepthook = on_unraisable, on_exception
+        return self
+
+    def __exit__(self, *exc):
+        import sys
+
+        if self._previous is not None:
+            sys.unraisablehook, sys.excepthook = self._previous
+            self._previous = None
+        return False
