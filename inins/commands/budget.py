@@ -62,7 +62,7 @@ def table_estimate(setup, in_memory: bool) -> Estimate:
     ``in_memory``: the record is kept in memory (calibrate-bias, align-ett) rather
     than streamed in chunks to the output (simulate-table).
     """
-    from inins.commands._table import table_simulation
+    from inins.commands._table import BYTES_PER_SAMPLE, SPILL_BYTES, table_simulation
     from inins.table.simulate import CHUNK_SAMPLES
 
     try:
@@ -80,9 +80,12 @@ def table_estimate(setup, in_memory: bool) -> Estimate:
     rows = n // d
     imu = n * 6 * _F8
     series = rows * (1 + 4 + g + 3 + 3 + 3 + 1 + g) * _F8
-    if in_memory:  # chunks, then their concatenation; navigation works on the record
-        return Estimate(n, 1 << 20, 3 * (imu + series), keys)
     chunk = min(n, CHUNK_SAMPLES)
+    if in_memory and n * BYTES_PER_SAMPLE <= SPILL_BYTES:
+        # chunks, then their concatenation; navigation works on the record
+        return Estimate(n, 1 << 20, 3 * (imu + series), keys)
+    if in_memory:  # spilled to a temporary table-data file, read back in chunks
+        return Estimate(n, imu + series, 4 * chunk * 6 * _F8 + series + (64 << 20), keys)
     return Estimate(n, imu + series, 4 * chunk * 6 * _F8 + (64 << 20), keys)
 
 

@@ -559,6 +559,7 @@ def declared_results(scenario):
     betas = [f"beta_{a}_{m}_dph".replace("__", "_") for a in AXES for m in _ESTIMATES]
     results = [*betas, *(b.replace("_dph", "_sigma_dph") for b in betas)]
     results += [f"mount_{a}_{s}arcsec" for a in AXES for s in ("", "sigma_")]
+    results += [f"beta_{a}_u{t}_dph" for a in AXES for t in ("", *(f"_{t}" for t in budget.TERMS))]
     results += ["initial_heading_err_deg", "hold_a_s", "hold_b_s", "heading_deg"]
     return tuple(results), (*betas, "initial_heading_err_deg")
 

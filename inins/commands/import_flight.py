@@ -63,6 +63,38 @@ def run(scenario, seed, *, sink=None, progress=None):
     )
 
 
+RESULT_NAMES = (
+    "epochs",
+    "epochs_fix",
+    "epochs_no_fix",
+    "epochs_fault_excluded",
+    "epochs_fault_detected",
+    "satellites_used_median",
+    "pdop_median",
+    "residual_rms_median_m",
+    "track_length_m",
+    "speed_max_mps",
+    "err_3d_rms_m",
+    "err_3d_p95_m",
+    "err_3d_max_m",
+    "imu_samples",
+    "track_length_imu_m",
+    "static_horizontal_std_m",
+    "static_speed_rms_mps",
+)
+"""Every result a run gives (null where not applicable)."""
+
+
+def declared_results(scenario):
+    """``(results, truth)`` names of every run, for validating checks before it."""
+    return RESULT_NAMES, ()
+
+
+def estimate(scenario):
+    """None: a recording is a few MB (the whole ABPO day is 3 MB of text)."""
+    return None
+
+
 def read_recording(scenario):
     """The :class:`RecordedFlight` of the scenario's files, and the RINEX header position
     (NaN for the PSINS file)."""

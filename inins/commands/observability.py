@@ -68,6 +68,19 @@ def run(scenario, seed, *, sink=None, progress=None):
     )
 
 
+def declared_results(scenario):
+    """``(results, truth)`` names of a run of ``scenario``'s model."""
+    names = models.model_by_name(scenario.model).names
+    fixed = ("rank", "n_states", "n_unobservable", "gramian_rank", "segments", "full_rank_after_s")
+    per_state = [f"{kind}_{n}" for kind in ("observable", "sigma_ratio") for n in names]
+    return (*fixed, *per_state), ()
+
+
+def estimate(scenario):
+    """None: small matrices, one row of sigmas per update."""
+    return None
+
+
 def lines_of_sight(satellites):
     """Unit vectors receiver -> satellite in NED, shape (k, 3), or None."""
     if not satellites:

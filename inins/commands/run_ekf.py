@@ -336,8 +336,50 @@ def _null(value):
     return None if value is None or not np.isfinite(value) else float(value)
 
 
+RESULT_NAMES = (
+    "heading_err_rms_deg",
+    "heading_err_final_deg",
+    "pos_err_rms_m",
+    "vel_err_rms_mps",
+    "gyro_bias_z_est_dph",
+    "gyro_bias_z_sigma_dph",
+    "nees_mean",
+    "nis_mean",
+    "rejected_measurements",
+    "coasted_epochs",
+    "realtime_factor",
+    "update_time_mean_s",
+    "epochs",
+    "fb_heading_correction_deg",
+    "phi_d_est_final_deg",
+    "spp_pos_diff_max_m",
+    "spp_pos_diff_rms_m",
+    "spp_vel_diff_max_mps",
+    "spp_vel_diff_rms_mps",
+    "initial_heading_deg",
+    "mg_yz_est_arcsec",
+    "mg_yz_sigma_arcsec",
+    "mg_zy_est_arcsec",
+    "mg_zy_sigma_arcsec",
+)
+"""Every result a run gives (null where not applicable: no truth, no recording, EKF1)."""
+TRUTH_NAMES = ("gyro_bias_z_est_dph", "mg_yz_est_arcsec", "mg_zy_est_arcsec")
+
+
+def declared_results(scenario):
+    """``(results, truth)`` names of every run, for validating checks before it."""
+    return RESULT_NAMES, TRUTH_NAMES
+
+
+def estimate(scenario):
+    """None: a run streams epoch by epoch (memory flat in flight length) and writes
+    epoch-rate series only."""
+    return None
+
+
 def _results(result, s, info):
-    out = {
+    out = dict.fromkeys(RESULT_NAMES)
+    out |= {
         "heading_err_rms_deg": _null(s.heading_err_rms_deg),
         "heading_err_final_deg": _null(s.heading_err_final_deg),
         "pos_err_rms_m": _null(s.pos_err_rms_m),

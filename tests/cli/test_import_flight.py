@@ -8,6 +8,7 @@ import numpy as np
 from typer.testing import CliRunner
 
 from inins.cli import app
+from inins.commands import import_flight
 from inins.io.flight_layout import read_flight
 from tests.helpers import CONFIGS, ROOT
 
@@ -24,6 +25,7 @@ def test_abpo_day_against_the_station_coordinates(tmp_path):
     result = run("-o", tmp_path)
     assert result.exit_code == 0, result.output
     r = results(tmp_path)
+    assert set(r) == set(import_flight.RESULT_NAMES)  # the same keys in every run
     assert r["epochs"] == 2727 and r["epochs_no_fix"] == 1
     assert r["err_3d_rms_m"] <= 4.5 and r["err_3d_p95_m"] <= 8.0 and r["err_3d_max_m"] <= 15.0
     flight = read_flight(tmp_path / "import-flight.h5")
@@ -37,6 +39,7 @@ def test_psins_tc_drive(tmp_path):
     result = run(CONFIGS / "import-flight" / "psins-tc.yaml", "-o", tmp_path)
     assert result.exit_code == 0, result.output
     r = results(tmp_path)
+    assert set(r) == set(import_flight.RESULT_NAMES)
     assert 1540 <= r["epochs_fix"] <= 1710
     assert r["residual_rms_median_m"] < 1.0
     assert r["static_horizontal_std_m"] < 0.5 and r["static_speed_rms_mps"] < 0.1
