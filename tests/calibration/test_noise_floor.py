@@ -24,7 +24,7 @@ import pytest
 from scipy import stats
 
 from inins.calibration import bias
-from inins.commands import calibrate_bias
+from inins.commands import calibrate_bias, calibrate_bias_report
 from inins.commands._table import load_record
 from inins.core.units import DEG_RTH
 from inins.scenario.calibrate_bias import CalibrateBiasScenario
@@ -77,7 +77,9 @@ def monte_carlo():
 
 
 def named(outcome):
-    return {k: v for k, v in calibrate_bias.result_names(outcome).items() if v[0] is not None}
+    return {
+        k: v for k, v in calibrate_bias_report.result_names(outcome).items() if v[0] is not None
+    }
 
 
 def test_sample_scatter_matches_the_reported_sigma(monte_carlo):
@@ -125,12 +127,12 @@ def test_sigma_is_near_the_white_noise_bound(monte_carlo):
 
 
 def test_three_u_covers_the_chosen_error_in_every_run(monte_carlo):
-    budgets = calibrate_bias.chosen_budget(monte_carlo[0])
+    budgets = calibrate_bias_report.chosen_budget(monte_carlo[0])
     assert budgets[0]["gyro_bias_z"] > 0.25 * budgets[0]["random"]  # a real systematic part
     assert budgets[1]["accel_bias"] > 0.25 * budgets[1]["random"]
     inside = []
     for outcome in monte_carlo:
-        u = calibrate_bias.chosen_budget(outcome)
+        u = calibrate_bias_report.chosen_budget(outcome)
         for axis in (0, 1):
             err = outcome.chosen[axis][0] - outcome.truth.bias[axis]
             inside.append(abs(err) < 3 * u[axis]["total"])
