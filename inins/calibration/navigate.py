@@ -11,8 +11,10 @@ from inins.calibration.tilt_model import Track, vertical_axis
 from inins.core import noise, strapdown
 from inins.exceptions import InputError
 
-MAX_TRACK_POINTS = 200_000
-"""The output grid is thinned to at most this many points (memory of the model arrays)."""
+MAX_TRACK_POINTS = 20_000
+"""The output grid is thinned to at most this many points: the linear-model arrays of
+the methods take about 1 kB per point, so 10-min and 4-h holds at 1 kHz peak within a
+few per cent of each other (``make bench``). Never thinner than ``min_points_per_s``."""
 
 
 def sample_index(record, t):
@@ -48,7 +50,9 @@ def align(record, window, lat, heading=None, arw=None, vrw=None):
     return result, arw, vrw
 
 
-def navigate(record, mat_nb0, t_start, t_end, output_rate, free=False, progress=None):
+def navigate(
+    record, mat_nb0, t_start, t_end, output_rate, free=False, progress=None, min_points_per_s=1.0
+):
     """Strapdown from ``t_start`` to ``t_end`` (s), outputs at ``output_rate`` (Hz).
 
     Parameters
@@ -58,7 +62,8 @@ def navigate(record, mat_nb0, t_start, t_end, output_rate, free=False, progress=
         Attitude at ``t_start`` (from the alignment).
     output_rate : float
         Output rate (Hz); rounded to a whole number of samples, and lowered for long
-        records so that the grid has at most :data:`MAX_TRACK_POINTS` points.
+        records so that the grid has at most :data:`MAX_TRACK_POINTS` points, but not
+        below ``min_points_per_s`` (Hz: the epoch windows need their points).
     free : bool
         False: stationary navigation (known position and zero velocity: no
         transport rate, no Coriolis, the velocity error does not feed back: 000
@@ -72,9 +77,11 @@ def navigate(record, mat_nb0, t_start, t_end, output_rate, free=False, progress=
     Track
     """
     k0, k1 = sample_index(record, t_start), sample_index(record, t_end)
-    decimation = max(
-        1, round(1.0 / (output_rate * record.dt)), int(np.ceil((k1 - k0) / MAX_TRACK_POINTS))
+    thinned = min(
+        int(np.ceil((k1 - k0) / MAX_TRACK_POINTS)),
+        max(1, int(1.0 / (min_points_per_s * record.dt))),
     )
+    decimation = max(1, round(1.0 / (output_rate * record.dt)), thinned)
     state = strapdown.NavState.from_attitude(mat_nb0, np.zeros(3), record.lla)
     parts = []
     for k, dtheta, dv in record.imu_chunks(k0, k1):
