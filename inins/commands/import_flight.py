@@ -34,7 +34,7 @@ def run(scenario, seed, *, sink=None, progress=None):
     flight, approx_pos_e = read_recording(scenario)
     reference = _reference(scenario, approx_pos_e)
     flight = RecordedFlight(**{**vars(flight), "reference_pos_e": reference})
-    obs = observations(flight)
+    obs = measurements.from_record(flight.gnss)
     source = str(scenario.nav_file or scenario.file)
     epochs = measurements.attach_satellites(
         obs, ephemeris.from_columns(flight.ephemeris), source=source
@@ -137,22 +137,6 @@ def read_recording(scenario):
         iono_beta=nav.iono_beta,
     )
     return flight, obs_file.approx_pos_e
-
-
-def observations(flight):
-    """The flight's GNSS record as :class:`inins.gnss.measurements.Observations`."""
-    g = flight.gnss
-    return measurements.make_observations(
-        g.week,
-        g.time,
-        g.start,
-        g.prn,
-        g.pseudorange,
-        range_rate=g.range_rate,
-        sigma=g.sigma,
-        snr=g.snr,
-        signal=g.signal,
-    )
 
 
 def _reference(scenario, approx_pos_e):

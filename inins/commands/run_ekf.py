@@ -263,18 +263,7 @@ def _recorded(scenario):
     imu = rec.imu
     dt = float(np.median(np.diff(imu.time)))
     sources.check_imu_time(imu.time, dt, str(d.file))
-    g = rec.gnss
-    obs = measurements.make_observations(
-        g.week,
-        g.time,
-        g.start,
-        g.prn,
-        g.pseudorange,
-        range_rate=g.range_rate,
-        sigma=g.sigma,
-        snr=g.snr,
-        signal=g.signal,
-    )
+    obs = measurements.from_record(rec.gnss)
     t = obs.time - rec.imu_t0_sow
     inside = np.flatnonzero((t > imu.time[0] - 1.0) & (t < imu.time[-1] + 1.0))
     if inside.size == 0:

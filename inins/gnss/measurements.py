@@ -154,6 +154,23 @@ def range_rate_from_doppler(doppler_hz):
     return -LAMBDA_L1 * np.asarray(doppler_hz, float)
 
 
+def from_record(record):
+    """:class:`Observations` of a recorded-flight GNSS record (anything with the fields
+    ``week, time, start, prn, pseudorange, range_rate, sigma, snr, signal``, such as
+    :class:`inins.io.flight_layout.GnssRecord`)."""
+    return make_observations(
+        record.week,
+        record.time,
+        record.start,
+        record.prn,
+        record.pseudorange,
+        range_rate=record.range_rate,
+        sigma=record.sigma,
+        snr=record.snr,
+        signal=record.signal,
+    )
+
+
 def from_code(week, time, start, prn, p1, p2, c1, *, doppler_l1=None, snr=None, sigma=None):
     """:class:`Observations` from RINEX-style code observables (one call for a reader's arrays).
 

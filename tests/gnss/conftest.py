@@ -60,17 +60,7 @@ def tc_flight():
 
 @pytest.fixture(scope="session")
 def tc_epochs(tc_flight):
-    g = tc_flight.gnss
-    obs = measurements.make_observations(
-        g.week,
-        g.time,
-        g.start,
-        g.prn,
-        g.pseudorange,
-        range_rate=g.range_rate,
-        sigma=g.sigma,
-        signal=g.signal,
-    )
+    obs = measurements.from_record(tc_flight.gnss)
     return measurements.attach_satellites(obs, ephemeris.from_columns(tc_flight.ephemeris))
 
 
