@@ -20,6 +20,7 @@ import time
 from pathlib import Path
 
 HERE = Path(__file__).parent
+ROOT = HERE.parent
 SLOW_MODULES = ("bench_compile",)
 """Left out by ``--quick``."""
 TARGETS = (  # (figure path, relation, target, what)
@@ -39,6 +40,16 @@ TARGETS = (  # (figure path, relation, target, what)
     ("commands.simulate_table_24h_1khz.peak_rss_mb", "<", 1024.0, "simulate-table 24 h RSS, MB"),
     ("commands.align_ett_10min.warm_s", "<", 0.5, "align-ett 10-min record warm, s"),
     ("bench_compile.calibrate-bias_compile_cpu_s", "<", 5.0, "first calibrate-bias compile, CPU s"),
+    ("calibrate_memory.rss_4h_over_10min", "<", 1.10, "calibrate-bias RSS 4-h / 10-min holds"),
+    (
+        "commands.simulate_table_fixed_cost.one_minute_wall_s",
+        "<",
+        0.7,
+        "simulate-table 1-min run, s",
+    ),
+    ("bench_sweep.overhead.overhead_ms", "<", 20.0, "sweep overhead per point, ms"),
+    ("bench_sweep.throughput.speedup_2_workers", ">=", 1.8, "sweep 2 workers / 1 worker"),
+    ("bench_sweep.throughput.dask_over_local", ">=", 0.8, "sweep Dask loopback / local"),
 )
 MODULES = (
     "bench_strapdown",
@@ -115,6 +126,60 @@ def _align_ett(outdir):
     return _command("align-ett", str(out / "align.yaml"), "-o", str(out / "a"))
 
 
+def _calibrate_memory(outdir):
+    """calibrate-bias peak RSS with a simulate: section at 1 kHz, holds of 10 min, 1 h and
+    4 h (issue: flat in record length; long simulations spill to a temporary file)."""
+    figures = {}
+    case = ROOT / "configs" / "paper000" / "case1-no-disturbance.yaml"
+    for label, hold in (("10min", 600), ("1h", 3600), ("4h", 14400)):
+        run = _command(
+            "calibrate-bias",
+            str(case),
+            "-o",
+            str(Path(outdir) / f"mem{label}"),
+            "--set",
+            "simulate.imu.sample_rate_hz=1000",
+            "--set",
+            f"simulate.motion.1.duration_s={hold}",
+            "--set",
+            f"simulate.motion.3.duration_s={hold}",
+        )
+        figures[f"hold_{label}_peak_rss_mb"] = run["peak_rss_mb"]
+    figures["rss_4h_over_10min"] = (
+        figures["hold_4h_peak_rss_mb"] / figures["hold_10min_peak_rss_mb"]
+    )
+    return figures
+
+
+def _fixed_cost(outdir):
+    """Whole-process wall time of simulate-table on a one-minute scenario (median of 3):
+    the fixed cost a short run pays (start-up, imports, cached kernels)."""
+    case = ROOT / "configs" / "simulate-table" / "default.yaml"
+    times = []
+    for k in range(3):
+        start = time.perf_counter()
+        subprocess.run(
+            [
+                sys.executable,
+                "-m",
+                "inins",
+                "simulate-table",
+                str(case),
+                "-o",
+                str(Path(outdir) / f"fixed{k}"),
+                "--set",
+                "imu.sample_rate_hz=10",
+                "--set",
+                "motion=[{kind: hold, duration_s: 60}]",
+            ],
+            check=True,
+            capture_output=True,
+            cwd=ROOT,
+        )
+        times.append(time.perf_counter() - start)
+    return {"one_minute_wall_s": statistics.median(times)}
+
+
 def _import_log(outdir):
     """import-log of the RLG excerpt (PSINS text, 40,000 rows)."""
     figures = _command("import-log", "-o", str(Path(outdir) / "import"))
@@ -134,6 +199,9 @@ def main():
         figures["commands"] = _table_commands(outdir, not args.quick)
         figures["commands"]["align_ett_10min"] = _align_ett(outdir)
         figures["commands"]["import_log_rlg_excerpt"] = _import_log(outdir)
+        figures["commands"]["simulate_table_fixed_cost"] = _fixed_cost(outdir)
+        if not args.quick:
+            figures["calibrate_memory"] = _calibrate_memory(outdir)
     for group, values in figures.items():
         print(group)
         for key, value in _flat(values):
