@@ -19,18 +19,22 @@ It raises (:class:`inins.exceptions.InputError` for bad input) and never prints.
 import os
 from dataclasses import dataclass
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import inins
 from inins.commands import CommandSpec, load_command
 from inins.exceptions import InputError
 from inins.results import CommandResult, NullSink
 
+if TYPE_CHECKING:  # pydantic is loaded only when a scenario is
+    from inins.scenario.base import ScenarioModel
+
 
 @dataclass(frozen=True)
 class LoadedScenario:
     """A validated scenario with its text (after overrides) and where it came from."""
 
-    model: object
+    model: "ScenarioModel"
     text: str
     source: str
     overrides: tuple

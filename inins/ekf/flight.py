@@ -298,7 +298,7 @@ class Dither:
 class Dithered:
     """A trajectory with the sensor block dithered (module docstring); :class:`Trajectory`."""
 
-    base: object
+    base: trajectory.Trajectory
     dither: Dither
 
     @property

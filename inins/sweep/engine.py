@@ -25,8 +25,14 @@ from pathlib import Path
 
 from inins.exceptions import InputError
 from inins.io import sweep_files
-from inins.sweep.aggregate import aggregate, chosen_results, format_aggregates, stats_columns
-from inins.sweep.table import build_table, csv_columns, h5_groups, point_id
+from inins.sweep.aggregate import (
+    Aggregates,
+    aggregate,
+    chosen_results,
+    format_aggregates,
+    stats_columns,
+)
+from inins.sweep.table import SweepTable, build_table, csv_columns, h5_groups, point_id
 from inins.sweep.worker import STATUS_ERROR, PointTask, is_check_name_error
 
 IN_FLIGHT_PER_WORKER = 2
@@ -47,8 +53,8 @@ class SweepOutcome:
     wall_s : float
     """
 
-    table: object
-    aggregates: object
+    table: SweepTable
+    aggregates: Aggregates
     planned: int
     ran: int
     skipped: int

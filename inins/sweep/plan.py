@@ -11,11 +11,15 @@ import json
 import math
 from dataclasses import dataclass
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from inins.exceptions import InputError
 
 DEFAULT_MAX_POINTS = 100_000
 _VALIDATE_ALL_UP_TO = 200  # distinct values of an axis checked one by one
+
+if TYPE_CHECKING:
+    from inins.scenario.sweep import AggregateSettings
 
 
 @dataclass(frozen=True)
@@ -91,7 +95,7 @@ class SweepPlan:
     fixed: tuple
     axes: tuple
     seeds: tuple
-    aggregate: object
+    aggregate: "AggregateSettings"
     source: str
 
     @property

@@ -27,7 +27,7 @@ import numba
 import numpy as np
 
 from inins.core import earth, rotation
-from inins.table.program import Hold, compile_program
+from inins.table.program import Hold, Program, compile_program
 
 GIMBAL_AXES = {"roll": 0, "pitch": 1, "yaw": 2}
 """Nominal gimbal axis names -> table axis index (x, y, z of the FRD table frame)."""
@@ -351,7 +351,7 @@ class TableTrajectory:
         Site latitude (rad), longitude (rad), height (m).
     """
 
-    program: object
+    program: Program
     axes: np.ndarray
     mat_n_base: np.ndarray
     mat_tb0: np.ndarray

@@ -25,6 +25,7 @@ from inins.core import earth
 from inins.core.units import DPH, UG
 from inins.scenario.calibrate_bias import CalibrateBiasScenario
 from inins.scenario.simulate_table import SimulateTableScenario
+from tests.helpers import shipped
 
 CONFIGS = Path(__file__).parents[2] / "configs"
 CASES = {
@@ -37,16 +38,12 @@ X, Y = 0, 1  # body axes; at A, x points east and y north (000's geometry)
 
 
 def scenario(case, **simulate):
-    data = yaml.safe_load((CONFIGS / "paper000" / f"{CASES[case]}.yaml").read_text())
-    for key, value in simulate.items():
-        node = data["simulate"]
-        *path, leaf = key.split(".")
-        for p in path:
-            node = node.setdefault(p, {})
-        node[leaf] = value
-    if case == 4:  # ETT is tested with align-ett; here the heading is given exactly
-        data["alignment"] = {"method": "known", "heading_deg": 90.0}
-    return CalibrateBiasScenario.model_validate(data)
+    """A paper 000 case with ``simulate.<key>`` overrides (case 4: ETT is tested with
+    align-ett; here the heading is given exactly)."""
+    updates = {f"simulate.{key}": value for key, value in simulate.items()}
+    if case == 4:
+        updates["alignment"] = {"method": "known", "heading_deg": 90.0}
+    return shipped(CalibrateBiasScenario, f"paper000/{CASES[case]}.yaml", **updates)
 
 
 def run(model, seed=1):

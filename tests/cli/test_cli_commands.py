@@ -13,7 +13,6 @@ from inins.cli import app as real_app
 from inins.commands import COMMANDS, CommandUnavailable, load_command
 from inins.scenario.base import field_doc_problems
 
-PLACEHOLDERS = tuple(s.name for s in COMMANDS if not s.available)
 HEAVY = ("numpy", "scipy", "numba", "h5py", "pydantic", "yaml")
 
 
@@ -66,16 +65,6 @@ def test_show_bad_files(invoke, tmp_path):
     result = invoke("show", tmp_path / "text.h5")
     assert result.exit_code == 2 and "cannot read as HDF5" in result.stderr
     assert "Traceback" not in result.output
-
-
-@pytest.mark.parametrize("name", PLACEHOLDERS)
-def test_commands_not_yet_available_exit_4(name, tmp_path):
-    result = CliRunner().invoke(real_app, [name, "-o", str(tmp_path)])
-    assert result.exit_code == 4
-    assert result.stderr.strip() == f"inins {name}: not yet available in this version"
-    assert list(tmp_path.iterdir()) == []
-    listing = CliRunner().invoke(real_app, ["--help"]).stdout
-    assert "(not yet available)" in listing
 
 
 def test_every_command_has_help():
