@@ -22,6 +22,9 @@ from pathlib import Path
 HERE = Path(__file__).parent
 ROOT = HERE.parent
 SLOW_MODULES = ("bench_compile",)
+QUICK_AWARE = ("bench_ekf", "bench_sweep")
+"""Modules whose ``run(quick=True)`` drops their long parts (the 4-h EKF stream, the
+sweep throughput runs)."""
 """Left out by ``--quick``."""
 TARGETS = (  # (figure path, relation, target, what)
     ("bench_strapdown.free_hour_200hz_msamples_per_s", ">=", 12.0, "strapdown free, M samples/s"),
@@ -62,8 +65,9 @@ MODULES = (
 )
 
 
-def _module(name):
-    code = f"import json, benchmarks.{name} as m; print(json.dumps(m.run()))"
+def _module(name, quick=False):
+    call = "m.run(quick=True)" if quick and name in QUICK_AWARE else "m.run()"
+    code = f"import json, benchmarks.{name} as m; print(json.dumps({call}))"
     out = subprocess.run(
         [sys.executable, "-c", code], check=True, capture_output=True, text=True, cwd=HERE.parent
     )
@@ -193,7 +197,7 @@ def main():
     parser.add_argument("--json", type=Path, help="also write the figures here")
     args = parser.parse_args()
     modules = MODULES if args.quick else MODULES + SLOW_MODULES
-    figures = {name: _module(name) for name in modules}
+    figures = {name: _module(name, args.quick) for name in modules}
     figures["inins_help"] = _help_startup()
     with tempfile.TemporaryDirectory() as outdir:
         figures["commands"] = _table_commands(outdir, not args.quick)
