@@ -44,7 +44,7 @@ import h5py
 import numpy as np
 
 from inins.core import pulses
-from inins.core.records import TRUTH_SERIES, Step, StepKind, TableRecord, Truth
+from inins.core.records import TRUTH_SERIES, Step, StepKind, TableRecord
 from inins.exceptions import InputError
 from inins.results import Series
 
@@ -311,11 +311,37 @@ def _text(values):
     return tuple(v.decode() if isinstance(v, bytes) else str(v) for v in values)
 
 
-def _truth(f):
+def _reader(name):
+    def read(self):
+        with h5py.File(self.path, "r") as f:
+            return f[f"truth/{name}"][()]
+
+    read.__doc__ = f"``/truth/{name}``, read from the file when asked (not kept)."
+    return read
+
+
+class FileTruth:
+    """The ``/truth`` group of a table-data file with the attributes of
+    :class:`inins.core.records.Truth`, each series read from the file when asked and
+    not kept: a method holds only what it uses, while it uses it (calibrate-bias
+    interpolates the quaternion at one time), so memory grows less with the record."""
+
+    def __init__(self, path, attrs):
+        self.path = path
+        self.attrs = attrs
+
+    time = property(_reader("time"))
+    quat_nb = property(_reader("quat_nb"))
+    table_angles = property(_reader("table_angles"))
+    mount_rotvec = property(_reader("mount_rotvec"))
+    gyro_bias = property(_reader("gyro_bias"))
+    accel_bias = property(_reader("accel_bias"))
+
+
+def _truth(f, path):
     if "truth" not in f:
         return None
-    g = f["truth"]
-    return Truth(*(g[k][()] for k in TRUTH_SERIES), attrs=dict(g.attrs))
+    return FileTruth(path, dict(f["truth"].attrs))
 
 
 def read_table_data(path):
@@ -363,7 +389,7 @@ def _read(f, path, name):
         steps=decode_steps({k: steps[k][()] for k in STEP_FIELDS}),
         encoder_time=table["time"][()],
         encoder=table["encoder"][()],
-        truth=_truth(f),
+        truth=_truth(f, path),
         source=name,
         path=path,
         length=n,

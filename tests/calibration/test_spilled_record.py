@@ -40,3 +40,18 @@ def test_spilled_and_in_memory_records_give_identical_results(monkeypatch):
         assert spilled == memory, command.__name__
     gc.collect()
     assert _leftovers() == before
+
+
+def test_file_truth_reads_every_truth_series_lazily(tmp_path):
+    """The file's truth has every series of the in-memory truth, equal to the last bit,
+    read when asked and not kept."""
+    from inins.core.records import TRUTH_SERIES
+    from inins.io.tabledata import FileTruth
+
+    lazy = {n for n, v in vars(FileTruth).items() if isinstance(v, property)}
+    assert lazy == set(TRUTH_SERIES)
+    scenario = shipped(AlignEttScenario, "align-ett/default.yaml")
+    memory, _ = _table.load_record(scenario.data, scenario.simulate, 3)
+    spilled = _table.spilled_record(scenario.simulate, 3)
+    for name in TRUTH_SERIES:
+        assert (getattr(spilled.truth, name) == getattr(memory.truth, name)).all(), name
