@@ -19,7 +19,7 @@ from inins.gnss import ephemeris, measurements, spp
 from inins.gnss.measurements import Signal
 from inins.gnss.spp import FixStatus
 from inins.io import flight_layout
-from inins.io.flight_layout import RecordedFlight
+from inins.io.flight_layout import ImuRecord, RecordedFlight
 from inins.io.psins_tc import read_psins_tc
 from inins.io.rinex_nav import read_nav
 from inins.io.rinex_obs import observable, read_obs
@@ -33,7 +33,14 @@ def run(scenario, seed, *, sink=None, progress=None):
     """Read the recording, solve every epoch, and describe both; ``seed`` is unused."""
     flight, approx_pos_e = read_recording(scenario)
     reference = _reference(scenario, approx_pos_e)
-    flight = RecordedFlight(**{**vars(flight), "reference_pos_e": reference})
+    changes = {"reference_pos_e": reference}
+    if scenario.imu_log is not None:
+        changes |= {
+            "imu": imu_from_log(scenario.imu_log, progress),
+            "imu_t0_week": int(flight.gnss.week[0]),
+            "imu_t0_sow": float(scenario.imu_t0_sow),
+        }
+    flight = RecordedFlight(**{**vars(flight), **changes})
     obs = measurements.from_record(flight.gnss)
     source = str(scenario.nav_file or scenario.file)
     epochs = measurements.attach_satellites(
@@ -137,6 +144,27 @@ def read_recording(scenario):
         iono_beta=nav.iono_beta,
     )
     return flight, obs_file.approx_pos_e
+
+
+def imu_from_log(path, progress=None):
+    """The IMU increments of an import-log scenario's log (body axes, SI) as an
+    :class:`inins.io.flight_layout.ImuRecord`; time is the end of each sample interval
+    on the log's uniform grid ``t0 + (k + 1) dt``."""
+    from inins.commands.import_log import import_settings
+    from inins.io.logimport import LogReader
+    from inins.scenario.base import load_scenario
+    from inins.scenario.import_log import ImportLogScenario
+
+    log_scenario = load_scenario(ImportLogScenario, path, [], None)[0]
+    reader = LogReader(import_settings(log_scenario))
+    parts = [(c.table.dtheta, c.table.dv) for c in reader.chunks(progress)]
+    extent = reader.extent
+    time = extent.t0 + (np.arange(extent.n) + 1.0) * extent.dt
+    return ImuRecord(
+        time=time,
+        dtheta=np.concatenate([p[0] for p in parts]),
+        dv=np.concatenate([p[1] for p in parts]),
+    )
 
 
 def _reference(scenario, approx_pos_e):

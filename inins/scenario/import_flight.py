@@ -55,6 +55,17 @@ class ImportFlightScenario(ScenarioModel):
         description="an interval of IMU time (s) where the vehicle stands: its SPP scatter "
         "and range-rate speed are reported",
     )
+    imu_log: ScenarioPath | None = Field(
+        None,
+        description="rinex: an import-log scenario (a CSV, HDF5 or PSINS text log with its "
+        "columns, units and axes) whose IMU increments join the GNSS record",
+    )
+    imu_t0_sow: float | None = Field(
+        None,
+        ge=0.0,
+        lt=604800.0,
+        description="GPS seconds of week of the IMU log's time 0 (s); needed with imu_log",
+    )
     spp: Spp = Field(default_factory=Spp)
 
     @model_validator(mode="after")
@@ -65,6 +76,10 @@ class ImportFlightScenario(ScenarioModel):
                     raise KeyPathError((key,), "format rinex needs obs_file and nav_file")
         elif self.file is None:
             raise KeyPathError(("file",), "format psins-tc needs file")
+        if self.imu_log is not None and self.format != "rinex":
+            raise KeyPathError(("imu_log",), "the PSINS tc file carries its own IMU")
+        if (self.imu_log is None) != (self.imu_t0_sow is None):
+            raise KeyPathError(("imu_t0_sow",), "imu_log and imu_t0_sow go together")
         if self.reference == "header" and self.format != "rinex":
             raise KeyPathError(("reference",), "only a RINEX header carries a position")
         if self.reference == "header" and self.reference_pos_e_m is not None:

@@ -4,6 +4,7 @@ scatter, track), the output readable as a recorded flight, and bad input."""
 
 import json
 
+import h5py
 import numpy as np
 from typer.testing import CliRunner
 
@@ -68,3 +69,34 @@ def test_missing_keys_and_files_are_bad_input(tmp_path):
         f"file={tmp_path / 'x.mat'}",
     )
     assert result.exit_code == 2 and "x.mat" in result.stderr
+
+
+def test_an_imu_log_joins_the_rinex_record(tmp_path):
+    """A RINEX recording with a lab IMU log (any format import-log reads): the IMU
+    increments in the recorded flight are the ones import-log writes, on its time grid."""
+    log_scenario = CONFIGS / "import-log" / "csv-example.yaml"
+    result = run(
+        "-o",
+        tmp_path / "flight",
+        "--set",
+        f"imu_log={log_scenario}",
+        "--set",
+        "imu_t0_sow=345600.0",
+    )
+    assert result.exit_code == 0, result.output
+    flight = read_flight(tmp_path / "flight" / "import-flight.h5")
+    assert (
+        CliRunner()
+        .invoke(app, ["import-log", str(log_scenario), "-o", str(tmp_path / "log")])
+        .exit_code
+        == 0
+    )
+    with h5py.File(tmp_path / "log" / "import-log.h5") as f:
+        dtheta, dv = f["imu/dtheta"][()], f["imu/dv"][()]
+        t0, dt = f["imu"].attrs["t0_s"], f["imu"].attrs["dt_s"]
+    np.testing.assert_array_equal(flight.imu.dtheta, dtheta)
+    np.testing.assert_array_equal(flight.imu.dv, dv)
+    np.testing.assert_allclose(flight.imu.time, t0 + dt * np.arange(1, len(dv) + 1))
+    assert flight.imu_t0_sow == 345600.0 and flight.imu_t0_week == flight.gnss.week[0]
+    result = run("-o", tmp_path / "bad", "--set", f"imu_log={log_scenario}")
+    assert result.exit_code == 2 and "imu_t0_sow" in result.stderr
