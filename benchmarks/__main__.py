@@ -88,9 +88,9 @@ def _command(*args):
     return figures
 
 
-def _help_startup():
+def _help_startup(runs=7):
     times = []
-    for _ in range(7):
+    for _ in range(runs):
         start = time.perf_counter()
         subprocess.run([sys.executable, "-m", "inins", "--help"], check=True, capture_output=True)
         times.append(time.perf_counter() - start)
@@ -155,12 +155,12 @@ def _calibrate_memory(outdir):
     return figures
 
 
-def _fixed_cost(outdir):
-    """Whole-process wall time of simulate-table on a one-minute scenario (median of 3):
+def _fixed_cost(outdir, runs=3):
+    """Whole-process wall time of simulate-table on a one-minute scenario (median of runs):
     the fixed cost a short run pays (start-up, imports, cached kernels)."""
     case = ROOT / "configs" / "simulate-table" / "default.yaml"
     times = []
-    for k in range(3):
+    for k in range(runs):
         start = time.perf_counter()
         subprocess.run(
             [
@@ -198,12 +198,14 @@ def main():
     args = parser.parse_args()
     modules = MODULES if args.quick else MODULES + SLOW_MODULES
     figures = {name: _module(name, args.quick) for name in modules}
-    figures["inins_help"] = _help_startup()
+    figures["inins_help"] = _help_startup(3 if args.quick else 7)
     with tempfile.TemporaryDirectory() as outdir:
         figures["commands"] = _table_commands(outdir, not args.quick)
         figures["commands"]["align_ett_10min"] = _align_ett(outdir)
         figures["commands"]["import_log_rlg_excerpt"] = _import_log(outdir)
-        figures["commands"]["simulate_table_fixed_cost"] = _fixed_cost(outdir)
+        figures["commands"]["simulate_table_fixed_cost"] = _fixed_cost(
+            outdir, 1 if args.quick else 3
+        )
         if not args.quick:
             figures["calibrate_memory"] = _calibrate_memory(outdir)
     for group, values in figures.items():
