@@ -198,7 +198,7 @@ def calibrate_bias(record, settings, progress=None):
         settings.output_rate,
         settings.free,
         progress,
-        min_points_per_s=5.0 / settings.epoch_window,
+        min_points_per_s=3.0 / settings.epoch_window,
     )
     ctx = methods.Context.build(
         track, seq.epochs, seq.hold_times, settings.arw, settings.bias_z, gyrocompass
