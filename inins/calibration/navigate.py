@@ -14,7 +14,8 @@ from inins.exceptions import InputError
 MAX_TRACK_POINTS = 20_000
 """The output grid is thinned to at most this many points: the linear-model arrays of
 the methods take about 1 kB per point, so 10-min and 4-h holds at 1 kHz peak within a
-few per cent of each other (``make bench``). Never thinner than ``min_points_per_s`` (calibrate-bias: 3 points per epoch window)."""
+few per cent of each other (``make bench``). Never thinner than ``min_points_per_s``
+(calibrate-bias: 3 points per epoch window)."""
 
 
 def sample_index(record, t):
