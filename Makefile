@@ -5,18 +5,22 @@ BIN    := $(VENV)/bin
 STAMP  := $(VENV)/.installed
 OUT    ?= out
 
-.PHONY: demo test fuzz lint bench bench-quick clean venv
+.PHONY: demo test fuzz lint bench bench-quick clean venv kernels
 
 $(STAMP): pyproject.toml
 	$(PYTHON) -m venv $(VENV)
 	$(BIN)/python -m pip install --quiet --upgrade pip
 	$(BIN)/python -m pip install --quiet -e '.[dev,plot,cluster]'
-	$(BIN)/python -m inins.commands.warmup
 	touch $(STAMP)
 
 venv: $(STAMP)
 
-demo: $(STAMP)
+# numba's cache of every kernel, and the kernel library short runs load without
+# numba; rebuilt only when a kernel source changed (about 2 s when nothing did)
+kernels: $(STAMP)
+	$(BIN)/python -m inins.commands.warmup
+
+demo: kernels
 	$(BIN)/inins calibrate-bias -o $(OUT)/demo
 	@echo; echo "the full report: $(OUT)/demo/calibrate-bias.txt"
 
@@ -25,7 +29,7 @@ lint: $(STAMP)
 	$(BIN)/ruff format --check inins tests benchmarks
 	$(BIN)/lint-imports
 
-test: lint
+test: lint kernels
 	$(BIN)/python -m pytest -n auto --dist loadscope
 
 # More examples of the property tests (tests/cli/test_fuzz.py), random seed:
@@ -34,10 +38,10 @@ FUZZ_EXAMPLES ?= 5000
 fuzz: $(STAMP)
 	ININS_FUZZ_EXAMPLES=$(FUZZ_EXAMPLES) $(BIN)/python -m pytest tests/cli/test_fuzz.py -q
 
-bench: $(STAMP)
+bench: kernels
 	$(BIN)/python -m benchmarks
 
-bench-quick: $(STAMP)
+bench-quick: kernels
 	$(BIN)/python -m benchmarks --quick
 
 clean:

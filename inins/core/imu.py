@@ -51,8 +51,9 @@ import math
 from dataclasses import dataclass, field, fields
 from typing import NamedTuple
 
-import numba
 import numpy as np
+
+from inins.core import jit
 
 __all__ = [
     "BiasTruth",
@@ -261,7 +262,7 @@ class BiasTruth(NamedTuple):
     accel: np.ndarray
 
 
-@numba.njit(cache=True, nogil=True, error_model="numpy")
+@jit.njit(cache=True, nogil=True, error_model="numpy", aot=True)
 def _kernel(
     ideal_g, ideal_a, dt, mat_g, mat_a, par, temp, extra_g, extra_a, carry, gen, out, every, work
 ):

@@ -5,8 +5,9 @@ increment is ``counts * pulse_weight``. The table-data layout keeps counts as
 int32 with a ``pulse_weight`` attribute (:mod:`inins.io.tabledata`).
 """
 
-import numba
 import numpy as np
+
+from inins.core import jit
 
 
 def _pulse_weight(pulse_weight):
@@ -43,7 +44,7 @@ def counts_from_increments(values, pulse_weight):
     return counts
 
 
-@numba.njit(cache=True, nogil=True, error_model="numpy")
+@jit.njit(cache=True, nogil=True, error_model="numpy", aot=True)
 def _counts_kernel(values, inv_weight, counts):
     """counts = rint(values / weight) in one pass; 1 if not integral, 2 if out of int32."""
     limit = 2147483647.0

@@ -59,16 +59,15 @@ diverge.
 import math
 from dataclasses import dataclass, field
 
-import numba
 import numpy as np
 
-from inins.core import earth, rotation
+from inins.core import earth, jit, rotation
 
 # numpy error model: no ZeroDivisionError branches. Helpers called once are inlined
 # by numba (no separate compilation); the small ones called several times are
 # compiled once and inlined by LLVM, which compiles faster than inlining each copy.
-_jit = numba.njit(cache=True, error_model="numpy")
-_inline = numba.njit(error_model="numpy", inline="always")
+_jit = jit.njit(cache=True, error_model="numpy")
+_inline = jit.njit(error_model="numpy", inline="always")
 _gravity = _inline(earth.gravity_of_sin2)
 _R_EXTRAPOLATE = 6.371e6
 """Radius (m) used only to extrapolate the mid-interval latitude."""
@@ -224,7 +223,7 @@ def _attitude_step(q, phi, zeta):
     return q0 * s, q1 * s, q2 * s, q3 * s
 
 
-@numba.njit(cache=True, nogil=True, error_model="numpy")
+@jit.njit(cache=True, nogil=True, error_model="numpy", aot=True)
 def _navigate(
     quat,
     vel,

@@ -14,22 +14,21 @@ uses the leading block.
 
 import math
 
-import numba
 import numpy as np
 
-from inins.core import earth
+from inins.core import earth, jit
 
-_gravity_of_sin2 = numba.njit(cache=True)(earth.gravity_of_sin2)
+_gravity_of_sin2 = jit.njit(cache=True)(earth.gravity_of_sin2)
 
 
-@numba.njit(cache=True)
+@jit.njit(cache=True)
 def _gravity(lat, height):
     """:func:`inins.core.earth.gravity`, compiled (the same arithmetic)."""
     s2 = np.sin(lat) ** 2
     return _gravity_of_sin2(s2, np.sqrt(1.0 - earth.E2 * s2), height)
 
 
-_radii = numba.njit(cache=True)(earth.principal_radii)
+_radii = jit.njit(cache=True)(earth.principal_radii)
 
 POS, VEL, ATT, BA, BG, CLK, MA, MG = 0, 3, 6, 9, 12, 15, 17, 20
 """First index of each group in EKF26 (clock: bias then drift)."""
@@ -37,7 +36,7 @@ _MA_PAIRS = ((1, 0), (2, 0), (2, 1))  # ma_yx, ma_zx, ma_zy
 _MG_PAIRS = ((0, 1), (0, 2), (1, 0), (1, 2), (2, 0), (2, 1))  # mg_xy ... mg_zy
 
 
-@numba.njit(cache=True)
+@jit.njit(cache=True)
 def _skew(out, r, c, sign, x, y, z):
     """``out[r:r+3, c:c+3] += sign [v x]``."""
     out[r, c + 1] -= sign * z
@@ -48,7 +47,7 @@ def _skew(out, r, c, sign, x, y, z):
     out[r + 2, c + 1] += sign * x
 
 
-@numba.njit(cache=True)
+@jit.njit(cache=True)
 def earth_jacobians(lat, h, vel, j_v, jie, jen, jg):
     """Fill ``J_v``, ``d w_ie/dr``, ``d w_en/dr``, ``d g/dr`` (each (3, 3)), as the core does."""
     rn, re = _radii(lat)
@@ -81,7 +80,7 @@ def earth_jacobians(lat, h, vel, j_v, jie, jen, jg):
     return rn_h, re_h
 
 
-@numba.njit(cache=True)
+@jit.njit(cache=True)
 def system_matrix26(lat, h, vel, f_b, mat_nb, omega_b, F):
     """Fill ``F`` (n, n), n = 17 or 26, with the error model of :mod:`inins.core.error_model`.
 
@@ -127,7 +126,7 @@ def system_matrix26(lat, h, vel, f_b, mat_nb, omega_b, F):
                 F[ATT + i, MG + k] = -mat_nb[i, a] * omega_b[b]
 
 
-@numba.njit(cache=True)
+@jit.njit(cache=True)
 def noise26(mat_nb, arw, vrw, ba_rw, bg_rw, clock_bias_psd, clock_drift_psd, Q):
     """Fill ``Q`` (n, n) with ``Qc`` of :func:`inins.core.error_model.noise_matrix`."""
     Q.fill(0.0)
@@ -146,7 +145,7 @@ def noise26(mat_nb, arw, vrw, ba_rw, bg_rw, clock_bias_psd, clock_drift_psd, Q):
     Q[CLK + 1, CLK + 1] = clock_drift_psd
 
 
-@numba.njit(cache=True)
+@jit.njit(cache=True)
 def discretize(F, Qc, dt, Phi, Qd):
     """Third-order transition and process noise series (in place).
 
@@ -167,7 +166,7 @@ def discretize(F, Qc, dt, Phi, Qd):
     Qd[:, :] = Qc * dt + (FQ + FQ.T) * (0.5 * dt * dt) + (FQ @ F.T) * (dt**3 / 3.0)
 
 
-@numba.njit(cache=True)
+@jit.njit(cache=True)
 def predict(x, P, Phi, Qd):
     """``x = Phi x``, ``P = Phi P Phi^T + Qd``, symmetrised (in place)."""
     x[:] = Phi @ x
@@ -175,7 +174,7 @@ def predict(x, P, Phi, Qd):
     P[:, :] = 0.5 * (M + M.T)
 
 
-@numba.njit(cache=True)
+@jit.njit(cache=True)
 def pseudorange_rows(r_ant, v_ant, mat_ne, j_v, lever_n, lever_vel_n, sat_pos, sat_vel, H, zhat):
     """Predicted pseudorange and range rate and their rows of ``H`` (003 eq. 7, spec §6a).
 
@@ -221,7 +220,7 @@ def pseudorange_rows(r_ant, v_ant, mat_ne, j_v, lever_n, lever_vel_n, sat_pos, s
         H[2 * i + 1, CLK + 1] = 1.0
 
 
-@numba.njit(cache=True)
+@jit.njit(cache=True)
 def sequential_update(x, P, H, y0, r, threshold, accepted, y_out, s_out):
     """Scalar Joseph-form updates in turn, each gated on its own chi-square(1) NIS.
 

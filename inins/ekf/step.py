@@ -11,16 +11,15 @@ and :func:`inins.ekf.measurements.antenna` (tested equal in ``tests/ekf/test_ste
 
 import math
 
-import numba
 import numpy as np
 
-from inins.core import earth
+from inins.core import earth, jit
 from inins.ekf import kernels
 
-_radii = numba.njit(cache=True)(earth.principal_radii)
+_radii = jit.njit(cache=True)(earth.principal_radii)
 
 
-@numba.njit(cache=True)
+@jit.njit(cache=True)
 def mat_from_quat(q):
     """``mat_nb`` (3, 3) of a unit quaternion ``[w, x, y, z]``."""
     w, x, y, z = q[0], q[1], q[2], q[3]
@@ -33,14 +32,14 @@ def mat_from_quat(q):
     )
 
 
-@numba.njit(cache=True)
+@jit.njit(cache=True)
 def mat_en(lat, lon):
     """NED to ECEF (3, 3)."""
     sl, cl, so, co = math.sin(lat), math.cos(lat), math.sin(lon), math.cos(lon)
     return np.array([[-sl * co, -so, -cl * co], [-sl * so, co, -cl * so], [cl, 0.0, -sl]])
 
 
-@numba.njit(cache=True)
+@jit.njit(cache=True)
 def ecef(lla):
     """ECEF position (3,) m of ``[lat, lon, h]``."""
     _, re = _radii(lla[0])
@@ -54,7 +53,7 @@ def ecef(lla):
     )
 
 
-@numba.njit(cache=True)
+@jit.njit(cache=True)
 def correct(quat, vel, lla, dx, out_quat, out_vel, out_lla):
     """``nav (-) dx`` (first 9 states) into the ``out_`` arrays (may alias the inputs)."""
     rn, re = _radii(lla[0])
@@ -78,7 +77,7 @@ def correct(quat, vel, lla, dx, out_quat, out_vel, out_lla):
     out_quat[0], out_quat[1], out_quat[2], out_quat[3] = r0 / norm, r1 / norm, r2 / norm, r3 / norm
 
 
-@numba.njit(cache=True)
+@jit.njit(cache=True)
 def propagate(x, P, F, Qc, Phi, Qd, quat, vel, lla, omega_b, f_b, dt_k, noise):
     """Model at the mid-interval state, discretise, predict (``dt_k`` > 0)."""
     mat_nb = mat_from_quat(quat)
@@ -92,7 +91,7 @@ def propagate(x, P, F, Qc, Phi, Qd, quat, vel, lla, omega_b, f_b, dt_k, noise):
     kernels.predict(x, P, Phi, Qd)
 
 
-@numba.njit(cache=True)
+@jit.njit(cache=True)
 def update(
     x,
     P,
@@ -161,7 +160,7 @@ def update(
     return kernels.sequential_update(x, P, Hs, y0, rs, threshold, acc, y, s)
 
 
-@numba.njit(cache=True)
+@jit.njit(cache=True)
 def mean_rates(dtheta, dv, centre, window, dt, out):
     """Moving average of ``omega_b``, ``f_b`` over ``window`` samples centred at ``centre``
     (003 §2.2), into ``out`` (2, 3); unchanged for an empty chunk."""
@@ -178,7 +177,7 @@ def mean_rates(dtheta, dv, centre, window, dt, out):
     out /= (hi - lo) * dt
 
 
-@numba.njit(cache=True)
+@jit.njit(cache=True)
 def feedback(x, F, tau, quat, vel, lla, comp, cum, sens):
     """FB: ``nav (-) (I + F tau) x`` in place, sensor estimates into ``comp``, states reset."""
     delta = x + tau * (F @ x)
@@ -191,7 +190,7 @@ def feedback(x, F, tau, quat, vel, lla, comp, cum, sens):
         x[sens[j]] = 0.0
 
 
-@numba.njit(cache=True)
+@jit.njit(cache=True)
 def compensate(dtheta, dv, dt, comp):
     """Increments with the cumulative sensor estimates removed (new arrays).
 

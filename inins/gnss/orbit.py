@@ -11,9 +11,9 @@ positions are in the ECEF frame of that same instant.
 
 from dataclasses import dataclass
 
-import numba
 import numpy as np
 
+from inins.core import jit
 from inins.gnss.gpstime import WEEK
 
 MU = 3.986005e14
@@ -129,12 +129,12 @@ _PARAMS = (
 )
 
 
-@numba.njit(cache=True)
+@jit.njit(cache=True)
 def _wrap(dt):
     return dt - WEEK * np.floor((dt + 0.5 * WEEK) / WEEK)
 
 
-@numba.njit(cache=True)
+@jit.njit(cache=True)
 def _states_kernel(index, week, sow, par, eph_week, tgd, pos, vel, clock, drift):
     """IS-GPS-200 Table 20-IV per state (see :func:`satellite_states`); outputs filled in place."""
     for k in range(index.size):

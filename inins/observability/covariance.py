@@ -18,17 +18,16 @@ eigenvalue exactly 1.
 
 from dataclasses import dataclass
 
-import numba
 import numpy as np
 from scipy import linalg
 
-from inins.core import kalman
+from inins.core import jit, kalman
 from inins.exceptions import InputError
 from inins.observability import measurements as meas
 from inins.observability.pwcs import combination
 
 
-@numba.njit(cache=True)
+@jit.njit(cache=True)
 def _riccati(P, Phi, Qd, H, R, steps, sigma, start):
     """``steps`` predict + Joseph-update cycles; writes sqrt(diag P) to ``sigma[start + k]``."""
     n = P.shape[0]

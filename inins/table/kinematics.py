@@ -23,10 +23,9 @@ rotation (no lever arm), so::
 import math
 from dataclasses import dataclass
 
-import numba
 import numpy as np
 
-from inins.core import earth, rotation
+from inins.core import earth, jit, rotation
 from inins.table.program import Hold, Program, compile_program
 
 GIMBAL_AXES = {"roll": 0, "pitch": 1, "yaw": 2}
@@ -63,8 +62,8 @@ class MountRotation:
 # arithmetic compiles in a fraction of the time of small-array indexing. Helpers
 # called once per sample site are inlined by numba (_inl: no separate compilation);
 # the small ones called several times are compiled once and inlined by LLVM.
-_jit = numba.njit(cache=True, nogil=True, error_model="numpy")
-_inl = numba.njit(error_model="numpy", inline="always")
+_jit = jit.njit(cache=True, nogil=True, error_model="numpy")
+_inl = jit.njit(error_model="numpy", inline="always")
 
 
 @_jit
@@ -229,7 +228,7 @@ def _rodrigues_vec(m, a, b):
     )
 
 
-@_jit
+@jit.njit(cache=True, nogil=True, error_model="numpy", aot=True)
 def _kinematics_kernel(
     time,
     seg_t0,

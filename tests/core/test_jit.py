@@ -1,0 +1,183 @@
+"""Kernels compile on first use, and short runs take the kernel library (inins.core.jit).
+
+The library is the same kernels compiled ahead of time: a run through it must give
+the outputs of a run through numba bit for bit, without loading numba; a call it
+was not built for, or a library that no longer matches the sources, goes to numba.
+"""
+
+import json
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import h5py
+import numpy as np
+import pytest
+
+from inins.core import jit
+
+ROOT = Path(__file__).resolve().parents[2]
+PACKAGE = ROOT / "inins"
+
+
+def test_arguments_are_described_as_numba_types_them():
+    numba = jit.activate()
+    base = np.arange(12.0).reshape(3, 4)
+    readonly = np.zeros(3)
+    readonly.flags.writeable = False
+    values = [
+        base,
+        base.T,  # Fortran order
+        base[:, ::2],  # neither
+        np.zeros((1, 3)),  # both: numba says C
+        readonly,
+        np.zeros(3, np.int32),
+        np.zeros(2, np.bool_),
+        True,
+        np.bool_(False),
+        3,
+        2.5,
+        np.float64(1.0),
+        np.float32(1.0),
+        np.int32(3),
+        (np.zeros(2), np.zeros((2, 2))),
+        (base, base),
+        np.random.default_rng(0),
+    ]
+    described = [jit._describe(v) for v in values]
+    assert described == [jit._describe_type(numba.typeof(v)) for v in values]
+    # C, F and strided layouts and read-only arrays are told apart, as numba does
+    assert len({json.dumps(d) for d in described[:5]}) == 4
+
+
+def test_importing_every_module_loads_no_numba():
+    modules = [
+        ".".join(p.relative_to(ROOT).with_suffix("").parts).removesuffix(".__init__")
+        for p in sorted(PACKAGE.rglob("*.py"))
+        if p.name != "__main__.py"
+    ]
+    code = (
+        "import importlib, sys\n"
+        f"for m in {modules!r}:\n"
+        "    importlib.import_module(m)\n"
+        "print(sorted(m for m in sys.modules if m.split('.')[0] in ('numba', 'llvmlite')))\n"
+    )
+    done = subprocess.run(
+        [sys.executable, "-c", code], capture_output=True, text=True, check=False, cwd=ROOT
+    )
+    assert done.returncode == 0, done.stderr
+    assert done.stdout.strip() == "[]"
+
+
+def _manifest(directory, **changes):
+    shared, manifest_path = jit._paths(Path(directory))
+    shared.write_bytes(b"")
+    sources = jit._source_key(["core/pulses.py"])
+    manifest = {"versions": jit._versions(), "sources": sources, "exports": {}}
+    manifest.update(changes)
+    manifest_path.write_text(json.dumps(manifest))
+
+
+def test_a_library_is_used_only_while_it_matches_the_sources_and_versions(tmp_path):
+    assert jit.library_status(tmp_path / "none") == (
+        False,
+        f"no kernel library in {tmp_path / 'none'}",
+    )
+    _manifest(tmp_path)
+    assert jit.library_status(tmp_path)[0]
+    _manifest(tmp_path, sources={"core/pulses.py": "0" * 64})
+    assert jit.library_status(tmp_path) == (
+        False,
+        "a kernel module changed since the library was built",
+    )
+    _manifest(tmp_path, versions={"numpy": "1.0", "numba": "0.1"})
+    usable, reason = jit.library_status(tmp_path)
+    assert not usable and reason.startswith("built for {'numpy': '1.0'")
+
+
+RUN = """
+import json, runpy, sys
+import numpy as np
+sys.argv = ["inins", "simulate-table", "-o", sys.argv[1], "--set", "imu.sample_rate_hz=20"]
+try:
+    runpy.run_module("inins", run_name="__main__")
+except SystemExit as exc:
+    code = exc.code
+after_run = "numba" in sys.modules
+from inins.core import pulses
+weights = np.array([1e-6, 2e-6, 4e-6])
+values = np.arange(12.0).reshape(4, 3) * weights
+same = pulses.counts_from_increments(values, weights)
+after_library_call = "numba" in sys.modules
+fortran = np.asfortranarray(values)  # a layout the library was not built for
+counts = np.empty((4, 3), np.int32)
+problem = pulses._counts_kernel(fortran, 1.0 / weights, counts)
+print(json.dumps({
+    "code": code,
+    "numba_after_run": after_run,
+    "numba_after_library_call": after_library_call,
+    "numba_after_other_layout": "numba" in sys.modules,
+    "counts_equal": bool(problem == 0 and np.array_equal(counts, same)),
+}))
+"""
+
+
+def _run(out, kernel_dir):
+    env = {**os.environ, "ININS_KERNEL_DIR": str(kernel_dir)}
+    done = subprocess.run(
+        [sys.executable, "-c", RUN, str(out)],
+        capture_output=True,
+        text=True,
+        check=False,
+        cwd=ROOT,
+        env=env,
+    )
+    assert done.returncode == 0, done.stderr
+    return json.loads(done.stdout.strip().splitlines()[-1])
+
+
+def _datasets(path):
+    found = {}
+
+    def keep(name, obj):
+        if isinstance(obj, h5py.Dataset) and obj.shape:
+            found[name] = obj[()]
+
+    with h5py.File(path, "r") as f:
+        f.visititems(keep)
+    return found
+
+
+@pytest.mark.slow
+def test_a_run_through_the_library_is_the_run_through_numba_without_numba(tmp_path):
+    library = tmp_path / "library"
+    env = {**os.environ, "ININS_KERNEL_DIR": str(library)}
+    done = subprocess.run(
+        [sys.executable, "-m", "inins.commands.warmup"],
+        capture_output=True,
+        text=True,
+        check=False,
+        cwd=ROOT,
+        env=env,
+    )
+    assert done.returncode == 0, done.stderr
+    assert "kernel library built" in done.stdout, done.stdout + done.stderr
+
+    through_library = _run(tmp_path / "aot", library)
+    assert through_library == {
+        "code": 0,
+        "numba_after_run": False,
+        "numba_after_library_call": False,
+        "numba_after_other_layout": True,
+        "counts_equal": True,
+    }
+    through_numba = _run(tmp_path / "jit", tmp_path / "empty")
+    assert through_numba["numba_after_run"]
+
+    aot = _datasets(tmp_path / "aot" / "simulate-table.h5")
+    numba_run = _datasets(tmp_path / "jit" / "simulate-table.h5")
+    assert aot.keys() == numba_run.keys()
+    assert len(aot) > 10
+    for name, value in aot.items():
+        assert np.array_equal(value, numba_run[name]), name
