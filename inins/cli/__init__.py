@@ -99,6 +99,7 @@ app = make_app()
 
 def main() -> None:
     """Console-script entry point: SIGTERM is handled like Ctrl-C (no partial files)."""
+    import gc
     import os
     import signal
 
@@ -115,6 +116,11 @@ def main() -> None:
     except SystemExit as exc:
         _exit_past_failed_hdf5(exc.code)
         raise
+    finally:
+        # The run is over and its files are closed. Python's last garbage collection
+        # would walk every object the imports made (about 0.1 s, a fifth of a short
+        # run); frozen objects are left to the operating system instead.
+        gc.freeze()
 
 
 def _exit_past_failed_hdf5(code) -> None:

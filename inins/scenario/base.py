@@ -78,6 +78,7 @@ class ScenarioSection(BaseModel):
         allow_inf_nan=False,
         json_schema_extra=_add_units,
         validate_default=True,
+        defer_build=True,
     )
 
     @model_validator(mode="before")
