@@ -42,11 +42,19 @@ class PointTask:
 
 
 def warm_up(command: str | None = None, ignore_sigint: bool = True) -> None:
-    """Worker initialiser: leave Ctrl-C to the parent, import the command module."""
+    """Worker initialiser: leave Ctrl-C to the parent, load numba, import the command.
+
+    A worker lives for many points, so it loads numba's kernels once (compiled for
+    this CPU, and releasing the GIL, which a Dask worker's threads need) rather than
+    the kernel library made for single short runs (:mod:`inins.core.jit`).
+    """
     import signal
+
+    from inins.core import jit
 
     if ignore_sigint:
         signal.signal(signal.SIGINT, signal.SIG_IGN)
+    jit.activate()
     if command is not None:
         from inins.commands import find_command, load_command
 
