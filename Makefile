@@ -16,9 +16,13 @@ $(STAMP): pyproject.toml
 venv: $(STAMP)
 
 # numba's cache of every kernel, and the kernel library short runs load without
-# numba; rebuilt only when a kernel source changed (about 2 s when nothing did)
-kernels: $(STAMP)
+# numba: compiled at install (about 40 s), checked again when a source changed
+KERNELS := $(VENV)/.kernels
+$(KERNELS): $(STAMP) $(shell find inins -name '*.py')
 	$(BIN)/python -m inins.commands.warmup
+	touch $(KERNELS)
+
+kernels: $(KERNELS)
 
 demo: kernels
 	$(BIN)/inins calibrate-bias -o $(OUT)/demo

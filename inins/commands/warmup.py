@@ -1,8 +1,10 @@
 """Compile every numerical kernel once, so that the first command run is quick.
 
-``python -m inins.commands.warmup`` (``make demo`` and ``make test`` run it after
-installing): each kernel module's ``warm_up()`` compiles its one specialisation into
-numba's on-disk cache, which later processes load instead of compiling; then the
+``python -m inins.commands.warmup`` (``make kernels``, run by ``make demo``, ``make
+test`` and ``make bench``): each kernel module's ``warm_up()`` compiles its one
+specialisation into numba's on-disk cache, and short runs of run-ekf and
+observability compile the EKF, GNSS and observability kernels the way their
+commands call them; later processes load them instead of compiling. Then the
 kernels a short run needs are compiled ahead of time into the kernel library
 (:mod:`inins.core.jit`), which a run loads without numba.
 """
@@ -14,15 +16,31 @@ import time
 from inins.core import jit
 
 MODULES = ("inins.core.pulses", "inins.core.imu", "inins.core.strapdown", "inins.table.kinematics")
+_WAIT = ("flight.legs=[{kind: wait, duration_s: 20}]",)
+SHORT_RUNS = (  # (command, shipped scenario (folder, name), --set overrides)
+    ("run-ekf", ("run-ekf", "default"), _WAIT),
+    ("run-ekf", ("paper003", "ekf1-ff"), _WAIT),
+    ("observability", ("observability", "default"), ()),
+    ("observability", ("observability", "ekf26-bank-turns"), ()),
+)
+"""Runs (no output written) whose kernels have no ``warm_up()`` of their own."""
 
 
 def warm_up(progress=None):
-    """Compile (or load from the cache) every kernel; ``progress(text)`` per module."""
+    """Compile (or load from the cache) every kernel; ``progress(text)`` per step."""
     jit.activate()
     for name in MODULES:
         if progress is not None:
             progress(name)
         importlib.import_module(name).warm_up()
+    from inins.commands import find_command
+    from inins.commands.execute import execute
+    from inins.io.resources import config_path
+
+    for command, (folder, name), overrides in SHORT_RUNS:
+        if progress is not None:
+            progress(f"{command} {folder}/{name}")
+        execute(find_command(command), config_path(folder, name), overrides, seed=0)
 
 
 def main():
