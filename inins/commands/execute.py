@@ -23,7 +23,6 @@ from typing import TYPE_CHECKING
 
 import inins
 from inins.commands import CommandSpec, load_command
-from inins.core import jit
 from inins.exceptions import InputError
 from inins.results import CommandResult, NullSink
 
@@ -114,7 +113,6 @@ def execute(
     seed_used = resolve_seed(seed, getattr(loaded.model, "seed", None))
     estimate = getattr(module, "estimate", None)
     size = estimate and estimate(loaded.model)
-    choose_kernels(size)
     if outdir is None:
         check_budget(size, None, force)
         result = run_located(module, loaded, seed_used, NullSink(), progress)
@@ -122,21 +120,6 @@ def execute(
     outdir = prepare_outdir(outdir)
     check_budget(size, outdir, force)
     return write_outputs(spec.name, module, loaded, seed_used, outdir, makers, progress)
-
-
-LONG_RUN_SAMPLES = 1_000_000
-"""IMU samples from which a run loads numba rather than using the kernel library."""
-
-
-def choose_kernels(size) -> None:
-    """Load numba's dispatchers for a run of :data:`LONG_RUN_SAMPLES` or more.
-
-    Short runs call the precompiled kernel library and never pay numba's start-up
-    (:mod:`inins.core.jit`); long ones want numba's kernels, which release the GIL
-    while the HDF5 writer thread works and are compiled for this CPU.
-    """
-    if size is not None and size.samples >= LONG_RUN_SAMPLES:
-        jit.activate()
 
 
 MAX_SEED = 2**63 - 1

@@ -46,7 +46,7 @@ def warm_up(progress=None):
 def main():
     start = time.perf_counter()
     print("numerical kernels: compiling, or loading numba's cache ...", flush=True)
-    warm_up()
+    warm_up(lambda step: print(f"  {step}", flush=True))
     print(f"numerical kernels ready ({time.perf_counter() - start:.1f} s)", flush=True)
     usable, reason = jit.library_status()
     if usable:

@@ -10,12 +10,14 @@ module, the *kernel library*, which ``python -m inins.commands.warmup`` builds a
 install (numba's ``pycc``, for the argument types the warm-up passed). A call
 whose arguments have exactly those types runs the library's copy without loading
 numba; any other call, or any call once :func:`activate` has run, goes through
-numba's dispatcher (its on-disk cache, or a compile). The library copy is the same
-machine code for the same source, compiled for a generic CPU of the architecture,
-and gives bit-identical results (a test compares both on a whole run). It holds
-the GIL while it runs, where the dispatcher releases it for ``nogil`` kernels, so
-a command whose work is long calls :func:`activate` first (the library is for
-short runs, where numba's start-up would dominate).
+numba's dispatcher (its on-disk cache, or a compile). The library copy, compiled
+from the same source by the same compiler for a generic CPU of the architecture,
+gives bit-identical results (a test compares both on a whole run). It holds
+the GIL while it runs, where the dispatcher releases it for ``nogil`` kernels, and
+takes 1.1-1.6 times as long as numba's copy compiled for this CPU: it is for short
+runs, where numba's start-up would dominate. So a process takes the library for its
+first :data:`LIBRARY_ROWS` rows of work and loads numba for the rest (a sweep worker,
+which lives for many runs, loads numba at once).
 
 The library sits next to the package's bytecode (``inins/__pycache__``), under
 ``$NUMBA_CACHE_DIR/inins`` when that is set, or in ``$ININS_KERNEL_DIR``. It is
@@ -54,6 +56,11 @@ _MODULES = set()
 """Names of the modules that define kernels (their source keys the library)."""
 _numba = None
 _library = None
+LIBRARY_ROWS = 1_000_000
+"""Rows (the longest first axis among a call's array arguments: samples, for the
+table, sensor and strapdown kernels) a process runs through the kernel library
+before it loads numba: 0.1-0.2 s of work, against numba's 0.5 s start-up."""
+_library_rows = 0
 """Qualified name -> _Compiled, loaded on first use; {} when there is none."""
 
 
@@ -82,11 +89,21 @@ def _qualname(fn):
     return f"{fn.__module__}.{fn.__qualname__}"
 
 
+def _within_budget(args):
+    """Count the call's rows; True while the process is within :data:`LIBRARY_ROWS`."""
+    global _library_rows
+    _library_rows += max(
+        (a.shape[0] for a in args if isinstance(a, np.ndarray) and a.ndim), default=0
+    )
+    return _library_rows <= LIBRARY_ROWS
+
+
 class Kernel:
     """A function numba compiles on first use, or runs from the kernel library.
 
     Calls take the library's copy when the arguments match the types it was built
-    for and numba is not loaded, else the dispatcher. Attributes other than
+    for, numba is not loaded and the process is within :data:`LIBRARY_ROWS`; else
+    the dispatcher. Attributes other than
     ``py_func`` (``signatures``, ``inspect_types``, ...) are the dispatcher's and
     load numba.
     """
@@ -101,7 +118,7 @@ class Kernel:
     def __call__(self, *args):
         if self._dispatcher is None:
             compiled = _compiled(_qualname(self.py_func))
-            if compiled is not None and compiled.accepts(args):
+            if compiled is not None and compiled.accepts(args) and _within_budget(args):
                 return compiled.function(*args)
             activate()
         return self._dispatcher(*args)

@@ -123,6 +123,21 @@ print(json.dumps({
 """
 
 
+BUDGET = """
+import json, sys
+import numpy as np
+from inins.core import jit, pulses
+weights = np.array([1e-6, 2e-6, 4e-6])
+rows = np.arange(3 * (jit.LIBRARY_ROWS // 2 + 1), dtype=float).reshape(-1, 3) * weights
+loaded = []
+first = pulses.counts_from_increments(rows, weights)  # within the budget: the library
+loaded.append("numba" in sys.modules)
+second = pulses.counts_from_increments(rows, weights)  # past it: numba
+loaded.append("numba" in sys.modules)
+print(json.dumps({"numba": loaded, "equal": bool(np.array_equal(first, second))}))
+"""
+
+
 def _run(out, kernel_dir):
     env = {**os.environ, "ININS_KERNEL_DIR": str(kernel_dir)}
     done = subprocess.run(
@@ -174,6 +189,17 @@ def test_a_run_through_the_library_is_the_run_through_numba_without_numba(tmp_pa
     }
     through_numba = _run(tmp_path / "jit", tmp_path / "empty")
     assert through_numba["numba_after_run"]
+
+    budget = subprocess.run(
+        [sys.executable, "-c", BUDGET],
+        capture_output=True,
+        text=True,
+        check=False,
+        cwd=ROOT,
+        env=env,
+    )
+    assert budget.returncode == 0, budget.stderr
+    assert json.loads(budget.stdout) == {"numba": [False, True], "equal": True}
 
     aot = _datasets(tmp_path / "aot" / "simulate-table.h5")
     numba_run = _datasets(tmp_path / "jit" / "simulate-table.h5")
