@@ -124,7 +124,6 @@ def test_failed_write_leaves_no_file(flight, tmp_path):
 
 
 def test_layout_is_declared_once_and_matches_the_gnss_container():
-    assert flight_layout.EPHEMERIS_FIELDS == ephemeris.FIELDS
     names = {f for f in measurements.Observations.__dataclass_fields__}
     gnss_names = {
         d.path.rsplit("/", 1)[-1] for d in flight_layout.DATASETS if d.path.startswith("gnss/")
