@@ -14,7 +14,7 @@ import numpy as np
 
 from inins.core import earth
 from inins.exceptions import InputError
-from inins.gnss import ephemeris, orbit, propagation
+from inins.gnss import broadcast, propagation, systems
 from inins.gnss.orbit import C
 from inins.gnss.propagation import LAMBDA_L1, ionosphere_free
 
@@ -255,7 +255,9 @@ def attach_satellites(obs, eph, *, max_age_s=7200.0, source=None):
     Parameters
     ----------
     obs : Observations
-    eph : Ephemeris
+    eph : Ephemeris or inins.gnss.broadcast.Navigation
+        GPS sets, or the sets of all systems (GLONASS rows use the 15 min validity of
+        :data:`inins.gnss.glonass.MAX_AGE_S`).
     max_age_s : float, s
     source : str, optional
         File name for the error message.
@@ -269,14 +271,16 @@ def attach_satellites(obs, eph, *, max_age_s=7200.0, source=None):
     InputError
         If no measurement has an ephemeris (navigation data missing).
     """
+    nav = broadcast.as_navigation(eph)
     week = obs.week[obs.epoch]
     t_sv = obs.time[obs.epoch] - obs.pseudorange / C
-    index = ephemeris.select(eph, obs.prn, week, t_sv, max_age_s=max_age_s)
+    index = broadcast.select(nav, obs.prn, week, t_sv, max_age_s=max_age_s)
     keep = (index >= 0) & np.isfinite(obs.pseudorange)
     if obs.prn.size and not keep.any():
+        names = sorted({systems.rinex_name(p) for p in obs.prn.tolist()})
         raise InputError(
             f"no usable navigation data for the satellites observed "
-            f"(PRNs {sorted(set(obs.prn.tolist()))[:12]}): no healthy ephemeris within "
+            f"({' '.join(names[:12])}): no healthy ephemeris within "
             f"{max_age_s:.0f} s of the observation times",
             source=source,
         )
@@ -284,10 +288,11 @@ def attach_satellites(obs, eph, *, max_age_s=7200.0, source=None):
     obs = obs.take_rows(keep)
     index, week, t_sv = index[keep], week[keep], t_sv[keep]
     single = obs.signal == Signal.L1
+    tgd = np.where(single, C * broadcast.group_delay(nav, obs.prn, index), 0.0)
     t_tx = t_sv
     for _ in range(2):
-        states = orbit.satellite_states(eph, index, week, t_tx)
-        clock = states.clock - np.where(single, C * eph.tgd[index], 0.0)
+        states = broadcast.satellite_states(nav, obs.prn, index, week, t_tx)
+        clock = states.clock - tgd
         t_tx = t_sv - clock / C
     return GnssEpochs(
         obs=obs,
