@@ -35,7 +35,9 @@ NAMES = {GPS: "GPS", GLONASS: "GLONASS", GALILEO: "Galileo", BEIDOU: "BeiDou",
 C = 299792458.0
 """Speed of light (m/s)."""
 
-GM = np.array([3.986005e14, 3.9860044418e14, 3.986004418e14, 3.986004418e14, 3.986005e14, 3.986005e14])
+GM = np.array(
+    [3.986005e14, 3.9860044418e14, 3.986004418e14, 3.986004418e14, 3.986005e14, 3.986005e14]
+)
 """Earth gravitational constant of each system's orbit model (m^3/s^2), by system index."""
 OMEGA_E = np.array(
     [7.2921151467e-5, 7.292115e-5, 7.2921151467e-5, 7.292115e-5, 7.2921151467e-5, 7.2921151467e-5]
