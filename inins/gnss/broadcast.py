@@ -80,3 +80,46 @@ def group_delay(nav, sat, index):
     glo = systems.system_of(sat) == systems.GLONASS
     k = np.where(glo, 0, index)
     return np.where(glo, 0.0, nav.kepler.tgd[k] if len(nav.kepler) else 0.0)
+
+
+def from_records(kepler, glonass=None):
+    """A :class:`Navigation` of a reader's structured arrays: Keplerian sets with the
+    fields of :data:`inins.gnss.ephemeris.FIELDS` and GLONASS sets with ``sat, week, toe,
+    clock_bias, gamma, pos, vel, acc, health, channel`` (:mod:`inins.io.rinex_nav`)."""
+    glo = glonass_orbit.empty()
+    if glonass is not None and len(glonass):
+        glo = glonass_orbit.from_columns(
+            *(glonass[name] for name in ("sat", "week", "toe", "clock_bias", "gamma")),
+            *(glonass[name] for name in ("pos", "vel", "acc", "health", "channel")),
+        )
+    return Navigation(kepler=ephemeris.from_columns(kepler), glonass=glo)
+
+
+def merge(parts):
+    """One :class:`Navigation` of several (a GPS file and a GLONASS file, say)."""
+    kepler = ephemeris.concatenate([p.kepler for p in parts])
+    glo = [p.glonass for p in parts if len(p.glonass)]
+    if not glo:
+        return Navigation(kepler=kepler)
+    names = ("sat", "week", "toe", "clock_bias", "gamma", "pos", "vel", "acc", "health", "channel")
+    return Navigation(
+        kepler=kepler,
+        glonass=glonass_orbit.from_columns(
+            *(np.concatenate([getattr(g, n) for g in glo]) for n in names)
+        ),
+    )
+
+
+def glonass_channels(nav, sat):
+    """Frequency channel of each GLONASS satellite number in ``sat`` from its latest set
+    (NaN for other systems and for slots without a set)."""
+    sat = np.asarray(sat, np.int64)
+    out = np.full(sat.shape, np.nan)
+    g = nav.glonass
+    if len(g) == 0:
+        return out
+    table = np.full(200, np.nan)
+    table[g.sat] = g.channel  # sorted by time within a slot: the latest set wins
+    glo = systems.system_of(sat) == systems.GLONASS
+    out[glo] = table[sat[glo]]
+    return out

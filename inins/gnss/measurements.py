@@ -127,15 +127,18 @@ def make_observations(
     )
 
 
-def code_pseudorange(p1, p2, c1):
+def code_pseudorange(p1, p2, c1, sat=None):
     """Pseudorange and its :class:`Signal` per row from RINEX code observables.
 
     Ionosphere-free ``(f1^2 P1 - f2^2 P2) / (f1^2 - f2^2)`` where P1 and P2 both
-    exist, else P1, else C1 (single-frequency L1). NaN where none exists.
+    exist, else P1, else C1 (single-frequency L1). NaN where none exists. GLONASS
+    rows (``sat`` given) use their band ratio ``f1 / f2 = 9 / 7`` (the same for every
+    channel).
 
     Parameters
     ----------
     p1, p2, c1 : ndarray, shape (m,), m (NaN where absent)
+    sat : ndarray of int, shape (m,), optional; satellite numbers (GPS when None)
 
     Returns
     -------
@@ -145,13 +148,21 @@ def code_pseudorange(p1, p2, c1):
     p1, p2, c1 = (np.asarray(v, float) for v in (p1, p2, c1))
     dual = np.isfinite(p1) & np.isfinite(p2)
     single = np.where(np.isfinite(p1), p1, c1)
-    pr = np.where(dual, ionosphere_free(p1, p2), single)
+    free = ionosphere_free(p1, p2)
+    if sat is not None and np.any(systems.system_of(sat) == systems.GLONASS):
+        gamma = (9.0 / 7.0) ** 2
+        free = np.where(
+            systems.system_of(sat) == systems.GLONASS, (gamma * p1 - p2) / (gamma - 1.0), free
+        )
+    pr = np.where(dual, free, single)
     return pr, np.where(dual, Signal.IONO_FREE, Signal.L1).astype(np.int8)
 
 
-def range_rate_from_doppler(doppler_hz):
-    """Range rate (m/s, positive when the range grows) from an L1 Doppler (Hz): ``-lambda_L1 D``."""
-    return -LAMBDA_L1 * np.asarray(doppler_hz, float)
+def range_rate_from_doppler(doppler_hz, wavelength=LAMBDA_L1):
+    """Range rate (m/s, positive when the range grows) from a band-1 Doppler (Hz):
+    ``-lambda D`` (``wavelength`` per row for other systems:
+    :func:`inins.gnss.systems.l1_wavelength`)."""
+    return -np.asarray(wavelength, float) * np.asarray(doppler_hz, float)
 
 
 def from_record(record):
@@ -171,7 +182,9 @@ def from_record(record):
     )
 
 
-def from_code(week, time, start, prn, p1, p2, c1, *, doppler_l1=None, snr=None, sigma=None):
+def from_code(
+    week, time, start, prn, p1, p2, c1, *, doppler_l1=None, snr=None, sigma=None, channel=None
+):
     """:class:`Observations` from RINEX-style code observables (one call for a reader's arrays).
 
     Pseudorange per :func:`code_pseudorange` (ionosphere-free where P1 and P2
@@ -184,13 +197,35 @@ def from_code(week, time, start, prn, p1, p2, c1, *, doppler_l1=None, snr=None, 
     doppler_l1 : ndarray, shape (m,), Hz, optional
     snr : ndarray, shape (m,), dB-Hz, optional
     sigma : ndarray, shape (m,), m, optional
+    channel : ndarray, shape (m,), optional
+        GLONASS frequency channel per row (NaN elsewhere): the wavelength of a GLONASS
+        Doppler. GPS-only data need none.
 
     Returns
     -------
     Observations
+
+    Raises
+    ------
+    InputError
+        A GLONASS row carries a Doppler but no frequency channel.
     """
-    pr, signal = code_pseudorange(p1, p2, c1)
-    rate = None if doppler_l1 is None else range_rate_from_doppler(doppler_l1)
+    prn = np.asarray(prn, np.int64)
+    multi = np.any(prn >= 100)
+    pr, signal = code_pseudorange(p1, p2, c1, prn if multi else None)
+    rate = None
+    if doppler_l1 is not None and not multi:
+        rate = range_rate_from_doppler(doppler_l1)
+    elif doppler_l1 is not None:
+        wavelength = systems.l1_wavelength(prn, channel)
+        lost = np.isnan(wavelength) & np.isfinite(doppler_l1)
+        if lost.any():
+            names = sorted({systems.rinex_name(p) for p in prn[lost].tolist()})
+            raise InputError(
+                f"GLONASS frequency channel missing for {' '.join(names)} (Doppler needs "
+                "it; neither the observation header nor the navigation data give it)"
+            )
+        rate = range_rate_from_doppler(doppler_l1, wavelength)
     return make_observations(
         week, time, start, prn, pr, range_rate=rate, sigma=sigma, snr=snr, signal=signal
     )

@@ -322,7 +322,7 @@ def read_obs(path, systems="G"):
     scan = _scan_v2 if version < 3 else _scan_v3
     body, width, offsets = scan(lines, k, len(types), path)
     values = _numbers(body, width, offsets, path)
-    letters, prn = _satellites(body, path)
+    _, prn = _satellites(body, path)
     cal = np.array(body.cal, dtype=float).reshape(-1, 6)
     week, sow = gps_week_sow(*cal[:, :5].astype(np.int64).T, cal[:, 5])
     return ObservationFile(
