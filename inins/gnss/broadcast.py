@@ -46,7 +46,8 @@ def select(nav, sat, week, sow, *, max_age_s=7200.0):
     glo = systems.system_of(sat) == systems.GLONASS
     if not glo.any():
         return ephemeris.select(nav.kepler, sat, week, sow, max_age_s=max_age_s)
-    week, sow = np.broadcast_arrays(np.asarray(week, np.int64), np.asarray(sow, float))
+    sat, week, sow = np.broadcast_arrays(sat, np.asarray(week, np.int64), np.asarray(sow, float))
+    glo = systems.system_of(sat) == systems.GLONASS
     out = np.full(sat.shape, -1, np.int64)
     out[~glo] = ephemeris.select(nav.kepler, sat[~glo], week[~glo], sow[~glo], max_age_s=max_age_s)
     out[glo] = glonass_orbit.select(nav.glonass, sat[glo], week[glo], sow[glo])
@@ -59,8 +60,10 @@ def satellite_states(nav, sat, index, week, sow):
     glo = systems.system_of(sat) == systems.GLONASS
     if not glo.any():
         return orbit.satellite_states(nav.kepler, index, week, sow)
-    index = np.asarray(index, np.int64)
-    week, sow = np.broadcast_arrays(np.asarray(week, np.int64), np.asarray(sow, float))
+    sat, index, week, sow = np.broadcast_arrays(
+        sat, np.asarray(index, np.int64), np.asarray(week, np.int64), np.asarray(sow, float)
+    )
+    glo = systems.system_of(sat) == systems.GLONASS
     m = len(sat)
     pos, vel, clock, drift = np.empty((m, 3)), np.empty((m, 3)), np.empty(m), np.empty(m)
     for mask, states in (

@@ -140,7 +140,7 @@ def satellite_states(eph, index, week, sow):
     index = np.asarray(index, np.int64)
     index, week, sow = np.broadcast_arrays(index, np.asarray(week, np.int64), sow)
     shape = index.shape
-    flat = np.ascontiguousarray(index).ravel()
+    flat = np.array(index, np.int64).ravel()
     dt = gpstime.time_diff(week.ravel(), sow.ravel(), eph.week[flat], eph.toe[flat])
     state = np.concatenate([eph.pos, eph.vel, eph.acc], axis=1)
     pos = np.empty((flat.size, 3))

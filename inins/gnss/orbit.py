@@ -106,9 +106,9 @@ def satellite_states(eph, index, week, sow, *, tgd=False):
     clock = np.empty(index.size)
     drift = np.empty(index.size)
     _states_kernel(
-        np.ascontiguousarray(index).ravel(),
-        np.ascontiguousarray(week).ravel(),
-        np.ascontiguousarray(sow).ravel(),
+        np.array(index, np.int64).ravel(),
+        np.array(week, np.int64).ravel(),
+        np.array(sow, float).ravel(),
         par,
         consts,
         eph.week.astype(np.int64),

@@ -14,6 +14,7 @@ RINEX 3 observation codes are reported under RINEX 2 names by
 """
 
 from dataclasses import dataclass
+from pathlib import Path
 
 import numpy as np
 
@@ -489,3 +490,50 @@ def system_observable(obs, name):
                 out[rows] = obs.values[rows, obs.types.index(code)]
                 break
     return out
+
+
+def write_obs_v3(path, week, time, start, prn, columns, *, marker="INININS"):
+    """Write a RINEX 3.04 observation file (the body and the header lines a reader needs).
+
+    Parameters
+    ----------
+    path : str or Path
+    week, time, start : epoch GPS week, seconds of week (s) and row offsets
+    prn : ndarray of int64, (m,), satellite numbers of :mod:`inins.core.satellites`
+    columns : dict
+        System letter -> (codes tuple, values (m, n_codes) array; rows of other systems
+        ignored, NaN written blank).
+    """
+    from inins.core.satellites import LETTERS
+
+    header = [f"{'3.04':>9}{'':11}{'OBSERVATION DATA':20}{'M':20}RINEX VERSION / TYPE"]
+    header.append(f"{marker:60}MARKER NAME")
+    for letter, (codes, _) in columns.items():
+        for i in range(0, len(codes), 13):
+            lead = f"{letter}  {len(codes):3d}" if i == 0 else " " * 6
+            chunk = "".join(f" {c}" for c in codes[i : i + 13])
+            header.append(f"{lead}{chunk:54}SYS / # / OBS TYPES")
+    header.append(f"{'':60}END OF HEADER")
+    system = np.asarray(prn) // 100
+    text = {}
+    for letter, (codes, values) in columns.items():
+        rows = np.flatnonzero(system == LETTERS.index(letter))
+        body = np.char.mod("%14.3f  ", values[rows])
+        body[~np.isfinite(values[rows])] = " " * 16
+        for r, line in zip(rows, ["".join(b).rstrip() for b in body], strict=True):
+            text[r] = f"{letter}{prn[r] % 100:02d}{line}"
+    cal = np.datetime64("1980-01-06T00:00:00", "ns") + (
+        np.asarray(week, np.int64) * 604800 * 10**9
+        + np.round(np.asarray(time) * 1e9).astype(np.int64)
+    ).astype("timedelta64[ns]")
+    out = list(header)
+    for k, stamp in enumerate(cal):
+        rows = [r for r in range(start[k], start[k + 1]) if r in text]
+        iso = str(stamp)
+        sec = float(iso[17:])
+        out.append(
+            f"> {iso[:4]} {iso[5:7]} {iso[8:10]} {iso[11:13]} {iso[14:16]}"
+            f"{sec:11.7f}  0{len(rows):3d}"
+        )
+        out += [text[r] for r in rows]
+    Path(path).write_text("\n".join(out) + "\n")
