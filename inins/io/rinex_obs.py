@@ -516,7 +516,7 @@ def write_obs_v3(path, week, time, start, prn, columns, *, marker="INININS"):
     header.append(f"{'':60}END OF HEADER")
     system = np.asarray(prn) // 100
     text = {}
-    for letter, (codes, values) in columns.items():
+    for letter, (_, values) in columns.items():
         rows = np.flatnonzero(system == LETTERS.index(letter))
         body = np.char.mod("%14.3f  ", values[rows])
         body[~np.isfinite(values[rows])] = " " * 16
