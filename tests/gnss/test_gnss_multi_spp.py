@@ -199,3 +199,36 @@ def test_dropping_the_uncorrected_rows_on_the_abpo_day(abpo_obs, abpo_eph, abpo_
     assert np.count_nonzero(moved) == 7
     err = np.linalg.norm(sol.pos - abpo_obs.approx_pos_e, axis=1)
     assert np.sqrt(np.nanmean(err**2)) == pytest.approx(3.944, abs=2e-3)
+
+
+def test_four_systems_simulated_from_the_mixed_file_and_solved():
+    """The receiver simulation on the mixed RINEX 3 file (GPS, GLONASS, Galileo, BeiDou) in
+    Berlin for 2 h, with inter-system biases of 5, -3 and 8 m and 1 cm noise: SPP recovers
+    position to 5 cm and each bias to 5 cm; the Galileo BGD and BeiDou TGD1 enter the
+    simulated L1 clock and the solution alike."""
+    from inins.gnss import simulate
+
+    mixed = read_navigation(DATA / "BRDC00WRD_U_20161580000_01D_MN.rnx.gz", leap_seconds=17)
+    nav = broadcast.from_records(mixed.records, mixed.glonass)
+    time = 86400.0 + 10 * 3600.0 + np.arange(0.0, 7200.0, 60.0)
+    lla = earth.llh_from_ecef(np.array([3785108.11, 899901.49, 5037234.46]))
+    pos, vel = simulate.static_receiver(lla[0], lla[1], lla[2], len(time))
+    bias = ((1, 5.0), (2, -3.0), (3, 8.0))
+    options = simulate.SimulationOptions(
+        mask_rad=np.radians(5.0), sigma_pr_m=0.01, troposphere=False, system_bias_m=bias
+    )
+    rng = np.random.default_rng(7)
+    obs, _ = simulate.simulate(
+        nav, 1900, time, pos, vel, np.full(len(time), 30.0), np.zeros(len(time)), rng, options
+    )
+    assert set(np.unique(obs.prn // 100)) == {0, 1, 2, 3}
+    sol = spp.solve(
+        measurements.attach_satellites(obs, nav),
+        spp.SppOptions(troposphere=False, mask_rad=np.radians(5.0)),
+    )
+    assert (sol.status == FixStatus.FIX).all()
+    assert np.abs(sol.pos - pos).max() < 0.05
+    assert sol.isb_systems == (1, 2, 3)
+    for k, (_, value) in enumerate(bias):  # NaN where the system is not in view (Galileo 2016)
+        seen = np.isfinite(sol.isb[:, k])
+        assert seen.sum() >= 20 and np.abs(sol.isb[seen, k] - value).max() < 0.05
