@@ -263,7 +263,7 @@ def _recorded(scenario):
     imu = rec.imu
     dt = float(np.median(np.diff(imu.time)))
     sources.check_imu_time(imu.time, dt, str(d.file))
-    obs = measurements.from_record(rec.gnss)
+    obs = measurements.gps_rows(measurements.from_record(rec.gnss))  # one clock: GPS only
     t = obs.time - rec.imu_t0_sow
     inside = np.flatnonzero((t > imu.time[0] - 1.0) & (t < imu.time[-1] + 1.0))
     if inside.size == 0:

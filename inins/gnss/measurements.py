@@ -495,3 +495,10 @@ def ionosphere_rows(signal, choice, has_klobuchar):
         f"ionosphere-free P1/P2; {rows - n_free} single-frequency rows dropped (no "
         "ionosphere model in the navigation data to correct them)",
     )
+
+
+def gps_rows(obs):
+    """The GPS rows of ``obs`` (a consumer with one receiver clock and no inter-system bias,
+    such as the tightly coupled filter, must not mix systems)."""
+    gps = systems.system_of(obs.prn) == systems.GPS
+    return obs if gps.all() else obs.take_rows(gps)

@@ -121,7 +121,8 @@ def _epoch(first, version, path, line):
 
 
 def read_nav(path):
-    """Read a RINEX 2 or 3 GPS navigation file.
+    """Read a RINEX 2 or 3 GPS navigation file (a RINEX 4 file: its GPS LNAV records,
+    through :func:`read_navigation`).
 
     Parameters
     ----------
@@ -141,6 +142,18 @@ def read_nav(path):
     lines = read_lines(path)
     header, k = split_header(lines, path)
     version, ftype, system = version_line(header, path)
+    if 4.0 <= version < 5.0 and ftype == "N":  # RINEX 4: message records
+        mixed = read_navigation(path)
+        gps = mixed.records[mixed.records["prn"] < 100]
+        if not len(gps):
+            raise InputError("no GPS navigation record", source=str(path), line=len(lines))
+        return NavigationFile(
+            path=str(path),
+            version=version,
+            records=gps,
+            iono_alpha=mixed.iono_alpha,
+            iono_beta=mixed.iono_beta,
+        )
     if not (
         (2.0 <= version < 3.0 and ftype == "N")
         or (3.0 <= version < 4.0 and ftype == "N" and system in ("G", "M"))
@@ -360,8 +373,9 @@ def read_navigation(path, *, leap_seconds=None):
 
     RINEX 2.1x GPS (``.n``) and GLONASS (``.g``), RINEX 3.0x of any system or mixed,
     RINEX 4.0x (``> EPH`` message records: GPS/QZSS LNAV, Galileo I/NAV and F/NAV,
-    BeiDou D1/D2, GLONASS FDMA read; other known messages and STO/EOP/ION records
-    skipped and counted). Plain or gzip-compressed.
+    BeiDou D1/D2, GLONASS FDMA read; the first GPS LNAV ``> ION`` record gives the
+    Klobuchar coefficients; other known messages and STO/EOP/ION records skipped and
+    counted). Plain or gzip-compressed.
 
     Parameters
     ----------
@@ -400,7 +414,7 @@ def read_navigation(path, *, leap_seconds=None):
             line=next(line for label, _, line in header if label == "LEAP SECONDS"),
         )
     leap = header_leap if header_leap is not None else leap_seconds
-    kepler, glo, skipped = [], [], {}
+    kepler, glo, skipped, iono4 = [], [], {}, {}
     v2_letter = "R" if ftype == "G" else "G"
     while k < len(lines):
         first = lines[k]
@@ -408,7 +422,7 @@ def read_navigation(path, *, leap_seconds=None):
             k += 1
             continue
         if version >= 4:
-            k = _rinex4_record(lines, k, path, kepler, glo, skipped)
+            k = _rinex4_record(lines, k, path, kepler, glo, skipped, iono4)
             continue
         letter = v2_letter if v2 else first[0]
         count = _KEPLER_LINES.get(letter) or _OTHER_LINES.get(letter)
@@ -429,6 +443,8 @@ def read_navigation(path, *, leap_seconds=None):
     if not kepler and not glo:
         raise InputError("no navigation record", source=str(path), line=len(lines))
     alpha, beta = _iono_all(header, version, path)
+    if version >= 4 and iono4:
+        alpha, beta = iono4["alpha"], iono4["beta"]
     return MixedNavigation(
         path=str(path),
         version=version,
@@ -458,7 +474,7 @@ def _record(lines, k, letter, count, v2, path, kepler, glo, skipped, indent=None
     return k + count
 
 
-def _rinex4_record(lines, k, path, kepler, glo, skipped):
+def _rinex4_record(lines, k, path, kepler, glo, skipped, iono=None):
     """One RINEX 4 record starting '>' at line ``k``; the index of the next record."""
     head = lines[k]
     parts = head[1:].split()
@@ -472,6 +488,11 @@ def _rinex4_record(lines, k, path, kepler, glo, skipped):
             source=str(path),
             line=k + 1,
         )
+    if parts[0] == "ION" and len(parts) >= 3 and parts[1][:1] == "G" and parts[2] == "LNAV":
+        if iono is not None and not iono and end - k >= 4:  # the first GPS Klobuchar record
+            values = _values(lines, k + 1, 3, 23, 4, path)
+            iono["alpha"], iono["beta"] = np.array(values[0:4]), np.array(values[4:8])
+            return end
     if parts[0] != "EPH":
         skipped[parts[0]] = skipped.get(parts[0], 0) + 1
         return end

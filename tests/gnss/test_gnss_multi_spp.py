@@ -232,3 +232,10 @@ def test_four_systems_simulated_from_the_mixed_file_and_solved():
     for k, (_, value) in enumerate(bias):  # NaN where the system is not in view (Galileo 2016)
         seen = np.isfinite(sol.isb[:, k])
         assert seen.sum() >= 20 and np.abs(sol.isb[seen, k] - value).max() < 0.05
+
+
+def test_the_single_clock_filter_takes_gps_rows_only(drive):
+    obs = drive[0]
+    gps = measurements.gps_rows(obs)
+    assert (gps.prn < 100).all() and len(gps.prn) == np.count_nonzero(obs.prn < 100)
+    assert gps.n_epochs == obs.n_epochs

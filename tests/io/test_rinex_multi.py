@@ -30,7 +30,10 @@ def _rinex4(lines):
     head = [lines[0].replace("     3.03", "     4.00"), *lines[1:k]]
     head += [f"{'17':>6}{'':54}LEAP SECONDS", lines[k]]
     out = ["> STO GL SBAS", "    2016 06 06 00 00 00 GLUT", "     0.0 0.0 0.0 0.0"]
-    out += ["> ION G01 LNAV", "    2016 06 06 00 00 00 1.0e-08 2.0e-08 3.0e-08", "     1.0"]
+    klob = [f"{v:19.12e}" for v in (6.519e-9, 2.235e-8, -5.96e-8, -1.192e-7, 86020.0, 98300.0)]
+    klob += [f"{v:19.12e}" for v in (-65540.0, -524300.0, 1.0)]
+    out += ["> ION G01 LNAV", "    2016 06 06 00 00 00" + "".join(klob[:3])]
+    out += ["    " + "".join(klob[3:7]), "    " + "".join(klob[7:9])]
     i = k + 1
     counts = {"G": 8, "E": 8, "C": 8, "R": 4}
     while i < len(lines):
@@ -55,7 +58,12 @@ def test_rinex4_message_records_read_as_rinex3(tmp_path):
     path.write_text("\n".join(_rinex4(_lines(MIXED))) + "\n")
     v4 = read_navigation(path)
     assert v4.version == 4.0 and v4.leap_seconds == 17
-    assert v4.skipped == {"STO": 1, "ION": 1}
+    assert v4.skipped == {"STO": 1}  # the ION record gives the Klobuchar coefficients
+    np.testing.assert_allclose(v4.iono_alpha, [6.519e-9, 2.235e-8, -5.96e-8, -1.192e-7])
+    np.testing.assert_allclose(v4.iono_beta, [86020.0, 98300.0, -65540.0, -524300.0])
+    gps4 = read_nav(path)  # the GPS reader takes a RINEX 4 file's LNAV records
+    assert gps4.version == 4.0 and (gps4.records["prn"] < 100).all()
+    np.testing.assert_array_equal(gps4.records["toe"], v3.records["toe"][v3.records["prn"] < 100])
     for name in v3.records.dtype.names:
         if name != "line":
             np.testing.assert_array_equal(v4.records[name], v3.records[name])
