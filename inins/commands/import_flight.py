@@ -252,6 +252,16 @@ def _read_multi(scenario):
     for slot, k in obs_file.glonass_channels.items():
         channel[obs_file.prn == 100 + slot] = k
     observed = {LETTERS[s] for s in np.unique(obs_file.prn // 100).tolist()}
+    doppler = system_observable(obs_file, "D1")
+    lost = (obs_file.prn // 100 == 1) & np.isnan(channel) & np.isfinite(doppler)
+    if lost.any():
+        names = " ".join(sorted({rinex_name(p) for p in obs_file.prn[lost].tolist()}))
+        raise InputError(
+            f"GLONASS frequency channel missing for {names}: neither the header's GLONASS "
+            "SLOT / FRQ # nor a navigation set gives it (a Doppler needs it)",
+            source=str(scenario.obs_file),
+            key="extra_nav_files",
+        )
     obs = measurements.from_code(
         obs_file.week,
         obs_file.time,
@@ -260,7 +270,7 @@ def _read_multi(scenario):
         system_observable(obs_file, "P1"),
         system_observable(obs_file, "P2"),
         system_observable(obs_file, "C1"),
-        doppler_l1=system_observable(obs_file, "D1"),
+        doppler_l1=doppler,
         snr=system_observable(obs_file, "S1"),
         channel=channel,
     )

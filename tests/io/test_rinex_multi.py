@@ -190,3 +190,23 @@ def test_glonass_from_the_mixed_file_needs_leap_seconds(tmp_path):
         "--set", "extra_nav_files=[]", "--set", "leap_seconds=17",
     )  # fmt: skip
     assert result.exit_code == 0, result.output
+
+
+def test_a_glonass_channel_missing_is_bad_input(tmp_path):
+    """R02 is observed; a GLONASS navigation file without its sets leaves its channel
+    unknown (the observation file is RINEX 2.11: no SLOT / FRQ # header)."""
+    lines = _lines(DATA / "brdc1580.16g.gz")
+    k = next(i for i, line in enumerate(lines) if "END OF HEADER" in line) + 1
+    kept = lines[:k]
+    for i in range(k, len(lines), 4):
+        if int(lines[i][:2]) != 2:
+            kept += lines[i : i + 4]
+    path = tmp_path / "no-r02.16g"
+    path.write_text("\n".join(kept) + "\n")
+    out = tmp_path / "out"
+    result = _run(
+        CONFIG / "smartloc-gps-glonass.yaml", "-o", out, "--set", f"extra_nav_files=[{path}]"
+    )
+    assert result.exit_code == 2, result.output
+    assert "GLONASS frequency channel missing for R02" in result.stderr
+    assert "Berlin_Potsdamer_Platz.obs.gz" in result.stderr
