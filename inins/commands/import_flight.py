@@ -428,8 +428,18 @@ class SppCheck:
             "spp/pdop": Series(s.pdop, "1", "", "position dilution of precision"),
             "spp/residual_rms": Series(s.residual_rms, "m", "", "RMS of the used residuals"),
             "spp/excluded_prn": Series(s.excluded_prn, "1", "", "satellite excluded, 0 none"),
+            "spp/n_excluded": Series(s.n_excluded, "1", "", "satellites excluded in the epoch"),
             "spp/distance": Series(self.track.distance, "m", "", "path length so far"),
         }
+        if s.isb_systems:
+            out["spp/isb_m"] = Series(
+                s.isb,
+                "m",
+                "",
+                "inter-system bias of each further system ("
+                + ", ".join(NAMES[k] for k in s.isb_systems)
+                + "), NaN where not estimated",
+            )
         if self.error_ned is not None:
             out["spp/error_ned"] = Series(
                 self.error_ned, "m", "n", "position error against the reference, NED"
@@ -508,6 +518,19 @@ def report(scenario, flight, epochs, check, iono):
             "satellites excluded by the residual test: "
             + ", ".join(rinex_name(p) for p in excluded)
         )
+    if s.isb_systems:
+        per = ", ".join(
+            f"{NAMES[k]} {np.nanmedian(s.isb[:, j]):.2f} m"
+            if np.isfinite(s.isb[:, j]).any()
+            else f"{NAMES[k]} not estimated"
+            for j, k in enumerate(s.isb_systems)
+        )
+        used = epochs.obs.prn[s.used] // 100
+        count = ", ".join(
+            f"{NAMES[k]} {np.count_nonzero(used == k)}" for k in np.unique(epochs.obs.prn // 100)
+        )
+        lines.append(f"inter-system biases (median, against the first system): {per}")
+        lines.append(f"measurements used per system: {count}")
     if r["single_frequency_rows_dropped"]:
         lines.append(
             f"single-frequency rows dropped (no ionosphere correction): "
