@@ -27,7 +27,7 @@ import numpy as np
 
 from inins.calibration.ett import EttOptions, EttResult, align_ett, paper_angles
 from inins.commands import figures
-from inins.commands._table import load_record
+from inins.commands._table import load_record, table_estimate
 from inins.core import rotation
 from inins.core.units import ARCSEC, DEG, DEG_RTH, UG, UG_RTHZ
 from inins.io.hdf5 import read_datasets
@@ -72,8 +72,6 @@ def declared_results(scenario):
 
 def estimate(scenario):
     """Size of the run: the in-memory simulation, or None for a data file (read in chunks)."""
-    from inins.commands.budget import table_estimate
-
     return None if scenario.simulate is None else table_estimate(scenario.simulate, True)
 
 

@@ -9,7 +9,7 @@ import numpy as np
 
 from inins.calibration import bias, budget, ett, three_axis
 from inins.commands import figures
-from inins.commands._table import load_record
+from inins.commands._table import load_record, table_estimate
 from inins.commands.calibrate_bias_report import (
     AXES,
     METHOD_TITLES,
@@ -287,6 +287,4 @@ def declared_results(scenario):
 
 def estimate(scenario):
     """Size of the run: the in-memory simulation, or None for a data file (read in chunks)."""
-    from inins.commands.budget import table_estimate
-
     return None if scenario.simulate is None else table_estimate(scenario.simulate, True)
