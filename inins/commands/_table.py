@@ -9,11 +9,13 @@ from pathlib import Path
 
 import numpy as np
 
+from inins.calibration.ett import EttResult
 from inins.commands.budget import Estimate
 from inins.core.records import MemoryRecord
 from inins.core.units import ARCSEC, DEG, UG
 from inins.exceptions import InputError
 from inins.io import tabledata
+from inins.io.hdf5 import read_datasets
 from inins.io.tabledata import read_table_data
 from inins.results import CommandResult
 from inins.table import kinematics, program, simulate
@@ -248,3 +250,37 @@ def table_estimate(setup, in_memory: bool) -> Estimate:
     if in_memory:  # spilled to a temporary table-data file, read back in chunks
         return Estimate(n, imu + series, 4 * chunk * 6 * F8 + series + (64 << 20), keys)
     return Estimate(n, imu + series, 4 * chunk * 6 * F8 + (64 << 20), keys)
+
+
+ETT_DATASETS = (
+    "mat_tb",
+    "mat_tb0",
+    "mu",
+    "heading_rad",
+    "heading_sigma_rad",
+    "level_angles",
+    "mat_n_base",
+    "axes",
+)
+"""The datasets of the ``ett`` group of an ``align-ett.h5``."""
+
+
+def read_ett_result(path):
+    """The :class:`~inins.calibration.ett.EttResult` stored in an ``align-ett.h5``.
+
+    Raises
+    ------
+    InputError
+        Missing file, not HDF5, or no complete ``ett`` group.
+    """
+    d = read_datasets(path, "ett", ETT_DATASETS, "an align-ett results file")
+    return EttResult(
+        mat_tb=d["mat_tb"],
+        mat_tb0=d["mat_tb0"],
+        mu=d["mu"],
+        heading=float(d["heading_rad"]),
+        heading_sigma=float(d["heading_sigma_rad"]),
+        level_angles=d["level_angles"],
+        mat_n_base=d["mat_n_base"],
+        axes=d["axes"].reshape(-1, 3),
+    )
