@@ -193,6 +193,7 @@ def kernel_sources():
             continue
         found.add(path)
         todo.extend(_imported_files(path))
+    found.discard(Path(__file__).resolve())  # the machinery: options are in the modules
     return sorted(p.relative_to(_PACKAGE).as_posix() for p in found)
 
 

@@ -29,7 +29,7 @@ def _regularised_gammas(a: float, x: float) -> tuple:
     if x < a + 1.0:  # series: P = e^-x x^a / Γ(a+1) Σ x^n / ((a+1)...(a+n))
         term = total = 1.0 / a
         denominator = a
-        for _ in range(10_000):
+        for _ in range(10_000 + int(50.0 * math.sqrt(a))):
             denominator += 1.0
             term *= x / denominator
             total += term
@@ -42,7 +42,7 @@ def _regularised_gammas(a: float, x: float) -> tuple:
     c = 1.0 / _TINY
     d = 1.0 / b
     h = d
-    for i in range(1, 10_000):
+    for i in range(1, 10_000 + int(50.0 * math.sqrt(a))):
         an = -i * (i - a)
         b += 2.0
         d = an * d + b

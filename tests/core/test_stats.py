@@ -47,3 +47,10 @@ def test_cdf_inverts_ppf_and_edges():
     assert math.isnan(chi2_ppf(1.5, 3))
     with pytest.raises(ValueError, match="degrees of freedom"):
         chi2_ppf(0.5, 0)
+
+
+def test_many_degrees_of_freedom_as_consistency_bounds_use():
+    # the mean NIS over an hour of 26-state epochs: 10^5 degrees of freedom
+    for dof in (1e3, 9.36e4, 1e6):
+        for p in (0.025, 0.975):
+            np.testing.assert_allclose(chi2_ppf(p, dof), special.chdtri(dof, 1 - p), rtol=1e-9)
