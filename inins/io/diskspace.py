@@ -13,7 +13,10 @@ from pathlib import Path
 from inins.exceptions import OutputError
 
 WRITE_MARGIN = 8 << 20
-"""Bytes kept free while writing (room for HDF5 to flush its metadata on close)."""
+"""Bytes kept free while an HDF5 file is written chunk by chunk (room for HDF5 to
+flush its metadata on close), where the file's final size is not known."""
+MIN_MARGIN = 1 << 20
+"""Smallest margin :func:`margin_for` keeps (bytes)."""
 _FULL = {errno.ENOSPC, errno.EDQUOT}
 
 
@@ -87,6 +90,32 @@ def disk_full_error(path) -> OutputError:
         f"no space left on {device_of(path)} writing {path}; "
         "earlier results untouched, no partial file left"
     )
+
+
+def margin_for(need: int) -> int:
+    """Bytes to keep free beyond an estimate of ``need`` bytes: a tenth of it (the
+    estimate's own uncertainty: record sizes vary from point to point), at least
+    :data:`MIN_MARGIN`."""
+    return max(MIN_MARGIN, int(need) // 10)
+
+
+def mib(n: int) -> str:
+    """``n`` bytes as text in MiB (``"0.4 MiB"``)."""
+    return f"{n / 2**20:.1f} MiB"
+
+
+def require_room(path, need: int, what: str) -> None:
+    """Raise :class:`~inins.exceptions.OutputError` unless the file system of
+    ``path`` has ``need`` bytes plus :func:`margin_for` ``(need)`` free; the message
+    states ``what`` needs it, the estimate, the margin and the free space."""
+    free = free_bytes(path)
+    margin = margin_for(need)
+    if free is not None and free < need + margin:
+        raise OutputError(
+            f"not enough free space on {device_of(path)}: {what} needs about {mib(need)} "
+            f"plus a margin of {mib(margin)}, {mib(free)} free; free some space or "
+            "choose another output folder"
+        )
 
 
 def check_room(path, need: int) -> None:

@@ -96,7 +96,10 @@ class LocalExecutor:
         ctx = multiprocessing.get_context("forkserver")
         ctx.set_forkserver_preload(["numpy", "numba", "inins.commands.execute"])
         self.pool = cf.ProcessPoolExecutor(
-            self.workers, mp_context=ctx, initializer=warm_up, initargs=(self.command,)
+            self.workers,
+            mp_context=ctx,
+            initializer=warm_up,
+            initargs=(self.command, True, os.getpid()),
         )
 
     def __exit__(self, exc_type, exc, tb):
