@@ -42,7 +42,10 @@ class PointTask:
 
 
 def warm_up(
-    command: str | None = None, ignore_sigint: bool = True, parent: int | None = None
+    command: str | None = None,
+    ignore_sigint: bool = True,
+    parent: int | None = None,
+    load_numba: bool = True,
 ) -> None:
     """Worker initialiser: leave Ctrl-C to the parent, load numba, import the command.
 
@@ -50,9 +53,12 @@ def warm_up(
     process is gone (:func:`exit_with_parent`), so a sweep killed outright
     (``kill -9``) leaves no worker behind.
 
-    A worker lives for many points, so it loads numba's kernels once (compiled for
-    this CPU, and releasing the GIL, which a Dask worker's threads need) rather than
-    the kernel library made for single short runs (:mod:`inins.core.jit`).
+    ``load_numba``: a Dask worker loads numba's kernels at once (compiled for this
+    CPU, and releasing the GIL, which its threads need). A local worker process
+    (one thread) starts on the kernel library, as a single short run does, and
+    loads numba when a kernel's share of the library runs out
+    (:data:`inins.core.jit.LIBRARY_ROWS`): a sweep of short points then never pays
+    numba's start-up (0.5-1 s a worker), a sweep of long ones pays it once a worker.
     """
     import signal
 
@@ -62,7 +68,8 @@ def warm_up(
         signal.signal(signal.SIGINT, signal.SIG_IGN)
     if parent is not None:
         exit_with_parent(parent)
-    jit.activate()
+    if load_numba:
+        jit.activate()
     if command is not None:
         from inins.commands import find_command, load_command
 
