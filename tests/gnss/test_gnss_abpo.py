@@ -2,7 +2,7 @@
 station coordinates in the RINEX header."""
 
 import numpy as np
-from conftest import code_observations
+from tests.gnss.conftest import code_observations
 
 from inins.core import earth
 from inins.gnss import measurements, spp

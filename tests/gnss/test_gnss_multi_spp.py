@@ -169,7 +169,7 @@ def test_navigation_without_the_observed_system(drive):
 def test_ionosphere_rows_on_the_abpo_day(abpo_obs):
     """ABPO: 46 C1-only rows (P2 missing after acquisition), no Klobuchar in the header. In
     auto and iono-free they are dropped and counted; they are no longer refused."""
-    from conftest import code_observations
+    from tests.gnss.conftest import code_observations
 
     obs = code_observations(abpo_obs)
     for choice in ("auto", "iono-free"):
@@ -188,7 +188,7 @@ def test_dropping_the_uncorrected_rows_on_the_abpo_day(abpo_obs, abpo_eph, abpo_
     """Without the 46 rows: no "fault excluded" epoch is left (all 5 were those rows), 7
     epochs move (by up to 7.9 m), 3D RMS 3.958 -> 3.944 m, 95 % 7.467 -> 7.453 m; every
     other epoch is unchanged to 1 mm."""
-    from conftest import code_observations
+    from tests.gnss.conftest import code_observations
 
     obs = code_observations(abpo_obs)
     rows = measurements.ionosphere_rows(obs.signal, "auto", has_klobuchar=False)
