@@ -2,11 +2,11 @@
 station coordinates in the RINEX header."""
 
 import numpy as np
-from tests.gnss.conftest import code_observations
 
 from inins.core import earth
 from inins.gnss import measurements, spp
 from inins.gnss.spp import FixStatus
+from tests.gnss.conftest import code_observations
 
 
 def _errors(solution, truth):
