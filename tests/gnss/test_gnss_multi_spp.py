@@ -94,15 +94,25 @@ def test_one_exclusion_reproduces_rtklib_on_gps(drive):
 
 
 def test_per_system_mask_and_weight(drive):
-    _, _, _, base = _score(drive, [0, 1], **URBAN)
-    _, _, _, masked = _score(drive, [0, 1], system_mask_rad=((1, np.radians(30.0)),), **URBAN)
-    obs = measurements.attach_satellites(
-        drive[0].take_rows(np.isin(drive[0].prn // 100, [0, 1])), drive[1]
+    obs, nav, klobuchar, _ = drive
+    first = obs.take_epochs(np.arange(300))
+    epochs = measurements.attach_satellites(first, nav)
+    glo = systems.system_of(epochs.obs.prn) == systems.GLONASS
+    base = spp.solve(epochs, spp.SppOptions(klobuchar=klobuchar, exclude_faults=False))
+    masked = spp.solve(
+        epochs,
+        spp.SppOptions(klobuchar=klobuchar, system_mask_rad=((1, np.radians(30.0)),), exclude_faults=False),
     )
-    glo = systems.system_of(obs.obs.prn) == systems.GLONASS
     assert masked.elevation[masked.used & glo].min() >= np.radians(30.0)
     assert base.elevation[base.used & glo].min() < np.radians(20.0)  # 17 deg
-    assert masked.used[~glo].sum() >= base.used[~glo].sum() - 200
+    assert masked.elevation[masked.used & ~glo].min() < np.radians(20.0)  # GPS keeps 10 deg
+    # a GLONASS sigma 4x larger: GLONASS residuals grow relative to GPS's
+    down = spp.solve(
+        epochs,
+        spp.SppOptions(klobuchar=klobuchar, system_sigma_scale=((1, 4.0),), exclude_faults=False),
+    )
+    rms = lambda s, m: np.sqrt(np.mean(s.residual[s.used & m] ** 2))  # noqa: E731
+    assert rms(down, glo) / rms(down, ~glo) > rms(base, glo) / rms(base, ~glo)
 
 
 def test_inter_system_bias_on_simulated_ranges(drive):
