@@ -24,14 +24,13 @@ import numpy as np
 from inins.core import jit
 from inins.gnss import systems, timescales
 from inins.gnss.gpstime import WEEK
+from inins.gnss.systems import C  # the speed of light, declared once (systems)
 
-MU = 3.986005e14
+MU = float(systems.GM[systems.GPS])
 """WGS84 Earth gravitational constant for GPS orbits (m^3/s^2), IS-GPS-200 Table 20-IV."""
-OMEGA_E = 7.2921151467e-5
+OMEGA_E = float(systems.OMEGA_E[systems.GPS])
 """WGS84 Earth rotation rate for GPS (rad/s), IS-GPS-200 Table 20-IV."""
-C = 299792458.0
-"""Speed of light (m/s)."""
-F_REL = -4.442807633e-10
+F_REL = float(systems.F_REL[systems.GPS])
 """Relativistic clock constant F = -2 sqrt(mu) / c^2 (s/m^0.5), IS-GPS-200 §20.3.3.3.3.1."""
 KEPLER_ITERATIONS = 10
 """Most Newton steps on Kepler's equation (from E = M + e sin M; 2-3 reach 1e-15 rad
