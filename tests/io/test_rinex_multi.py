@@ -3,6 +3,7 @@ RINEX 3 observations (written from the smartLoc RINEX 2.11 file and read back), 
 input of each, through the reader and through ``inins import-flight``."""
 
 import gzip
+import json
 from pathlib import Path
 
 import numpy as np
@@ -210,3 +211,12 @@ def test_a_glonass_channel_missing_is_bad_input(tmp_path):
     assert result.exit_code == 2, result.output
     assert "GLONASS frequency channel missing for R02" in result.stderr
     assert "Berlin_Potsdamer_Platz.obs.gz" in result.stderr
+
+
+def test_iono_free_drops_the_single_frequency_rows_instead_of_refusing(tmp_path):
+    """ABPO with spp.ionosphere iono-free: the 46 C1-only rows are dropped and counted."""
+    result = _run(CONFIG / "default.yaml", "-o", tmp_path, "--set", "spp.ionosphere=iono-free")
+    assert result.exit_code == 0, result.output
+    r = json.loads((tmp_path / "summary.json").read_text())["results"]
+    assert r["single_frequency_rows_dropped"] == 46 and r["epochs_fault_excluded"] == 0
+    assert r["err_3d_rms_m"] == pytest.approx(3.944, abs=2e-3)
