@@ -6,7 +6,7 @@ closed-form position and derivatives) and coordinated-turn attitude, so every
 derivative is exact to machine precision.
 """
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from functools import partial
 
 import numpy as np
@@ -19,6 +19,9 @@ _DUAL_LIMIT = 1e-18  # s: below, f(t + iy) = f(t) + i y f'(t) to machine precisi
 _SATURATED = 37.0  # |x| > 37: sigma is 0 or 1 to < 1e-16 (1.0 exactly in double)
 
 
+_MEMO_BLOCKS = 2  # time blocks remembered (a chunk's quadrature times, its epoch times)
+
+
 @dataclass(frozen=True)
 class SmoothVelocity:
     """NED velocity as a sum of logistic steps, with closed-form integral and derivatives.
@@ -28,6 +31,13 @@ class SmoothVelocity:
     ``softplus(x) = log(1 + e^x)``. Analytic in the strip ``|Im t| < pi min(tau)``
     and complex-safe; a complex-step argument (``|Im t| < 1e-18 s``) is evaluated
     as ``f(t) + i Im(t) f'(t)`` in real arithmetic, which is exact and fast.
+
+    Cost: a block of times touches only the steps near it (found by bisection in the
+    steps sorted by centre; the finished ones enter through prefix sums), so a long
+    flight costs per block what a short one does; the logistic terms of the last
+    few real blocks are kept, so the ten calls an attitude-and-position evaluation
+    makes on one block compute ``exp`` once (``tests/core/test_flight_truth.py``
+    compares with the direct sum).
 
     Parameters
     ----------
@@ -43,6 +53,69 @@ class SmoothVelocity:
     times: np.ndarray
     taus: np.ndarray
     steps: np.ndarray
+    _index: dict = field(default_factory=dict, init=False, repr=False, compare=False)
+    _memo: list = field(default_factory=list, init=False, repr=False, compare=False)
+
+    def _sorted(self):
+        """Steps sorted by centre, prefix sums of ``dv_k`` and ``t_k dv_k``, reach (s)."""
+        index = self._index
+        if not index:
+            times = np.asarray(self.times, dtype=float)
+            steps = np.asarray(self.steps, dtype=float).reshape(-1, 3)
+            order = np.argsort(times, kind="stable")
+            zero = np.zeros((1, 3))
+            index["order"] = order
+            index["times"] = times[order]
+            index["cum_v"] = np.concatenate([zero, np.cumsum(steps[order], axis=0)])
+            index["cum_p"] = np.concatenate(
+                [zero, np.cumsum(times[order, None] * steps[order], axis=0)]
+            )
+            # beyond this distance from a block a step is saturated for certain
+            index["reach"] = _SATURATED * float(np.max(self.taus, initial=0.0)) + 1.0
+        return index
+
+    def _terms(self, time):
+        """Folded constants and the logistic terms of the steps live over ``time``."""
+        real = np.real(time)
+        t_min, t_max = real.min(initial=np.inf), real.max(initial=-np.inf)
+        index = self._sorted()
+        lo, hi = np.searchsorted(
+            index["times"], [t_min - index["reach"], t_max + index["reach"]], side="left"
+        )
+        near = np.sort(index["order"][lo:hi])  # candidates, in the steps' own order
+        times, taus, steps = self.times[near], self.taus[near], self.steps[near]
+        done = (t_min - times) / taus > _SATURATED
+        live = ~done & ((t_max - times) / taus > -_SATURATED)
+        v0 = self.v0 + index["cum_v"][lo] + steps[done].sum(axis=0)
+        p0 = -(index["cum_p"][lo] + times[done] @ steps[done])
+        taus, steps = taus[live], steps[live]
+        x = (time[..., None] - times[live]) / taus
+        pos = x.real > 0.0
+        e = np.exp(np.where(pos, -x, x))  # exp(-|x|), no overflow
+        inv = 1.0 / (1.0 + e)
+        sigma = np.where(pos, 1.0, e) * inv
+        dsigma = e * inv * inv / taus
+        return {
+            "v0": v0,
+            "p0": p0,
+            "taus": taus,
+            "steps": steps,
+            "x": x,
+            "pos": pos,
+            "e": e,
+            "sigma": sigma,
+            "dsigma": dsigma,
+        }
+
+    def _order(self, time, block, j):
+        """``d^j p / dt^j`` (n, 3) from the terms of ``block``."""
+        v0, steps, taus = block["v0"], block["steps"], block["taus"]
+        if j < 0:
+            terms = (np.where(block["pos"], block["x"], 0.0) + np.log1p(block["e"])) * taus
+            return time[..., None] * v0 + block["p0"] + terms @ steps
+        sigma, dsigma = block["sigma"], block["dsigma"]
+        terms = (sigma, dsigma, dsigma * (1.0 - 2.0 * sigma) / taus)[j]
+        return (v0 if j == 0 else 0.0) + terms @ steps
 
     def _sum(self, time, orders):
         """``d^j p / dt^j`` (n, 3) for j in ``orders`` (-1..2: p, v, a, jerk).
@@ -50,35 +123,34 @@ class SmoothVelocity:
         Steps saturated over the whole block (``|x| > 37``, where ``sigma`` is 0 or 1
         in double precision) are folded into the constant and linear parts.
         """
-        real = np.real(time)
-        x_lo = (real.min(initial=np.inf) - self.times) / self.taus
-        done = x_lo > _SATURATED
-        live = ~done & ((real.max(initial=-np.inf) - self.times) / self.taus > -_SATURATED)
-        v0 = self.v0 + self.steps[done].sum(axis=0)
-        p0 = -self.times[done] @ self.steps[done]
-        taus, steps = self.taus[live], self.steps[live]
-        x = (time[..., None] - self.times[live]) / taus
-        pos = x.real > 0.0
-        e = np.exp(np.where(pos, -x, x))  # exp(-|x|), no overflow
-        inv = 1.0 / (1.0 + e)
-        sigma = np.where(pos, 1.0, e) * inv
-        dsigma = e * inv * inv / taus
+        if np.iscomplexobj(time):
+            block = self._terms(time)
+            return [self._order(time, block, j) for j in orders]
+        block = self._block(time)
         out = []
         for j in orders:
-            if j < 0:
-                terms = (np.where(pos, x, 0.0) + np.log1p(e)) * taus
-                out.append(time[..., None] * v0 + p0 + terms @ steps)
-            else:
-                terms = (sigma, dsigma, dsigma * (1.0 - 2.0 * sigma) / taus)[j]
-                out.append((v0 if j == 0 else 0.0) + terms @ steps)
+            if j not in block["out"]:
+                block["out"][j] = self._order(time, block, j)
+            out.append(block["out"][j].copy())
         return out
+
+    def _block(self, time):
+        """The remembered terms of the real time array ``time`` (computed on a miss)."""
+        for block in self._memo:
+            if block["time"].shape == time.shape and np.array_equal(block["time"], time):
+                return block
+        block = self._terms(time)
+        block["time"], block["out"] = np.array(time, dtype=float), {}
+        self._memo.insert(0, block)
+        del self._memo[_MEMO_BLOCKS:]
+        return block
 
     def __call__(self, time, order):
         """Displacement (order -1, m), velocity (0), acceleration (1) or jerk (2), (n, 3)."""
         time = np.asarray(time)
         if not np.iscomplexobj(time) or np.max(np.abs(time.imag), initial=0.0) > _DUAL_LIMIT:
             return self._sum(time, [order])[0]
-        value, slope = self._sum(time.real, [order, order + 1])
+        value, slope = self._sum(np.ascontiguousarray(time.real), [order, order + 1])
         return value + 1j * time.imag[..., None] * slope
 
 
