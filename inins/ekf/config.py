@@ -152,13 +152,16 @@ class FilterConfig:
 @dataclass(frozen=True, eq=False)
 class TruthEpoch:
     """Truth at a 1PPS epoch (simulation only): IMU ``mat_nb`` (3, 3), ``vel_n`` (3) m/s,
-    ``lla`` (3) rad, rad, m, receiver clock bias (m) and drift (m/s)."""
+    ``lla`` (3) rad, rad, m, receiver clock bias (m) and drift (m/s); ``at_arrival``
+    the IMU ``(mat_nb, vel_n, lla)`` at the data arrival, which scores the naive
+    pairing (optional: None where the source gives none)."""
 
     mat_nb: np.ndarray
     vel_n: np.ndarray
     lla: np.ndarray
     clock_bias: float
     clock_drift: float
+    at_arrival: tuple | None = None
 
 
 @dataclass(frozen=True, eq=False)

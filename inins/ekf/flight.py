@@ -30,7 +30,6 @@ acceleration). Dropped: the cross term ``2 omega_0 x (theta' u x r)``
 velocity ``mat_nb theta' u x r``.
 """
 
-import itertools
 import math
 from dataclasses import dataclass, field
 from enum import Enum

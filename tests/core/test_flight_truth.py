@@ -121,10 +121,12 @@ def test_trajectory_and_increments_equal_the_direct_sum():
     for start in (100.0, 171.0, 900.0, 2500.0):
         edges = start + 0.005 * np.arange(201)
         for f, s in zip(
-            trajectory.ideal_increments(fast, edges), trajectory.ideal_increments(slow, edges)
+            trajectory.ideal_increments(fast, edges),
+            trajectory.ideal_increments(slow, edges),
+            strict=True,
         ):
             _assert_close(f, s)
-        for f, s in zip(fast.state(edges[::20]), slow.state(edges[::20])):
+        for f, s in zip(fast.state(edges[::20]), slow.state(edges[::20]), strict=True):
             _assert_close(f, s)
 
 
