@@ -132,12 +132,12 @@ def test_trajectory_and_increments_equal_the_direct_sum():
 
 def _trajectory_with(plan, velocity):
     """:func:`inins.ekf.flight.flight_trajectory` on a given velocity."""
-    original = ekf_flight.flight_velocity
+    original = ekf_flight.plan_velocity
     try:
-        ekf_flight.flight_velocity = lambda _plan: (velocity, None)
+        ekf_flight.plan_velocity = lambda _plan: (velocity, None)
         return ekf_flight.flight_trajectory(plan)
     finally:
-        ekf_flight.flight_velocity = original
+        ekf_flight.plan_velocity = original
 
 
 def test_stream_in_blocks_equals_chunk_by_chunk():
