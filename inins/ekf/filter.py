@@ -58,9 +58,11 @@ from inins.exceptions import InputError
 _NAV = slice(0, 9)
 SUB_STEPS = 10
 """Sub-intervals probed (and used when the rates change fast) per propagation."""
-RATE_CHANGE = 0.5 * np.pi / 180.0
-"""rad/s: a change of ``omega_b`` within an interval beyond this splits the propagation."""
-FORCE_CHANGE = 0.5
+RATE_CHANGE = 5.0 * np.pi / 180.0
+"""rad/s: a change of ``omega_b`` within an interval beyond this splits the propagation
+(the bank ripple of a turn flown as 15-deg track steps stays below; a roll in or out
+within a second, ~100 deg/s, is far above)."""
+FORCE_CHANGE = 2.0
 """m/s^2: a change of ``f_b`` within an interval beyond this splits the propagation."""
 
 
