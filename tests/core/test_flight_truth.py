@@ -113,13 +113,17 @@ def test_every_order_equals_the_direct_sum(name):
 
 
 def test_trajectory_and_increments_equal_the_direct_sum():
-    """State and ideal increments of a dithered run-ekf flight, one chunk per second."""
+    """State, rates and ideal increments of a run-ekf flight (closed-form derivatives,
+    :class:`inins.ekf.flight.FlightTruth`) against the former truth (complex steps
+    through the direct sum), on the ground, in the take-off, climbs and turns."""
     plan = _long_plan(1.0)
     velocity, _ = ekf_flight.flight_velocity(plan)
     fast = ekf_flight.flight_trajectory(plan)
     slow = _trajectory_with(plan, _direct(velocity))
-    for start in (100.0, 171.0, 900.0, 2500.0):
+    for start in (5.0, 100.0, 135.0, 171.0, 900.0, 2500.0):
         edges = start + 0.005 * np.arange(201)
+        for f, s in zip(fast.rates(edges), slow.rates(edges), strict=True):
+            _assert_close(f, s)
         for f, s in zip(
             trajectory.ideal_increments(fast, edges),
             trajectory.ideal_increments(slow, edges),
@@ -131,11 +135,12 @@ def test_trajectory_and_increments_equal_the_direct_sum():
 
 
 def _trajectory_with(plan, velocity):
-    """:func:`inins.ekf.flight.flight_trajectory` on a given velocity."""
+    """The former truth: :func:`inins.ekf.flight.analytic_trajectory` (complex steps) on
+    a given velocity."""
     original = ekf_flight.plan_velocity
     try:
         ekf_flight.plan_velocity = lambda _plan: (velocity, None)
-        return ekf_flight.flight_trajectory(plan)
+        return ekf_flight.analytic_trajectory(plan)
     finally:
         ekf_flight.plan_velocity = original
 
