@@ -116,8 +116,8 @@ class EpochLog:
     coasted : list of bool
     nis, update_s : list of float
     rows : list of tuple
-        Per updated epoch: ``(epoch index, prn, kind, innovation, variance, accepted)``
-        arrays of the scalar measurements used.
+        Per updated epoch: its index and the ``(prn, kind, innovation, variance,
+        accepted)`` arrays of the scalar measurements used.
     """
 
     time: list = field(default_factory=list)
@@ -145,8 +145,9 @@ class EpochLog:
             parts = [r[i] for r in self.rows]
             return np.concatenate(parts).astype(dtype) if parts else np.zeros(0, dtype)
 
+        sizes = [r[2].size for r in self.rows]
         return Innovations(
-            cat(0, np.int64),
+            np.repeat(np.array([r[0] for r in self.rows], np.int64), sizes),
             cat(1, np.int64),
             cat(2, np.int8),
             cat(3, float),
@@ -185,15 +186,21 @@ class _Run:
         )
         self.lever = np.asarray(config.lever_arm, dtype=float)
         self.limits = np.array([RATE_CHANGE, FORCE_CHANGE])
+        self.offsets = {}  # interval length (samples) -> probe offsets before the PPS
 
     def propagate(self, start, series, dth, dv, p, dt_k):
         """Predict over ``dt_k`` ending at sample ``p`` of the chunk (module docstring, 2)."""
         cfg = self.cfg
         span = round(dt_k / cfg.dt)
-        # sub-interval middles (samples), the last entry the whole interval's middle
-        mids = np.maximum(p - span + (2 * np.arange(SUB_STEPS) + 1) * span // (2 * SUB_STEPS), 0)
-        mid = max(p - round(0.5 * dt_k / cfg.dt), 0)
-        probes = np.append(mids, mid)
+        offsets = self.offsets.get(span)
+        if offsets is None:  # sub-interval middles, then the whole interval's, before p
+            offsets = np.append(
+                span - (2 * np.arange(SUB_STEPS) + 1) * span // (2 * SUB_STEPS),
+                round(0.5 * dt_k / cfg.dt),
+            )
+            self.offsets[span] = offsets
+        probes = np.maximum(p - offsets, 0)
+        mids, mid = probes[:SUB_STEPS], int(probes[SUB_STEPS])
         step.mean_rates_at(dth, dv, probes, cfg.dither_window, cfg.dt, self.rates_sub)
         split = dt_k > 0.0 and step.rates_change(self.rates_sub, self.limits)
         if not split:
@@ -229,17 +236,6 @@ class _Run:
     def update(self, gnss, quat, vel, lla, omega_b):
         """Measurement update at the stored PPS state; per-row arrays of the rows used."""
         k = len(gnss)
-        meas = np.stack(
-            [
-                gnss.pseudorange,
-                gnss.sat_clock,
-                gnss.delay,
-                gnss.range_rate,
-                gnss.sat_clock_drift,
-                gnss.sigma_pr,
-                gnss.sigma_rr,
-            ]
-        )
         rows = np.arange(2 * k) if self.cfg.use_range_rate else np.arange(0, 2 * k, 2)
         acc = np.zeros(rows.size, dtype=np.bool_)
         y, s = np.empty(rows.size), np.empty(rows.size)
@@ -253,7 +249,13 @@ class _Run:
             self.lever,
             gnss.sat_pos,
             gnss.sat_vel,
-            meas,
+            gnss.pseudorange,
+            gnss.sat_clock,
+            gnss.delay,
+            gnss.range_rate,
+            gnss.sat_clock_drift,
+            gnss.sigma_pr,
+            gnss.sigma_rr,
             self.threshold,
             self.cfg.use_range_rate,
             not self.clock_ready,
@@ -335,9 +337,7 @@ def run_filter(config, initial, t0, epochs, true_sensor=None):
             log.n_used.append(used)
             log.n_rejected.append(acc.size - used)
             log.nis.append(float(np.sum(y[acc] ** 2 / s[acc])))
-            log.rows.append(
-                (np.full(rows.size, index), ep.gnss.prn[rows // 2], rows % 2, y, s, acc)
-            )
+            log.rows.append((index, ep.gnss.prn[rows // 2], rows % 2, y, s, acc))
         log.state.append(estimate)
         log.sigma.append(np.sqrt(np.diag(run.P)))
         if ep.truth is not None:

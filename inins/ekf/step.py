@@ -104,7 +104,13 @@ def update(
     lever_b,
     sat_pos,
     sat_vel,
-    meas,
+    pseudorange,
+    sat_clock,
+    delay,
+    range_rate,
+    sat_clock_drift,
+    sigma_pr,
+    sigma_rr,
     threshold,
     use_rr,
     init_clock,
@@ -114,7 +120,7 @@ def update(
 ):
     """Measurement update at the PPS state (``k`` satellites, ``n`` states).
 
-    ``meas`` (7, k): pseudorange (m), satellite clock (m), delay (m), range rate
+    Per satellite (k,): pseudorange (m), satellite clock (m), delay (m), range rate
     (m/s), satellite clock drift (m/s), pseudorange and range-rate 1-sigma (m, m/s).
     ``sat_pos``, ``sat_vel`` (k, 3) ECEF; ``x`` (n,), ``P`` (n, n) updated in place.
     The rows are pseudorange, range rate per satellite (range rates skipped unless
@@ -146,10 +152,10 @@ def update(
     z = np.empty(2 * k)
     r = np.empty(2 * k)
     for i in range(k):
-        z[2 * i] = meas[0, i] + meas[1, i] - meas[2, i]
-        z[2 * i + 1] = meas[3, i] + meas[4, i]
-        r[2 * i] = meas[5, i] ** 2
-        r[2 * i + 1] = meas[6, i] ** 2
+        z[2 * i] = pseudorange[i] + sat_clock[i] - delay[i]
+        z[2 * i + 1] = range_rate[i] + sat_clock_drift[i]
+        r[2 * i] = sigma_pr[i] ** 2
+        r[2 * i + 1] = sigma_rr[i] ** 2
     if init_clock:  # receiver clock from the first epoch's residuals
         x[kernels.CLK] = np.median(z[0::2] - zhat[0::2])
         x[kernels.CLK + 1] = np.median(z[1::2] - zhat[1::2])
