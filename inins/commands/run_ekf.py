@@ -25,7 +25,6 @@ from inins.ekf.filter import run_filter
 from inins.exceptions import InputError
 from inins.gnss import constellation, ephemeris, gpstime, measurements
 from inins.io.flight_layout import read_flight
-from inins.io.psins_tc import read_psins_tc
 from inins.io.resources import configs_root
 from inins.io.rinex_nav import read_nav
 from inins.results import CommandResult, Series, format_table
@@ -179,6 +178,8 @@ def _check_imu(imu):
 
 def _read(data):
     if data.file.suffix.lower() == ".mat":
+        from inins.io.psins_tc import read_psins_tc  # scipy.io: 0.3 s, only for a .mat
+
         return read_psins_tc(data.file)
     return read_flight(data.file)
 

@@ -46,9 +46,9 @@ import time as _time
 from dataclasses import dataclass, field
 
 import numpy as np
-from scipy.special import chdtri
 
 from inins.core import error_model, rotation
+from inins.core.stats import chi2_ppf
 from inins.core.strapdown import FreeInertial
 from inins.ekf import step
 from inins.ekf.config import Coupling
@@ -174,7 +174,7 @@ class _Run:
         self.rates_sub = np.zeros((SUB_STEPS + 1, 2, 3))
         self.F, self.Qc, self.Phi, self.Qd = (np.zeros((n, n)) for _ in range(4))
         # chi-square(1) quantile: P(chi2_1 <= threshold) = gate_probability
-        self.threshold = float(chdtri(1, 1.0 - config.gate_probability))
+        self.threshold = float(chi2_ppf(config.gate_probability, 1))
         self.noise = np.concatenate(
             [
                 config.arw,
