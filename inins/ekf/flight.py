@@ -295,14 +295,16 @@ class Dithered:
         """``omega_ib_b`` (n, 3) rad/s and ``f_b`` (n, 3) m/s^2 at the accelerometers."""
         time = np.atleast_1d(np.asarray(time, dtype=float))
         omega0, force0 = self.base.rates(time)
-        mat_d, rate, acc, axis = self._rot(time)
-        omega = np.einsum("nji,nj->ni", mat_d, omega0) + rate[:, None] * axis
+        theta, rate, acc = self.dither.angles(time)
+        axis = np.asarray(self.dither.axis, dtype=float)
+        cos, sin = np.cos(theta)[:, None], np.sin(theta)[:, None]
+
+        def back(v):  # exp(-theta [u x]) v = v cos - sin (u x v) + (1 - cos) (u . v) u
+            return v * cos - sin * np.cross(axis, v) + (1.0 - cos) * (v @ axis)[:, None] * axis
+
         u_r = np.cross(axis, self.dither.lever)
-        force = (
-            np.einsum("nji,nj->ni", mat_d, force0)
-            + acc[:, None] * u_r
-            + (rate * rate)[:, None] * np.cross(axis, u_r)
-        )
+        omega = back(omega0) + rate[:, None] * axis
+        force = back(force0) + acc[:, None] * u_r + (rate * rate)[:, None] * np.cross(axis, u_r)
         return omega, force
 
 

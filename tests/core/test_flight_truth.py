@@ -169,3 +169,28 @@ def test_stream_in_blocks_equals_chunk_by_chunk():
     for (t_b, v_b), (t_s, v_s) in zip(blocked, single, strict=True):
         np.testing.assert_allclose(t_b, t_s, rtol=0.0, atol=1e-15)
         np.testing.assert_allclose(v_b, v_s, rtol=0.0, atol=1e-12 * scale)
+
+
+def test_dithered_rates_equal_the_rotation_matrices():
+    """:class:`inins.ekf.flight.Dithered` turns the airframe rates back through the
+    dither by Rodrigues' formula: the same as through ``exp(theta [u x])`` matrices."""
+    from inins.core import rotation
+
+    plan = _long_plan(0.1)
+    base = ekf_flight.flight_trajectory(plan)
+    dither = ekf_flight.Dither(60 * 4.85e-6, 40.0)
+    time = 171.0 + 0.005 * np.arange(600) / 3.0
+    omega, force = ekf_flight.Dithered(base, dither).rates(time)
+    omega0, force0 = base.rates(time)
+    theta, rate, acc = dither.angles(time)
+    axis = dither.axis
+    mat_d = rotation.mat_from_rotvec(theta[:, None] * axis)
+    u_r = np.cross(axis, dither.lever)
+    want_omega = np.einsum("nji,nj->ni", mat_d, omega0) + rate[:, None] * axis
+    want_force = (
+        np.einsum("nji,nj->ni", mat_d, force0)
+        + acc[:, None] * u_r
+        + (rate * rate)[:, None] * np.cross(axis, u_r)
+    )
+    _assert_close(omega, want_omega)
+    _assert_close(force, want_force)
