@@ -121,8 +121,9 @@ def test_mixed_observations_rinex3_match_rinex2(rinex2, tmp_path):
     """The RINEX 2.11 GPS + GLONASS file written as RINEX 3.04 with per-system code lists in
     different orders reads back the same, code by code (priority lists per system)."""
     v = rinex2.values
-    columns = {
-        "G": (("C1C", "L1C", "S1C", "D1C"), v),
+    more = ("C2W", "L2W", "S2W", "D2W", "C5Q", "L5Q", "S5Q", "D5Q", "C1W", "L1W", "S1W")
+    columns = {  # GPS with 15 codes: the header's SYS / # / OBS TYPES continues on a line
+        "G": (("C1C", "L1C", "S1C", "D1C", *more), np.c_[v, np.full((len(v), 11), np.nan)]),
         "R": (("D1C", "C1C", "S1C", "L1C", "C2P"), np.c_[v[:, [3, 0, 2, 1]], v[:, :1] * np.nan]),
     }
     path = tmp_path / "mixed3.rnx"
