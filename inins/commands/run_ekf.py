@@ -23,10 +23,10 @@ from inins.ekf import recorded, sources
 from inins.ekf.config import Coupling, FilterConfig, InitialSigma, Model, clock_psd
 from inins.ekf.filter import run_filter
 from inins.exceptions import InputError
-from inins.gnss import constellation, ephemeris, gpstime, measurements
+from inins.gnss import broadcast, constellation, ephemeris, gpstime, measurements
 from inins.io.flight_layout import read_flight
 from inins.io.resources import configs_root
-from inins.io.rinex_nav import read_nav
+from inins.io.rinex_nav import read_nav, read_navigation
 from inins.results import CommandResult, Series, format_table
 from inins.scenario.run_ekf import RunEkfScenario
 
@@ -90,6 +90,11 @@ def flight_plan(flight):
 
 
 def _ephemeris(c, duration):
+    if c.source == "mixed":  # four systems from one RINEX 3 file (no LEAP SECONDS: 17 s)
+        week, sow0 = gpstime.from_calendar(2016, 6, 6, 0, 0, 0.0)
+        path = configs_root().parent / "data" / "smartloc" / "BRDC00WRD_U_20161580000_01D_MN.rnx.gz"
+        mixed = read_navigation(path, leap_seconds=17)
+        return broadcast.from_records(mixed.records, mixed.glonass), week, sow0 + c.start_hour_s
     week, sow0 = gpstime.from_calendar(2015, 1, 8, 0, 0, 0.0)
     sow0 += c.start_hour_s
     if c.source == "walker":

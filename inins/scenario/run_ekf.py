@@ -125,13 +125,17 @@ def _leg_key(key):
 class Constellation(Section):
     """Where the satellites come from."""
 
-    source: Literal["abpo", "walker"] = Field(
+    source: Literal["abpo", "walker", "mixed"] = Field(
         "abpo",
         description="abpo: the shipped broadcast navigation file data/abpo0080.15n.gz "
-        "(2015-01-08); walker: a nominal Walker 55 deg constellation",
+        "(2015-01-08); walker: a nominal Walker 55 deg constellation; mixed: GPS, GLONASS, "
+        "Galileo and BeiDou of the shipped smartLoc mixed RINEX 3 file (2016-06-06; the "
+        "simulated receiver has no inter-system bias: the filter has one receiver clock)",
     )
     start_hour_s: NonNegFloat = Field(
-        21600.0, lt=86400.0, description="GPS time of IMU t = 0: seconds into 2015-01-08 (s)"
+        21600.0,
+        lt=86400.0,
+        description="GPS time of IMU t = 0: seconds into 2015-01-08 (2016-06-06 for mixed) (s)",
     )
     per_plane: int = Field(5, ge=4, le=8, description="walker: satellites per plane (1)")
 

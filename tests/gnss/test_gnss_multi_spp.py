@@ -101,7 +101,9 @@ def test_per_system_mask_and_weight(drive):
     base = spp.solve(epochs, spp.SppOptions(klobuchar=klobuchar, exclude_faults=False))
     masked = spp.solve(
         epochs,
-        spp.SppOptions(klobuchar=klobuchar, system_mask_rad=((1, np.radians(30.0)),), exclude_faults=False),
+        spp.SppOptions(
+            klobuchar=klobuchar, system_mask_rad=((1, np.radians(30.0)),), exclude_faults=False
+        ),
     )
     assert masked.elevation[masked.used & glo].min() >= np.radians(30.0)
     assert base.elevation[base.used & glo].min() < np.radians(20.0)  # 17 deg
