@@ -198,6 +198,7 @@ def spp_options(section, klobuchar):
         false_alarm=section.false_alarm,
         klobuchar=klobuchar,
         max_exclusions=section.max_exclusions,
+        snr_reference_dbhz=section.snr_reference_dbhz,
         system_mask_rad=tuple((index[s], v * DEG) for s, v in section.system_mask_deg.items()),
         system_sigma_scale=tuple((index[s], v) for s, v in section.system_sigma_scale.items()),
     )

@@ -95,6 +95,11 @@ class SppOptions:
         Satellites excluded one after another (largest w first) until the residual test
         passes; each exclusion keeps two rows of redundancy. 1 on clean sky (a station);
         several in a city, where more than one signal arrives reflected.
+    snr_reference_dbhz : float or None, dB-Hz
+        Carrier-to-noise weighting: a row's sigma is multiplied by
+        ``max(1, 10^((ref - C/N0) / 20))`` (variance ``~ 10^(-C/N0 / 10)`` below the
+        reference, the model of Kuusniemi et al. 2004); None: no weighting. Rows without
+        C/N0 keep factor 1.
     """
 
     mask_rad: float = 10.0 * DEG
@@ -108,6 +113,7 @@ class SppOptions:
     system_mask_rad: tuple = ()
     system_sigma_scale: tuple = ()
     max_exclusions: int = 1
+    snr_reference_dbhz: float | None = None
 
 
 @dataclass(frozen=True)
@@ -286,10 +292,19 @@ def _pad(epochs, rows, options):
         sow=obs.time,
         system=column[slot_system],
         mask=mask[slot_system],
-        sigma_scale=scale[slot_system],
+        sigma_scale=scale[slot_system] * _snr_scale(obs.snr, r, have, options),
         iono=systems.iono_scale(np.where(have, obs.prn[r], 1)),
         n_isb=len(present) - 1,
     )
+
+
+def _snr_scale(snr, r, have, options):
+    """Sigma factor of each slot from its carrier-to-noise density (1 when off or absent)."""
+    if options.snr_reference_dbhz is None:
+        return 1.0
+    cn0 = np.where(have, snr[r], np.nan)
+    factor = np.sqrt(10.0 ** ((options.snr_reference_dbhz - cn0) / 10.0))
+    return np.where(np.isfinite(factor), np.maximum(factor, 1.0), 1.0)
 
 
 def _active(ok, m):

@@ -37,6 +37,12 @@ class Spp(Section):
         description="satellites the residual test may exclude one after another in an "
         "epoch (1: a station under open sky; several in a city) (1)",
     )
+    snr_reference_dbhz: PositiveFloat | None = Field(
+        None,
+        le=70.0,
+        description="carrier-to-noise weighting: below this C/N0 a row's sigma grows as "
+        "10^((ref - C/N0) / 20); none: elevation weights only (dB-Hz)",
+    )
     system_mask_deg: dict[Literal["G", "R", "E", "C"], NonNegFloat] = Field(
         default_factory=dict,
         description="elevation mask of a system instead of mask_deg, by RINEX letter (deg)",

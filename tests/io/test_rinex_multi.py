@@ -160,7 +160,7 @@ def test_the_shipped_scenario_passes(tmp_path):
     result = _run(CONFIG / "smartloc-gps-glonass.yaml", "-o", tmp_path)
     assert result.exit_code == 0, result.output
     report = (tmp_path / "import-flight.txt").read_text()
-    assert "against the reference trajectory: 1369 accepted fixes" in report
+    assert "against the reference trajectory: 1372 accepted fixes of 1372 epochs" in report
 
 
 @pytest.mark.parametrize(
