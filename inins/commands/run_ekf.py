@@ -339,7 +339,7 @@ def _truth(info):
 
 def _datasets(r, info):
     d = {
-        "nav/time": Series(r.time, "s", "", "1PPS epoch"),
+        "nav/time": Series(r.time, "s", "", "1PPS epoch (naive pairing: data arrival)"),
         "nav/lla": Series(r.lla, "rad, rad, m", "", "corrected position (IMU)"),
         "nav/vel_n": Series(r.vel_n, "m/s", "n", "corrected velocity"),
         "nav/quat_nb": Series(r.quat_nb, "1", "nb", "corrected attitude"),
