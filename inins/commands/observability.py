@@ -19,7 +19,7 @@ from inins.io.tabledata import read_table_data
 from inins.observability import analysis, models
 from inins.observability import measurements as meas
 from inins.observability.analysis import NEAR_PRIOR, PRACTICAL_RATIO
-from inins.observability.segments import cut_segments, make_segment
+from inins.observability.segments import cut_segments, interval_means, make_segment
 from inins.results import CommandResult, Series, format_table
 from inins.scenario.observability import ObservabilityScenario
 
@@ -163,19 +163,13 @@ def trajectory_segments(trajectory, los_n):
         )
     edges = np.round((np.concatenate([[record.t0], truth.time]) - record.t0) / record.dt)
     edges = np.clip(edges.astype(np.int64), 0, record.n_samples)
-    sums = np.zeros((len(truth.time), 6))
-    for k0, dtheta, dv in record.imu_chunks():
-        rows = np.hstack([dtheta, dv])
-        owner = np.searchsorted(edges, np.arange(k0, k0 + len(rows)), side="right") - 1
-        inside = (owner >= 0) & (owner < len(sums))
-        np.add.at(sums, owner[inside], rows[inside])
-    span = np.maximum(np.diff(edges), 1)[:, None] * record.dt
+    omega_b, f_b = interval_means(record.imu_chunks(), edges, record.dt)
     n = len(truth.time)
     return cut_segments(
         truth.time,
         rotation.mat_from_quat(truth.quat_nb),
-        sums[:, 3:] / span,
-        sums[:, :3] / span,
+        f_b,
+        omega_b,
         np.zeros((n, 3)),
         np.tile(record.lla, (n, 1)),
         attitude_threshold=trajectory.attitude_threshold_deg * DEG,
