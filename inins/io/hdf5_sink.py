@@ -17,7 +17,7 @@ array. An exception in the writer thread is raised in the caller at its next
 Before each chunk write the free space is checked (:func:`inins.io.diskspace.check_room`):
 HDF5 reports a failed write late (at flush or close) and may crash on a file whose
 writes failed, so the sink stops with :class:`inins.exceptions.OutputError` while
-:data:`inins.io.diskspace.WRITE_MARGIN` bytes are still free.
+a margin sized to the file (:func:`inins.io.diskspace.margin_for`) is still free.
 """
 
 import queue
