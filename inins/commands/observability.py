@@ -29,24 +29,14 @@ FIGURES = {
     "observability-singular-values.png": figures.observability_singular_values,
 }
 
-_PRIOR_OF_GROUP = {  # state group -> (prior key, SI per unit)
-    "position": ("position_m", 1.0),
-    "velocity": ("velocity_mps", 1.0),
-    "attitude": ("attitude_deg", DEG),
-    "accel_bias": ("accel_bias_ug", UG),
-    "gyro_bias": ("gyro_bias_dph", DPH),
-    "accel_misalignment": ("accel_misalignment_arcsec", ARCSEC),
-    "gyro_misalignment": ("gyro_misalignment_arcsec", ARCSEC),
-}
-
 
 def run(scenario, seed, *, sink=None, progress=None):
     """Analyse the scenario's model along its segments; ``seed`` is unused."""
     model = models.model_by_name(scenario.model)
-    los_n = lines_of_sight(scenario.satellites)
+    los_n = scenario.lines_of_sight()
     segments = build_segments(scenario, los_n)
     rows = [measurement(m, i) for i, m in enumerate(scenario.measurements)]
-    sigma_0 = priors(scenario.priors, model.names) if scenario.covariance else None
+    sigma_0 = scenario.priors.sigmas(model.names) if scenario.covariance else None
     noise = models.ProcessNoise(
         arw=scenario.noise.arw_deg_rth * DEG_RTH, vrw=scenario.noise.vrw_ug_rthz * UG_RTHZ
     )
@@ -91,15 +81,6 @@ def declared_results(scenario):
 def estimate(scenario):
     """None: small matrices, one row of sigmas per update."""
     return None
-
-
-def lines_of_sight(satellites):
-    """Unit vectors receiver -> satellite in NED, shape (k, 3), or None."""
-    if not satellites:
-        return None
-    az = np.array([s.azimuth_deg for s in satellites]) * DEG
-    el = np.array([s.elevation_deg for s in satellites]) * DEG
-    return np.stack([np.cos(el) * np.cos(az), np.cos(el) * np.sin(az), -np.sin(el)], axis=1)
 
 
 def measurement(m, index):
@@ -206,21 +187,6 @@ def flight_segments(source, los_n):
         force_threshold=source.force_threshold_mps2,
         los_n=los_n,
     )
-
-
-def priors(p, names):
-    """Initial 1-sigma per state (SI) from the prior groups."""
-    group_of = {name: group for group, members in GROUPS.items() for name in members}
-    out = []
-    for name in names:
-        if name == "clock_bias":
-            out.append(p.clock_bias_m)
-        elif name == "clock_drift":
-            out.append(p.clock_drift_mps)
-        else:
-            key, unit = _PRIOR_OF_GROUP[group_of[name]]
-            out.append(getattr(p, key) * unit)
-    return np.array(out)
 
 
 def result_numbers(found, segments):
