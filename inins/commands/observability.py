@@ -309,7 +309,7 @@ def _lab_text(name, value):
     """A sigma in the lab unit of its state group (deg, ug, deg/h, arcsec), or n/a."""
     group = next((g for g, members in GROUPS.items() if name in members), None)
     if group not in _LAB_UNIT:
-        return "same"
+        return "(SI)"
     if not np.isfinite(value):
         return "n/a"
     unit, si = _LAB_UNIT[group]
@@ -317,7 +317,7 @@ def _lab_text(name, value):
 
 
 def _sigma_text(value, unit):
-    return "" if not np.isfinite(value) else f"{value:.4g} {unit}"
+    return "n/a" if not np.isfinite(value) else f"{value:.4g} {unit}"
 
 
 def report(scenario, found, segments):
