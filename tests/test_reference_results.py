@@ -8,9 +8,9 @@ as a change of digits; a deliberate one updates the reference in the same commit
 and says why: ``python -m tests.test_reference_results CONFIG...`` rewrites the
 entries of the named scenarios from a run of the current tree.
 
-run-ekf, observability and import-flight entries were added later, from the tree of
-their commit (the run-ekf timing results ``realtime_factor`` and
-``update_time_mean_s`` are only checked to be present).
+The run-ekf (the recorded PSINS drive), observability and import-flight entries were
+added later, from the tree of their commit (the run-ekf timing results
+``realtime_factor`` and ``update_time_mean_s`` are only checked to be present).
 """
 
 import json
