@@ -201,16 +201,38 @@ def observability_sigma(result, path):
 
 
 def observability_singular_values(result, path):
-    """observability: singular values of the stacked matrix after each segment."""
+    """observability: singular values of the stacked matrix after each segment; the
+    smallest eight as lines (they decide the rank), the others as one grey band, the
+    rank tolerance dashed."""
     plt = _pyplot()
-    sv = result.datasets["observability/singular_values"].data
-    fig, ax = plt.subplots(figsize=(7, 4.5), layout="constrained")
+    sv = np.maximum(result.datasets["observability/singular_values"].data, 1e-300)
+    info = result.attrs["observability"]
+    fig, ax = plt.subplots(figsize=(8, 4.5), layout="constrained")
     segments = np.arange(1, sv.shape[0] + 1)
-    for k in range(sv.shape[1]):
-        ax.semilogy(segments, np.maximum(sv[:, k], 1e-300), "o-", ms=3, lw=0.8)
+    style = {"marker": "o", "ms": 3} if len(segments) <= 40 else {}
+    n = sv.shape[1]
+    shown = min(n, 8)
+    if n > shown:
+        ax.fill_between(
+            segments,
+            sv[:, : n - shown].min(axis=1),
+            sv[:, 0],
+            color="0.8",
+            lw=0,
+            label=f"the {n - shown} largest",
+        )
+    for j, k in enumerate(range(n - shown, n)):
+        ax.semilogy(
+            segments, sv[:, k], lw=1.1, color=plt.cm.tab10(j % 10), label=f"s{k + 1}", **style
+        )
+    if "tolerance" in info:
+        ax.axhline(info["tolerance"], color="k", lw=0.8, ls="--", label="rank tolerance")
+    ax.set_yscale("log")
     ax.set_xlabel("segments stacked")
     ax.set_ylabel("singular value (scaled, SI)")
-    ax.set_title("observability matrix: singular values per segment")
+    ax.set_title(f"observability matrix, model {info['model']}: singular values per segment")
+    ax.legend(fontsize=7, ncol=2)
+    ax.grid(alpha=0.3, which="both", lw=0.4)
     fig.savefig(path, dpi=120, format="png")
     plt.close(fig)
 

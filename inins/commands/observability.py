@@ -53,6 +53,7 @@ def run(scenario, seed, *, sink=None, progress=None):
                 "states": list(model.names),
                 "method": found.pwcs.method,
                 "combinations": list(found.combinations),
+                "tolerance": float(found.pwcs.tolerance),
                 "turns_s": [list(t) for t in turns(segments)],
             }
         },

@@ -115,3 +115,28 @@ def test_sigma_figure_groups_states_and_shades_segments(bank_turns, tmp_path):
         assert 1 <= len(bands) <= 40  # the six turns, not 315 segment boundaries
     assert "every state observable" in fig._suptitle.get_text()
     plt.close(fig)
+
+
+def test_singular_value_figure_draws_the_smallest_eight(bank_turns, tmp_path):
+    pytest.importorskip("matplotlib")
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    captured = {}
+    real_savefig = plt.Figure.savefig
+
+    def keep(fig, *args, **kwargs):
+        captured["fig"] = fig
+        return real_savefig(fig, *args, **kwargs)
+
+    plt.Figure.savefig = keep
+    try:
+        observability.FIGURES["observability-singular-values.png"](bank_turns, tmp_path / "v.png")
+    finally:
+        plt.Figure.savefig = real_savefig
+    (ax,) = captured["fig"].axes
+    labels = [line.get_label() for line in ax.lines]
+    assert labels == [*(f"s{k}" for k in range(19, 27)), "rank tolerance"]  # 26 states
+    plt.close(captured["fig"])
