@@ -42,11 +42,7 @@ def test_no_command_imports_a_sibling_command():
     commands = {n for n, p in modules.items() if n.startswith("inins.commands.") and _is_command(p)}
     assert len(commands) >= 6
     offending = {c: sorted(graph[c] & commands) for c in commands if graph[c] & commands}
-    # the one left: observability builds a run-ekf flight through run_ekf.flight_plan
-    # until the scenario -> flight-plan conversion lives beside the run-ekf scenario
-    # model; remove this entry then (the test fails while it is stale)
-    pending = {"inins.commands.observability": ["inins.commands.run_ekf"]}
-    assert offending == pending
+    assert offending == {}
 
 
 def _strongly_connected(graph):

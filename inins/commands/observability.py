@@ -162,7 +162,6 @@ def trajectory_segments(trajectory, los_n):
 
 def flight_segments(source, los_n):
     """Segments of a run-ekf scenario's simulated flight, sampled at ``sample_rate_hz``."""
-    from inins.commands.run_ekf import flight_plan
     from inins.ekf.flight import flight_trajectory
     from inins.scenario.base import load_scenario
     from inins.scenario.run_ekf import RunEkfScenario
@@ -172,7 +171,7 @@ def flight_segments(source, los_n):
         raise InputError(
             "the run-ekf scenario has no flight: section", source=str(source.scenario), key="flight"
         )
-    plan = flight_plan(ekf_scenario.flight)
+    plan = ekf_scenario.flight.plan()
     truth = flight_trajectory(plan)
     time = np.arange(0.0, plan.duration + 1e-9, 1.0 / source.sample_rate_hz)
     mat_nb, vel_n, lla = truth.state(time)
