@@ -26,6 +26,7 @@ the source of every kernel module hashes as it did at the build; otherwise calls
 fall back to numba, silently and correctly.
 """
 
+import contextlib
 import functools
 import hashlib
 import importlib.machinery
@@ -42,7 +43,17 @@ from pathlib import Path
 
 import numpy as np
 
-__all__ = ["Kernel", "activate", "build_library", "library_dir", "library_status", "njit"]
+__all__ = [
+    "Kernel",
+    "activate",
+    "build_library",
+    "kernel_sources",
+    "library_dir",
+    "library_status",
+    "njit",
+    "on_compile",
+    "source_digest",
+]
 
 LIBRARY = "_inins_kernels"
 """Module name of the kernel library (an extension module)."""
@@ -63,6 +74,8 @@ _library_rows = {}
 """Qualified name -> rows run through the library's copy by this process."""
 _source_digest = None
 """Hash of the kernel sources (:func:`kernel_sources`), computed once."""
+_compile_listeners = []
+"""Callables told of every kernel numba compiles (not loads): :func:`on_compile`."""
 
 
 def njit(function=None, *, aot=False, **options):
@@ -156,6 +169,7 @@ def activate():
         import numba
 
         _key_numba_cache()
+        _report_compiles()
         for kernel in _PENDING:
             kernel._dispatcher = numba.njit(**kernel._options)(kernel.py_func)
         for name, module in list(sys.modules.items()):
@@ -300,6 +314,54 @@ def _key_numba_cache():
             return None
 
     caching.CacheImpl._locator_classes = [PackageSourcesLocator, *standard]
+
+
+def on_compile(listener):
+    """Call ``listener(event, name, seconds)`` around every kernel numba compiles
+    (a cache miss: the first run after an install, an upgrade or an edit; not a
+    cache load). ``event`` is ``"start"`` or ``"done"``, ``name`` the kernel's
+    qualified name, ``seconds`` its compile time (0 at start). Nested compiles (a
+    kernel's callees) are reported too. Returns ``listener``; see
+    :func:`remove_compile_listener`."""
+    with _LOCK:
+        _compile_listeners.append(listener)
+    return listener
+
+
+def remove_compile_listener(listener) -> None:
+    """Stop telling ``listener`` (:func:`on_compile`) of compiles."""
+    with _LOCK, contextlib.suppress(ValueError):
+        _compile_listeners.remove(listener)
+
+
+def _report_compiles():
+    """Forward numba's compile events to the :func:`on_compile` listeners."""
+    import time
+
+    from numba.core import event
+
+    class Forward(event.Listener):
+        def __init__(self):
+            self.started = {}
+
+        def _name(self, ev):
+            dispatcher = (ev.data or {}).get("dispatcher")
+            function = getattr(dispatcher, "py_func", None)
+            return _qualname(function) if function is not None else "?"
+
+        def on_start(self, ev):
+            name = self._name(ev)
+            self.started[name] = time.perf_counter()
+            for listener in list(_compile_listeners):
+                listener("start", name, 0.0)
+
+        def on_end(self, ev):
+            name = self._name(ev)
+            seconds = time.perf_counter() - self.started.pop(name, time.perf_counter())
+            for listener in list(_compile_listeners):
+                listener("done", name, seconds)
+
+    event.register("numba:compile", Forward())
 
 
 def library_dir():

@@ -270,3 +270,26 @@ def test_kernel_sources_are_the_kernel_modules_and_what_they_import():
         assert name in sources
     assert "core/units.py" in sources  # constants numba freezes into a kernel
     assert not any(s.startswith(("commands/", "cli/", "io/", "scenario/")) for s in sources)
+
+
+@pytest.mark.slow
+def test_a_run_on_a_fresh_install_says_what_it_compiles(tmp_path):
+    """No numba cache and no kernel library (a fresh ``pip install``): the run names
+    the compile as it starts and reports progress; the next run loads and is quiet."""
+    env = {
+        **os.environ,
+        "NUMBA_CACHE_DIR": str(tmp_path / "numba"),
+        "ININS_KERNEL_DIR": str(tmp_path / "none"),
+    }
+    args = [sys.executable, "-m", "inins", "simulate-table", "-o", str(tmp_path / "out")]
+    args += ["--set", "imu.sample_rate_hz=20"]
+
+    def run():
+        done = subprocess.run(args, capture_output=True, text=True, check=False, env=env)
+        assert done.returncode == 0, done.stderr
+        return done.stderr
+
+    first = run()
+    assert "inins simulate-table: compiling numerical kernels for this machine" in first
+    assert "kernels compiled" in first
+    assert "compiling" not in run()
