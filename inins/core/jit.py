@@ -15,15 +15,34 @@ from the same source by the same compiler for a generic CPU of the architecture,
 gives bit-identical results (a test compares both on a whole run). It holds
 the GIL while it runs, where the dispatcher releases it for ``nogil`` kernels, and
 takes 1.1-1.6 times as long as numba's copy compiled for this CPU: it is for short
-runs, where numba's start-up would dominate. So a process takes the library for its
-first :data:`LIBRARY_ROWS` rows of work and loads numba for the rest (a sweep worker,
-which lives for many runs, loads numba at once).
+runs, where numba's start-up would dominate. So a process runs each kernel's
+first :data:`LIBRARY_ROWS` rows through the library and loads numba for the rest
+(a budget per kernel: a run calls several over the same samples). A local sweep
+worker does the same; a Dask worker, whose threads need the GIL released, loads
+numba at once.
+
+Cache keys. numba stamps its on-disk cache of a kernel with the hash of the
+kernel's own file, so a kernel that calls or inlines one from another module
+would keep running the old callee after an edit (or an upgrade) of that module
+only. Here every ``inins`` kernel's cache entry, and the library, are stamped
+with one hash of all the kernel sources (:func:`kernel_sources`: the kernel
+modules and every ``inins`` module they import): a change anywhere in them
+recompiles every kernel, once; a change elsewhere (commands, CLI, I/O) keeps them.
 
 The library sits next to the package's bytecode (``inins/__pycache__``), under
 ``$NUMBA_CACHE_DIR/inins`` when that is set, or in ``$ININS_KERNEL_DIR``. It is
-used only while the numpy and numba versions it was built with are installed and
-the source of every kernel module hashes as it did at the build; otherwise calls
-fall back to numba, silently and correctly.
+used only while the Python, numpy and numba it was built with are installed and
+the kernel sources hash as they did at the build; otherwise calls go to numba,
+silently and correctly. Builds are serialised by a lock file; each build writes a
+new file and then the manifest naming it, so a reader sees one build whole.
+
+numba marks ``pycc`` for deprecation (0.57) without a removal date; it exists in
+every release ``pyproject.toml`` allows (0.59-0.68, upper bound ``<0.69``). Where
+it is missing the warm-up says so and every call goes to numba (correct, 0.5-1 s
+slower to start a short run).
+
+A compile (not a cache load) is reported to the :func:`on_compile` listeners:
+the command line says what it prepares while a first run compiles.
 """
 
 import contextlib
