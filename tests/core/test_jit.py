@@ -144,6 +144,17 @@ print(json.dumps({"numba": loaded, "equal": bool(np.array_equal(first, second))}
 """
 
 
+OBSERVABILITY = """
+import json, runpy, sys
+sys.argv = ["inins", "observability", "-o", sys.argv[1]]
+try:
+    runpy.run_module("inins", run_name="__main__")
+except SystemExit as exc:
+    code = exc.code
+print(json.dumps([code, "numba" in sys.modules]))
+"""
+
+
 def _run(out, kernel_dir):
     env = {**os.environ, "ININS_KERNEL_DIR": str(kernel_dir)}
     done = subprocess.run(
@@ -211,6 +222,26 @@ def test_a_run_through_the_library_is_the_run_through_numba_without_numba(tmp_pa
     numba_run = _datasets(tmp_path / "jit" / "simulate-table.h5")
     assert aot.keys() == numba_run.keys()
     assert len(aot) > 10
+    for name, value in aot.items():
+        assert np.array_equal(value, numba_run[name]), name
+
+    # the default observability run: its kernels are in the library too
+    loaded = {}
+    for name, kernels in (("aot", library), ("jit", tmp_path / "empty")):
+        done = subprocess.run(
+            [sys.executable, "-c", OBSERVABILITY, str(tmp_path / f"obs-{name}")],
+            capture_output=True,
+            text=True,
+            check=False,
+            cwd=ROOT,
+            env={**os.environ, "ININS_KERNEL_DIR": str(kernels)},
+        )
+        assert done.returncode == 0, done.stderr
+        loaded[name] = json.loads(done.stdout.strip().splitlines()[-1])
+    assert loaded == {"aot": [0, False], "jit": [0, True]}
+    aot = _datasets(tmp_path / "obs-aot" / "observability.h5")
+    numba_run = _datasets(tmp_path / "obs-jit" / "observability.h5")
+    assert aot.keys() == numba_run.keys() and len(aot) > 3
     for name, value in aot.items():
         assert np.array_equal(value, numba_run[name]), name
 
