@@ -64,6 +64,10 @@ TARGETS = (  # (figure path, relation, target, what)
     ("bench_fixed_cost.first_simulate_table_s", "<", 5.0, "first simulate-table after install, s"),
     ("bench_fixed_cost.first_observability_s", "<", 5.0, "first observability after install, s"),
     ("bench_fixed_cost.first_run_ekf_s", "<", 5.0, "first run-ekf after install, s"),
+    ("bench_ekf.hour_filter_alone_s", "<", 0.15, "EKF2-FB filter alone one hour, s"),
+    ("bench_ekf.hour_truth_scoring_s", "<", 0.1, "EKF truth scoring one hour, s"),
+    ("bench_ekf.simulation_4h_over_1h_cpu", "<=", 4.2, "run-ekf simulation 4 h / 1 h"),
+    ("bench_ekf.process_run_ekf_1h_warm_s", "<", 1.5, "run-ekf 1-h flight whole process, s"),
 )
 MODULES = (
     "bench_strapdown",

@@ -1,7 +1,7 @@
 """Stream long series into an open HDF5 file (a :class:`~inins.results.SeriesSink`).
 
 Rows appended to a dataset are gathered into whole chunks (about 1 MiB, see
-:func:`inins.io.hdf5.chunk_rows`) and each full chunk is written once, so
+:func:`inins.io.h5layout.chunk_rows`) and each full chunk is written once, so
 gzip runs once per chunk and never re-reads a partial chunk. The dataset grows
 along its leading axis.
 
@@ -26,7 +26,7 @@ import threading
 import numpy as np
 
 from inins.io.diskspace import check_room
-from inins.io.hdf5 import LONG_ROWS, chunk_rows, encode_attrs, storage_options
+from inins.io.h5layout import LONG_ROWS, chunk_rows, encode_attrs, storage_options
 
 
 class _Stream:
