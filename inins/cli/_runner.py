@@ -148,16 +148,20 @@ def echo_err(message: str) -> None:
 
 
 def _run(spec, scenario, outdir, overrides, seed, plot=False, force=False) -> int:
-    from inins.cli._display import COMPILE_NOTICE, ProgressBar, kernels_compiled, print_outcome
+    from inins.cli._display import ProgressBar, print_outcome
     from inins.commands.execute import execute
+    from inins.commands.warmup import CompileNotice
+    from inins.core import jit
 
-    if not kernels_compiled():
-        echo_err(f"inins {spec.name}: {COMPILE_NOTICE}")
     start = time.perf_counter()
-    with ProgressBar(spec.name) as bar:
-        done = execute(
-            spec, scenario, overrides, seed, outdir, figures=plot, progress=bar, force=force
-        )
+    notice = jit.on_compile(CompileNotice(f"inins {spec.name}", echo_err))
+    try:
+        with ProgressBar(spec.name) as bar:
+            done = execute(
+                spec, scenario, overrides, seed, outdir, figures=plot, progress=bar, force=force
+            )
+    finally:
+        jit.remove_compile_listener(notice)
     print_outcome(done.summary, done.paths, time.perf_counter() - start)
     if done.interrupted is not None:
         echo_err(
