@@ -19,6 +19,7 @@ from inins.gnss import ephemeris, measurements, spp
 from inins.gnss.measurements import Signal
 from inins.gnss.spp import FixStatus
 from inins.io import flight_layout
+from inins.io.flight_checks import checked_flight
 from inins.io.flight_layout import ImuRecord, RecordedFlight
 from inins.io.psins_tc import read_psins_tc
 from inins.io.rinex_nav import read_nav
@@ -41,8 +42,10 @@ def run(scenario, seed, *, sink=None, progress=None):
             "imu_t0_sow": float(scenario.imu_t0_sow),
         }
     flight = RecordedFlight(**{**vars(flight), **changes})
-    obs = measurements.from_record(flight.gnss)
     source = str(scenario.nav_file or scenario.file)
+    if scenario.format == "rinex":  # the PSINS reader checks its own flight
+        flight = checked_flight(flight, scenario.obs_file)
+    obs = measurements.from_record(flight.gnss)
     epochs = measurements.attach_satellites(
         obs, ephemeris.from_columns(flight.ephemeris), source=source
     )
@@ -66,7 +69,7 @@ def run(scenario, seed, *, sink=None, progress=None):
         datasets=datasets,
         attrs={"": flight_layout.flight_attrs(flight), "spp": {"ionosphere": iono}},
         report=report(scenario, flight, epochs, check, iono),
-        warnings=check.warnings,
+        warnings=(*flight.dropped, *check.warnings),
     )
 
 
@@ -337,6 +340,9 @@ def report(scenario, flight, epochs, check, iono):
         f"{scenario.spp.sigma_zenith_m:g} m at zenith, Saastamoinen troposphere, residual "
         f"test at false-alarm {scenario.spp.false_alarm:g}",
     ]
+    if flight.dropped:
+        lines.append("dropped at the edge checks (counted, not used):")
+        lines += [f"  {note}" for note in flight.dropped]
     dropped = dict(zip(epochs.dropped_prn.tolist(), epochs.dropped_count.tolist(), strict=True))
     if dropped:
         lines.append(

@@ -65,6 +65,7 @@ def run(scenario, seed, *, sink=None, progress=None):
             }
         },
         report=_report(scenario, result, summary, info),
+        warnings=info.get("dropped", ()),
     )
 
 
@@ -311,6 +312,7 @@ def _recorded(scenario):
         "spp_vel_n": vel_n[idx],
         "heading_init": init,
         "lever": np.asarray(d.lever_arm_m, float),
+        "dropped": rec.dropped,
     }
     return result, info
 
