@@ -77,8 +77,10 @@ def declared_results(scenario):
 
 
 def estimate(scenario):
-    """None: small matrices, one row of sigmas per update."""
-    return None
+    """Size of the analysis (:mod:`inins.commands.preflight`)."""
+    from inins.commands.preflight import observability_estimate
+
+    return observability_estimate(scenario)
 
 
 def lines_of_sight(satellites):

@@ -363,9 +363,10 @@ def declared_results(scenario):
 
 
 def estimate(scenario):
-    """None: a run streams epoch by epoch (memory flat in flight length) and writes
-    epoch-rate series only."""
-    return None
+    """Size of the run and its numerical edges (:mod:`inins.commands.preflight`)."""
+    from inins.commands.preflight import run_ekf_estimate
+
+    return run_ekf_estimate(scenario)
 
 
 def _results(result, s, info):
