@@ -162,12 +162,13 @@ def load_sweep(path, max_points: int = DEFAULT_MAX_POINTS) -> SweepPlan:
         raise to_input_error(
             exc, data=data, lines=lines, source=source, model_cls=SweepScenario, overrides={}
         ) from None
-    plan = _plan(model, source)
-    if plan.size > max_points:
+    count = model.point_count()  # before any axis is expanded in memory
+    if count > max_points:
         raise InputError(
-            f"the sweep has {plan.size:,} points, more than --max-points {max_points:,}",
+            f"the sweep has {count:,} points, more than --max-points {max_points:,}",
             source=source,
         )
+    plan = _plan(model, source)
     validate_axes(plan)
     return plan
 
@@ -222,7 +223,6 @@ def validate_axes(plan: SweepPlan) -> None:
     """Load the scenario of every axis value (others at their first value); raise the
     first problem as an :class:`InputError` naming the axis."""
     from inins.commands import find_command
-    from inins.commands.execute import load
 
     spec = find_command(plan.command)
     first = [axis.values[0] for axis in plan.axes]
@@ -235,7 +235,7 @@ def validate_axes(plan: SweepPlan) -> None:
                 for k, v in zip(a.keys, s, strict=True)
             )
             try:
-                load(spec, plan.base, overrides)
+                _check_point(spec, plan.base, overrides)
             except InputError as exc:
                 raise InputError(
                     f"{exc} (value {json.dumps(list(step))[1:-1]})",
@@ -244,9 +244,22 @@ def validate_axes(plan: SweepPlan) -> None:
                 ) from None
     if not plan.axes:
         try:
-            load(spec, plan.base, plan.fixed)
+            _check_point(spec, plan.base, plan.fixed)
         except InputError as exc:
             raise InputError(str(exc), source=plan.source, key="set") from None
+
+
+def _check_point(spec, base, overrides) -> None:
+    """Load a point's scenario and refuse it as the single command would before its run:
+    its size against the stated limits and its numerical edges
+    (:func:`inins.commands.budget.check_budget`, without an output folder)."""
+    from inins.commands.budget import check_budget
+    from inins.commands.execute import load
+
+    module, loaded = load(spec, base, overrides)
+    estimate = getattr(module, "estimate", None)
+    if estimate is not None:
+        check_budget(estimate(loaded.model), None)
 
 
 def _representatives(values) -> list:
