@@ -117,7 +117,7 @@ def execute(
         check_budget(size, None, force)
         result = run_located(module, loaded, seed_used, NullSink(), progress)
         return Execution(summarize(spec.name, loaded, seed_used, result, module), (), result)
-    outdir = prepare_outdir(outdir)
+    outdir = prepare_outdir(outdir, spec.name)
     check_budget(size, outdir, force)
     return write_outputs(spec.name, module, loaded, seed_used, outdir, makers, progress)
 
@@ -147,14 +147,17 @@ def check_path(path, what) -> None:
         ) from None
 
 
-def prepare_outdir(outdir) -> Path:
+def prepare_outdir(outdir, command=None) -> Path:
     """Create the output folder, make sure files can be created in it, and remove
-    temporary files left there by runs that were killed; bad input if impossible."""
+    temporary files left there by runs that were killed; bad input if impossible, or
+    if the folder holds the results of another command (``command``: this run's)."""
     from inins.exceptions import OutputError
     from inins.io.atomic import remove_stale_partials
 
     check_path(outdir, "--outdir")
     outdir = Path(outdir)
+    if command is not None:
+        check_owner(outdir, command)
     try:
         outdir.mkdir(parents=True, exist_ok=True)
     except OSError as exc:
@@ -171,6 +174,48 @@ def prepare_outdir(outdir) -> Path:
         ) from None
     remove_stale_partials(outdir)
     return outdir
+
+
+def folder_owner(outdir) -> tuple[str, str] | None:
+    """``(command, evidence)`` of the results already in ``outdir`` (a file named after a
+    command, or summary.json's command; ``sweep`` for a sweep folder), or None."""
+    from inins.commands import COMMANDS
+
+    outdir = Path(outdir)
+    if not outdir.is_dir():
+        return None
+    for name in ("journal.jsonl", "sweep.csv", "sweep.h5"):
+        if (outdir / name).exists():
+            return "sweep", name
+    summary = outdir / "summary.json"
+    if summary.is_file():
+        import json
+
+        try:
+            command = json.loads(summary.read_text(encoding="utf-8")).get("command")
+        except (OSError, ValueError, AttributeError):
+            command = None
+        if isinstance(command, str) and command:
+            return command, "summary.json"
+    for spec in COMMANDS:
+        if (outdir / f"{spec.name}.h5").exists():
+            return spec.name, f"{spec.name}.h5"
+    return None
+
+
+def check_owner(outdir, command) -> None:
+    """Refuse an output folder holding another command's results: a folder is one
+    command's (the file contract: CMD.h5, CMD.txt, summary.json belong together)."""
+    from inins.exceptions import OutputError
+
+    owner = folder_owner(outdir)
+    if owner is not None and owner[0] != command:
+        other, evidence = owner
+        raise OutputError(
+            f"holds the results of inins {other} ({evidence}); they are not mixed with "
+            f"{command}'s: write to another folder, e.g. -o {Path(outdir) / command}",
+            source=str(outdir),
+        )
 
 
 def figure_makers(spec, module):

@@ -136,15 +136,19 @@ def override(key: str, value) -> str:
     return f"{key}={json.dumps(value, allow_nan=False)}"
 
 
-def load_sweep(path, max_points: int = DEFAULT_MAX_POINTS) -> SweepPlan:
+def load_sweep(path, max_points: int = DEFAULT_MAX_POINTS, overrides=(), seed=None) -> SweepPlan:
     """Read and check a sweep file; nothing runs.
 
     Checks, each an :class:`InputError` naming the sweep file and key: the file
     and its model (:class:`inins.scenario.sweep.SweepScenario`), the base
     scenario, the number of points (<= ``max_points``), and every axis value
     against the command's scenario model (an unknown key, a wrong type, a value
-    out of range).
+    out of range). ``overrides`` (``--set``) are applied to every point after the
+    file's ``set:``; ``seed`` (``--seed``) is the seed of every point of a sweep without
+    ``seeds:``.
     """
+    from dataclasses import replace
+
     from pydantic import ValidationError
 
     from inins.scenario.base import _read_text
@@ -169,6 +173,20 @@ def load_sweep(path, max_points: int = DEFAULT_MAX_POINTS) -> SweepPlan:
             source=source,
         )
     plan = _plan(model, source)
+    for item in overrides:
+        _check_key(item, "--set")
+    plan = replace(plan, fixed=plan.fixed + tuple(overrides))
+    if seed is not None:
+        from inins.commands.execute import check_seed
+
+        check_seed(seed)
+        if model.seeds is not None:
+            raise InputError(
+                "the sweep file lists Monte Carlo seeds (seeds:); --seed would replace them",
+                source=source,
+                key="--seed",
+            )
+        plan = replace(plan, seeds=(int(seed),))
     validate_axes(plan)
     return plan
 
@@ -258,8 +276,18 @@ def _check_point(spec, base, overrides) -> None:
 
     module, loaded = load(spec, base, overrides)
     estimate = getattr(module, "estimate", None)
-    if estimate is not None:
+    if estimate is None:
+        return
+    try:
         check_budget(estimate(loaded.model), None)
+    except InputError as exc:
+        hint = "; pass --force to run anyway"
+        if exc.message.endswith(hint):  # a sweep has no --force: run that point alone
+            exc.message = exc.message[: -len(hint)] + (
+                "; a sweep runs no point beyond the limits (run it alone with --force)"
+            )
+            exc.args = (exc.message,)
+        raise
 
 
 def _representatives(values) -> list:
