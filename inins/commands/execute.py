@@ -267,7 +267,9 @@ def write_outputs(command, module, loaded, seed, outdir, makers=None, progress=N
         if isinstance(exc, PermissionError | IsADirectoryError):
             raise InputError(f"cannot write ({exc.strerror})", source=str(current[0])) from None
         raise
-    paths = tuple(outdir / n for n in names)
+    for name in set(names) - set(group.files):  # a figure skipped: no stale one beside
+        (outdir / name).unlink(missing_ok=True)
+    paths = tuple(outdir / n for n in names if n in group.files)
     return Execution(summary, paths, result, group.interrupted)
 
 
@@ -288,10 +290,15 @@ def _write_all(command, module, loaded, seed, group, makers, progress, current):
         h5.write_result(result)
         summary = summarize(command, loaded, seed, result, module)
         h5.set_attrs("", {"summary_json": summary_text(summary)})
+    notes = []
     for name, make in makers.items():
         current[0] = group[name].path
-        _draw(make, result, group[name].tmp, group[f"{command}.h5"].tmp)
-    report = build_report(prov, result.report, result.warnings, summary["checks"])
+        reason = _draw(make, result, group[name].tmp, group[f"{command}.h5"].tmp)
+        if reason is not None:  # not drawn: no file, and the report says why
+            group[name].discard()
+            del group.files[name]
+            notes.append(f"figure {name} not drawn: {reason}")
+    report = build_report(prov, result.report, (*result.warnings, *notes), summary["checks"])
     current[0] = group[f"{command}.txt"].path
     group[f"{command}.txt"].tmp.write_text(report, encoding="utf-8")
     current[0] = group["summary.json"].path
@@ -336,15 +343,22 @@ def _key_path(key: str) -> tuple:
     )
 
 
-def _draw(make, result, path, data) -> None:
+def _draw(make, result, path, data) -> str | None:
     """Call a figure function with the results file if it takes one (see
-    :mod:`inins.commands.figures`)."""
+    :mod:`inins.commands.figures`); the reason if it declined to draw (nothing to
+    show: :class:`~inins.commands.figures.Skipped`), else None."""
     import inspect
 
-    if len(inspect.signature(make).parameters) >= 3:
-        make(result, path, data)
-    else:
-        make(result, path)
+    from inins.commands.figures import Skipped
+
+    try:
+        if len(inspect.signature(make).parameters) >= 3:
+            make(result, path, data)
+        else:
+            make(result, path)
+    except Skipped as exc:
+        return str(exc)
+    return None
 
 
 def _phase(progress, name) -> None:
