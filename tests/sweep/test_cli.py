@@ -27,7 +27,9 @@ def _sweep_file(folder, **extra):
 def test_sweep_runs_prints_aggregates_and_plots(tmp_path):
     pytest.importorskip("matplotlib")
     out = tmp_path / "out"
-    result = invoke("sweep", _sweep_file(tmp_path), "-o", out, "-j", "1", "--plot-result", "samples")
+    result = invoke(
+        "sweep", _sweep_file(tmp_path), "-o", out, "-j", "1", "--plot-result", "samples"
+    )
     assert result.exit_code == 0, result.output
     assert "2 run, 0 already finished, 0 raised; 2 of 2 points" in result.output
     assert "Sample std" not in result.output and "samples" in result.output
