@@ -280,8 +280,9 @@ def read_flight(path):
             )
         version = f.attrs.get("layout_version")
         if version != LAYOUT_VERSION:
+            shown = version.item() if isinstance(version, np.generic) else version
             raise InputError(
-                f"layout_version {version!r} is not {LAYOUT_VERSION}, the version this "
+                f"layout_version {shown!r} is not {LAYOUT_VERSION}, the version this "
                 "inins reads (written by another version of inins?)",
                 source=str(path),
                 key="/layout_version",

@@ -70,6 +70,12 @@ def _array(mat, name, columns, path, finite=None):
             source=str(path),
             key=name,
         ) from None
+    if value.ndim == 2 and value.shape[0] == columns and value.shape[1] > columns:
+        raise InputError(
+            f"array {name!r} has shape {value.shape}, expected (n, {columns}): transposed?",
+            source=str(path),
+            key=name,
+        )
     if (
         value.ndim != 2
         or value.shape[1] < columns
