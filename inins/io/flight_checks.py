@@ -36,6 +36,8 @@ GAP_INTERVALS = 2.5
 """A step of more than this many median intervals is a gap (lost samples); the PSINS
 recording's 2 ms / 8 ms pairs around its 5 ms are jitter, not gaps."""
 SECONDS_PER_WEEK = 604800.0
+MAX_WEEK = 10_000
+"""Largest continuous GPS week accepted (the year 2171)."""
 
 
 def checked_flight(flight, source):
@@ -162,7 +164,8 @@ def _checked_imu(imu, source):
         )
     for key, a in arrays.items():
         limit, unit = MAX_RATE[key]
-        rate = np.abs(a).max(axis=1) / dt
+        with np.errstate(over="ignore"):
+            rate = np.abs(a).max(axis=1) / dt
         bad = rate > limit
         if bad.any():
             i, more = _rows(bad)
@@ -213,7 +216,7 @@ def _checked_gnss(g, source, notes):
             key="gnss/epoch/start",
         )
     start = start.astype(np.int64)
-    bad_week = ~np.isfinite(week) | (week < 0) | (week % 1 != 0)
+    bad_week = ~np.isfinite(week) | (week < 0) | (week > MAX_WEEK) | (week % 1 != 0)
     if bad_week.any():
         i, more = _rows(bad_week)
         raise InputError(
@@ -288,7 +291,8 @@ def _checked_gnss(g, source, notes):
             )
     # one measurement per satellite and epoch
     if m:
-        pairs = epoch_of_row.astype(np.int64) * 64 + np.nan_to_num(prn).astype(np.int64)
+        safe = np.clip(np.nan_to_num(prn), 0, 63).astype(np.int64)  # bad rows: dropped epochs
+        pairs = epoch_of_row.astype(np.int64) * 64 + safe
         _, first, counted = np.unique(pairs[keep_row], return_index=True, return_counts=True)
         if np.any(counted > 1):
             row = int(np.flatnonzero(keep_row)[first[np.flatnonzero(counted > 1)[0]]])
@@ -318,8 +322,8 @@ def _bad_offset(start, m):
 
 def _typed(cols):
     out = dict(cols)
-    out["prn"] = np.nan_to_num(cols["prn"]).astype(np.int64)
-    out["signal"] = np.nan_to_num(cols["signal"]).astype(np.int8)
+    out["prn"] = np.clip(np.nan_to_num(cols["prn"]), 0, 255).astype(np.int64)
+    out["signal"] = np.clip(np.nan_to_num(cols["signal"]), -1, 9).astype(np.int8)
     return out
 
 
