@@ -117,6 +117,7 @@ def execute(
         check_budget(size, None, force)
         result = run_located(module, loaded, seed_used, NullSink(), progress)
         return Execution(summarize(spec.name, loaded, seed_used, result, module), (), result)
+    check_budget(size, None, force)  # samples and memory: before a folder is made
     outdir = prepare_outdir(outdir, spec.name)
     check_budget(size, outdir, force)
     return write_outputs(spec.name, module, loaded, seed_used, outdir, makers, progress)

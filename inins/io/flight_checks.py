@@ -62,9 +62,10 @@ def checked_flight(flight, source):
     """
     source = str(source)
     notes = list(flight.dropped)
-    imu = _checked_imu(flight.imu, source) if flight.imu is not None else None
-    gnss = _checked_gnss(flight.gnss, source, notes)
-    eph = _checked_ephemeris(flight.ephemeris, source, notes)
+    with np.errstate(invalid="ignore", over="ignore"):  # inf % 1 and the like: refused below
+        imu = _checked_imu(flight.imu, source) if flight.imu is not None else None
+        gnss = _checked_gnss(flight.gnss, source, notes)
+        eph = _checked_ephemeris(flight.ephemeris, source, notes)
     if imu is not None:
         _overlap(imu, flight, gnss, source)
     return replace(flight, gnss=gnss, ephemeris=eph, imu=imu, dropped=tuple(notes))
@@ -80,7 +81,9 @@ def _rows(bad):
 def _what(value):
     if np.isnan(value):
         return "NaN"
-    return "infinity" if np.isinf(value) else f"{value:.6g}"
+    if np.isinf(value):
+        return "infinity" if value > 0 else "-infinity"
+    return f"{value:.6g}"
 
 
 def _array(value, key, source, ndim, columns=None, dtype=float):

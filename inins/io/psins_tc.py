@@ -76,16 +76,16 @@ def _array(mat, name, columns, path, finite=None):
             source=str(path),
             key=name,
         )
-    if (
-        value.ndim != 2
-        or value.shape[1] < columns
-        or (finite is not None and not np.isfinite(value[:, finite]).all())
-    ):
+    if value.ndim != 2 or value.shape[1] < columns:
         raise InputError(
-            f"array {name!r} has shape {value.shape}, expected (n, {columns}) of finite numbers"
-            + (" (transposed?)" if value.ndim == 2 and value.shape[0] == columns else ""),
+            f"array {name!r} has shape {value.shape}, expected (n, {columns})",
             source=str(path),
             key=name,
+        )
+    if finite is not None and not np.isfinite(value[:, finite]).all():
+        row = int(np.flatnonzero(~np.isfinite(value[:, finite]).all(axis=1))[0])
+        raise InputError(
+            f"row {row}: not a finite number where one is needed", source=str(path), key=name
         )
     return value
 
