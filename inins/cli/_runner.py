@@ -23,6 +23,21 @@ from inins.exceptions import InputError
 EXIT_OK, EXIT_CHECK_FAILED, EXIT_BAD_INPUT, EXIT_INTERNAL, EXIT_UNAVAILABLE = 0, 1, 2, 3, 4
 EXIT_INTERRUPTED = 130
 DEFAULT_OUTDIR = Path("out")
+"""Parent of every command's default output folder: ``out/<command>``."""
+OUTDIR_HELP = "Output directory (created if missing); default out/{name}."
+
+
+def output_folder(outdir, name) -> Path:
+    """The output folder given with ``-o`` (a string), or the default ``out/<name>``;
+    an empty ``-o ''`` is bad input (it would mean the current directory)."""
+    if outdir is None:
+        return DEFAULT_OUTDIR / name
+    if not str(outdir).strip():
+        raise InputError(
+            "an empty output folder was given; name one (-o . for the current folder)",
+            key="--outdir",
+        )
+    return Path(outdir)
 
 
 def make_command(spec):
@@ -38,8 +53,15 @@ def make_command(spec):
             ),
         ] = None,
         outdir: Annotated[
-            Path, typer.Option("--outdir", "-o", help="Output directory (created if missing).")
-        ] = DEFAULT_OUTDIR,
+            str | None,
+            typer.Option(
+                "--outdir",
+                "-o",
+                metavar="OUTDIR",
+                show_default=False,
+                help=OUTDIR_HELP.format(name=spec.name),
+            ),
+        ] = None,
         overrides: Annotated[
             list[str] | None,
             typer.Option(
@@ -93,7 +115,9 @@ def run_command(
     return guarded(
         f"inins {spec.name}",
         debug,
-        lambda: _run(spec, scenario, Path(outdir), list(overrides), seed, plot, force),
+        lambda: _run(
+            spec, scenario, output_folder(outdir, spec.name), list(overrides), seed, plot, force
+        ),
     )
 
 

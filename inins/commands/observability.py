@@ -80,8 +80,10 @@ def declared_results(scenario):
 
 
 def estimate(scenario):
-    """None: small matrices, one row of sigmas per update."""
-    return None
+    """Size of the analysis (:mod:`inins.commands.preflight`)."""
+    from inins.commands.preflight import observability_estimate
+
+    return observability_estimate(scenario)
 
 
 def measurement(m, index):
