@@ -22,10 +22,11 @@ Streaming (:class:`AllanAccumulator`)
 The overlapping Allan variance at m needs only the phase at its starts. Above
 ``offsets`` starts per tau it is evaluated on the phase sampled every ``2^l``
 points (level l: ``m = M 2^l`` with ``offsets <= M < 2 offsets``): the second
-differences at every ``2^l``-th start, ``offsets`` of them per m. With
-``offsets`` of 8 or more this loses under 1 % of the degrees of freedom of the
-fully overlapping estimate for white noise (measured in the tests); ``offsets=0``
-gives the fully overlapping estimate at every tau. The accumulator keeps per
+differences at every ``2^l``-th start, ``offsets`` of them per m. With 16 offsets
+the result differs from the fully overlapping estimate by under a quarter of its
+1-sigma interval (white noise, tests); its interval is computed with the fully
+overlapping edf, slightly optimistic for the decimated tau. ``offsets=0`` gives the
+fully overlapping estimate at every tau. The accumulator keeps per
 level only the last ``4 offsets`` phase points, so a record of any length streams
 through it in chunks: the work is about ``(log2(offsets) + 2) N`` and the memory
 independent of N.
@@ -694,6 +695,11 @@ class Fit:
         return bool(fitted.mean() >= 0.9) if fitted.size else False
 
 
+EDF_CAP = 1000.0
+"""The fit weighs no tau as if it had more degrees of freedom than this (a relative
+sd of 4.5 % in the variance): real curves are not exactly the five-term model, and
+the thousands of degrees of freedom at the shortest tau would otherwise decide the
+whole fit."""
 MIN_DOMINANT_EDF = 30.0
 """A term whose dominant tau hold fewer degrees of freedom than this gets the interval
 [0, bound] (see fit_terms)."""
@@ -708,10 +714,12 @@ def fit_terms(dev, channel=0, confidence=0.95, check_confidence=0.95, use=TERMS)
     """Fit the IEEE five-term model to one channel of a :class:`Deviation`.
 
     Weighted non-negative least squares on the Allan variance ``s2(tau) = A c``
-    (:func:`basis`, c the squared coefficients), weights ``edf / (2 s2_model^2)``,
-    three passes re-weighting on the model. The covariance ``(A' W A)^-1`` of the
+    (:func:`basis`, c the squared coefficients), weights ``edf / (2 s2_model^2)``
+    (edf capped at :data:`EDF_CAP`), six passes re-weighting on the model. The covariance ``(A' W A)^-1`` of the
     terms the fit keeps (times :data:`CORRELATION_INFLATION`) gives each squared
-    coefficient a normal interval at ``confidence``, taken to the coefficient by the
+    coefficient a normal interval at ``confidence`` (its variance also multiplied by
+    the residual chi-square per degree of freedom where that exceeds 1, the Birge
+    ratio: the curve is then not the model and the scatter says how far), taken to the coefficient by the
     square root (clipped at 0). A term left out of the model, or whose dominant tau hold
     fewer than :data:`MIN_DOMINANT_EDF` degrees of freedom (a chi-square of few degrees
     is far from normal), gets the interval from 0 to the largest coefficient whose variance
@@ -728,27 +736,29 @@ def fit_terms(dev, channel=0, confidence=0.95, check_confidence=0.95, use=TERMS)
     a = a_full[:, cols]
     model = s2.copy()
     coef = np.zeros(len(cols))
-    for _ in range(4):
-        w = np.sqrt(edf / 2.0) / model
+    weight_edf = np.minimum(edf, EDF_CAP)
+    for _ in range(6):
+        w = np.sqrt(weight_edf / 2.0) / model
         scale = np.linalg.norm(a * w[:, None], axis=0)
         scale[scale == 0] = 1.0
         sol, _ = optimize.nnls(a * w[:, None] / scale, s2 * w)
         coef = sol / scale
         model = np.maximum(a @ coef, 1e-300)
-    w2 = edf / (2.0 * model**2)
+    w2 = weight_edf / (2.0 * model**2)
+    resid = (s2 - model) * np.sqrt(w2)
     active = coef > 0
+    dof = max(1, tau.size - int(active.sum()))
+    birge = max(1.0, float(resid @ resid / dof))
     cov = np.zeros((len(cols), len(cols)))
     if active.any():
         aa = a[:, active]
         info = aa.T @ (aa * w2[:, None])
         try:
-            cov_a = np.linalg.inv(info) * CORRELATION_INFLATION
+            cov_a = np.linalg.inv(info) * CORRELATION_INFLATION * birge
         except np.linalg.LinAlgError:
-            cov_a = np.linalg.pinv(info) * CORRELATION_INFLATION
+            cov_a = np.linalg.pinv(info) * CORRELATION_INFLATION * birge
         cov[np.ix_(active, active)] = cov_a
     z = stats.norm.ppf(0.5 + confidence / 2.0)
-    resid = (s2 - model) * np.sqrt(w2)
-    dof = max(1, tau.size - int(active.sum()))
     share = (a * coef) / model[:, None]
     lo_dev, hi_dev = chi2_interval(np.sqrt(s2), edf, check_confidence)
     inside = (np.sqrt(model) >= lo_dev) & (np.sqrt(model) <= hi_dev)

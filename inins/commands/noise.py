@@ -225,7 +225,7 @@ def run(scenario, seed, *, sink=None, progress=None):
     n_total = first.n
     warnings = []
     moving = _motion(first, cfg, dt)
-    _flat(first, dt, start, source.name)
+    _flat(first, dt, start, source.name, cfg)
     run_pass = first
     if moving.any():
         spans = _spans(moving, first.block_n * dt, start * dt)
@@ -343,26 +343,42 @@ def _motion(p, cfg, dt):
     if p.blocks.shape[0] < 3:
         return np.zeros(p.blocks.shape[0], dtype=bool)
     center = np.median(p.blocks, axis=0)
+    return np.any(np.abs(p.blocks - center) > _limits(p, cfg), axis=1)
+
+
+def _limits(p, cfg):
+    """Distance from the median block mean beyond which a block moves, per channel."""
+    from inins.core.units import DPH, UG
+
+    center = np.median(p.blocks, axis=0)
     scale = 1.4826 * np.median(np.abs(p.blocks - center), axis=0)
     s = cfg.static
     floor = np.array([s.motion_floor_dph * DPH] * 3 + [s.motion_floor_ug * UG] * 3)
-    limit = np.maximum(s.motion_sigma * scale, floor)
-    return np.any(np.abs(p.blocks - center) > limit, axis=1)
+    return np.maximum(s.motion_sigma * scale, floor)
 
 
-def _flat(p, dt, start, name):
-    """Refuse a channel that stays exactly constant for a block while it is noisy
-    elsewhere (saturated, or stuck)."""
+def _flat(p, dt, start, name, cfg):
+    """Refuse a channel with no output at all, or stuck at one value far from its median
+    for a whole block while it is noisy elsewhere (saturated). A pulse-output sensor
+    may give no pulse in a block at rest: a flat block at the median is not refused."""
     if p.spread.shape[0] < 3:
         return
+    dead = np.all(p.spread == 0, axis=0) & np.all(p.blocks == 0, axis=0)
+    if dead.any():
+        raise InputError(
+            f"{CHANNELS[int(np.argmax(dead))]} gives no output (every increment is zero)",
+            source=name,
+        )
     typical = np.median(p.spread, axis=0)
-    flat = (p.spread == 0) & (typical > 0)
+    center = np.median(p.blocks, axis=0)
+    limit = _limits(p, cfg)
+    flat = (p.spread == 0) & (typical > 0) & (np.abs(p.blocks - center) > limit)
     if flat.any():
         b, c = np.argwhere(flat)[0]
         t = (start + b * p.block_n) * dt
         raise InputError(
-            f"{CHANNELS[c]} is flat (saturated or stuck) in the block at {t:.6g} s "
-            f"({int(flat[:, c].sum())} block(s) in all)",
+            f"{CHANNELS[c]} is stuck far from its median (saturated) in the block at "
+            f"{t:.6g} s ({int(flat[:, c].sum())} block(s) in all)",
             source=name,
         )
 
