@@ -338,7 +338,6 @@ def _fit(dev, c, cfg):
 
 
 def _motion(p, cfg, dt):
-    from inins.core.units import DPH, UG
 
     if p.blocks.shape[0] < 3:
         return np.zeros(p.blocks.shape[0], dtype=bool)
