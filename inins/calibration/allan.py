@@ -720,7 +720,8 @@ def fit_terms(dev, channel=0, confidence=0.95, check_confidence=0.95, use=TERMS)
     :data:`CORRELATION_INFLATION`) gives each squared coefficient a normal interval at
     ``confidence`` (its variance also multiplied by the residual chi-square per degree
     of freedom where that exceeds 1, the Birge ratio: the curve is then not the model
-    and the scatter says how far), taken to the coefficient by the square root (clipped at 0). A term left out of the model, or whose dominant tau hold
+    and the scatter says how far), taken to the coefficient by the square root
+    (clipped at 0). A term left out of the model, or whose dominant tau hold
     fewer than :data:`MIN_DOMINANT_EDF` degrees of freedom (a chi-square of few degrees
     is far from normal), gets the interval from 0 to the largest coefficient whose variance
     alone stays below the curve's upper limit at every tau. ``use`` restricts the
