@@ -224,8 +224,8 @@ def run(scenario, seed, *, sink=None, progress=None):
         )
     n_total = first.n
     warnings = []
-    moving = _motion(first, cfg, dt)
     _flat(first, dt, start, source.name, cfg)
+    moving = _motion(first, cfg, dt)
     run_pass = first
     if moving.any():
         spans = _spans(moving, first.block_n * dt, start * dt)
@@ -371,7 +371,7 @@ def _flat(p, dt, start, name, cfg):
     typical = np.median(p.spread, axis=0)
     center = np.median(p.blocks, axis=0)
     limit = _limits(p, cfg)
-    flat = (p.spread == 0) & (typical > 0) & (np.abs(p.blocks - center) > limit)
+    flat = (p.spread <= 1e-9 * typical) & (typical > 0) & (np.abs(p.blocks - center) > limit)
     if flat.any():
         b, c = np.argwhere(flat)[0]
         t = (start + b * p.block_n) * dt
