@@ -134,19 +134,89 @@ def _level(m, offsets):
 
 
 @jit.njit(cache=True, nogil=True)
-def _second_difference_sums(buf, first, ms, out):
-    """Add ``sum (buf[i+2M] - 2 buf[i+M] + buf[i])^2`` over starts ``i >= first[M]`` to out.
+def _phase_pass(a, b, ref, phase, tail, block, fill, means, sqs):
+    """Level 0 of the streaming Allan variance over a chunk of increments.
 
-    buf (p, k) phase; ms (q,) strides M; first (q,) the first start counted for each;
-    out (q, k) accumulates.
+    ``a`` (p, ka) and ``b`` (p, kb) are the chunk's columns (k = ka + kb channels);
+    their running sum less ``ref`` per sample, continued from ``phase`` (updated in
+    place), is the phase. ``tail`` (k, h): the last h phase points before the chunk.
+    Block sums and sums of squares (less ``ref``) of ``fill[1]`` samples go to
+    ``means``/``sqs`` (one row per completed block), the open block in ``block`` (2, k)
+    and ``fill[0]``. Returns the buffer (k, h + p) of tail and new phase, the number of
+    completed blocks and the first row holding a non-finite number (-1 if none).
     """
-    p, k = buf.shape
-    for a in range(ms.shape[0]):
-        mm = ms[a]
-        for i in range(first[a], p - 2 * mm):
-            for c in range(k):
-                d = buf[i + 2 * mm, c] - 2.0 * buf[i + mm, c] + buf[i, c]
-                out[a, c] += d * d
+    p, ka = a.shape
+    k = ka + b.shape[1]
+    h = tail.shape[1]
+    buf = np.empty((k, h + p))
+    bad = p
+    block_n = fill[1]
+    done = 0
+    for c in range(k):
+        for j in range(h):
+            buf[c, j] = tail[c, j]
+        x = phase[c]
+        r = ref[c]
+        s1 = block[0, c]
+        s2 = block[1, c]
+        f = fill[0]
+        done = 0
+        for i in range(p):
+            v = (a[i, c] if c < ka else b[i, c - ka]) - r
+            if not math.isfinite(v) and i < bad:
+                bad = i
+            x += v
+            buf[c, h + i] = x
+            s1 += v
+            s2 += v * v
+            f += 1
+            if f == block_n:
+                means[done, c] = s1
+                sqs[done, c] = s2
+                s1 = 0.0
+                s2 = 0.0
+                f = 0
+                done += 1
+        phase[c] = x
+        block[0, c] = s1
+        block[1, c] = s2
+    fill[0] = (fill[0] + p) % block_n
+    return buf, done, (bad if bad < p else -1)
+
+
+@jit.njit(cache=True, nogil=True)
+def _difference_sums(buf, first, ms, sums, terms):
+    """Add ``(x_j - 2 x_{j-M} + x_{j-2M})^2`` over the points j >= max(first, 2M) of
+    buf (k, n) to ``sums`` (q, k), their count to ``terms`` (q,), for each M of ``ms``."""
+    k, n = buf.shape
+    q = ms.shape[0]
+    if q == 0:
+        return
+    top = 0
+    for e in range(q):
+        j0 = max(first, 2 * ms[e])
+        if j0 < n:
+            terms[e] += n - j0
+        top = max(top, 2 * ms[e])
+    total = np.zeros(q)
+    for c in range(k):
+        row = buf[c]
+        total[:] = 0.0
+        # the points where some stride still lacks a whole window: one stride at a time
+        for e in range(q):
+            mm = ms[e]
+            for j in range(max(first, 2 * mm), min(n, max(first, top))):
+                d = row[j] - 2.0 * row[j - mm] + row[j - 2 * mm]
+                total[e] += d * d
+        # then every stride at each point, one pass over the row
+        for j in range(max(first, top), n):
+            x = row[j]
+            for e in range(q):
+                mm = ms[e]
+                d = x - 2.0 * row[j - mm] + row[j - 2 * mm]
+                total[e] += d * d
+        for e in range(q):
+            sums[e, c] += total[e]
 
 
 # --------------------------------------------------------------------------- streaming
@@ -170,9 +240,14 @@ class AllanAccumulator:
     reference : ndarray (k,), optional
         Rate subtracted before summing (a constant rate does not change the second
         differences; it keeps the phase small). Default the first chunk's mean.
+    block_n : int
+        Samples per block of :meth:`blocks` (block means and spreads, for the motion
+        check), accumulated in the same pass.
     """
 
-    def __init__(self, tau0, n_channels, ms, offsets=0, id_points=1 << 14, reference=None):
+    def __init__(
+        self, tau0, n_channels, ms, offsets=0, id_points=1 << 14, reference=None, block_n=1
+    ):
         self.tau0 = float(tau0)
         self.k = int(n_channels)
         self.ms = np.asarray(ms, dtype=np.int64)
@@ -187,53 +262,95 @@ class AllanAccumulator:
         ]
         self._big = np.array([big for _, big in plan], dtype=np.int64)
         self._hold = [2 * int(self._big[idx].max()) if idx.size else 0 for idx in self._by_level]
-        self._tail = [np.zeros((0, self.k)) for _ in range(self.levels)]
+        self._tail = [np.zeros((self.k, 0)) for _ in range(self.levels)]
         self._count = [0] * self.levels
         self._sums = np.zeros((self.ms.size, self.k))
         self._terms = np.zeros(self.ms.size, dtype=np.int64)
         self._idx = [[] for _ in self.ms]
         self._id_n = np.zeros(self.ms.size, dtype=np.int64)
         self._phase = np.zeros(self.k)
+        self._block = np.zeros((2, self.k))
+        self._fill = np.array([0, max(int(block_n), 1)], dtype=np.int64)
+        self._blocks, self._squares = [], []
         self.n = 0
 
-    def add(self, increments):
-        """Add a chunk of increments, shape (p, k) (rad or m/s)."""
-        inc = np.asarray(increments, dtype=float)
-        if inc.ndim != 2 or inc.shape[1] != self.k or inc.shape[0] == 0:
-            return
+    def add(self, increments, more=None):
+        """Add a chunk of increments, shape (p, k) (rad or m/s), or its first columns
+        ``increments`` (p, ka) and the rest ``more`` (p, k - ka). Returns the first row
+        holding a non-finite number, or -1."""
+        a = np.ascontiguousarray(increments, dtype=float)
+        b = np.zeros((a.shape[0], 0)) if more is None else np.ascontiguousarray(more, float)
+        if a.ndim != 2 or a.shape[1] + b.shape[1] != self.k or a.shape[0] == 0:
+            return -1
         if self.reference is None:
-            self.reference = inc.mean(axis=0) / self.tau0
-        phase = np.cumsum(inc - self.reference * self.tau0, axis=0) + self._phase
-        self._phase = phase[-1].copy()
+            self.reference = np.concatenate([a.mean(axis=0), b.mean(axis=0)]) / self.tau0
+        p = a.shape[0]
+        nb = (self._fill[0] + p) // self._fill[1] + 1
+        means, sqs = np.zeros((nb, self.k)), np.zeros((nb, self.k))
         if self.n == 0:
-            phase = np.vstack([np.zeros((1, self.k)), phase])
-        self.n += inc.shape[0]
-        self._feed(0, phase)
-
-    def _feed(self, level, new):
-        while new.shape[0] and level < self.levels:
-            tail, c = self._tail[level], self._count[level]
-            buf = np.vstack([tail, new]) if tail.shape[0] else new
+            self._tail[0] = np.zeros((self.k, 1))  # x_0 = 0
+        tail = self._tail[0]
+        buf, done, bad = _phase_pass(
+            a,
+            b,
+            self.reference * self.tau0,
+            self._phase,
+            tail,
+            self._block,
+            self._fill,
+            means,
+            sqs,
+        )
+        if done:
+            self._blocks.append(means[:done] / self.tau0)
+            self._squares.append(sqs[:done])
+        self.n += p
+        level = 0
+        while True:
+            h = tail.shape[1]
             idx = self._by_level[level]
             if idx.size:
+                sums = np.zeros((idx.size, self.k))
+                terms = np.zeros(idx.size, dtype=np.int64)
                 bigs = self._big[idx]
-                first = np.maximum(0, tail.shape[0] - 2 * bigs).astype(np.int64)
-                out = np.zeros((idx.size, self.k))
-                _second_difference_sums(np.ascontiguousarray(buf), first, bigs, out)
-                self._sums[idx] += out
-                self._terms[idx] += np.maximum(0, buf.shape[0] - 2 * bigs - first)
-                for a, big in zip(idx, bigs, strict=True):
-                    if self._id_n[a] <= self.id_points:
-                        start = (-c) % big
-                        take = new[start::big][: self.id_points + 1 - self._id_n[a]]
-                        if take.shape[0]:
-                            self._idx[a].append(take)
-                            self._id_n[a] += take.shape[0]
+                _difference_sums(buf, h, bigs, sums, terms)
+                self._sums[idx] += sums
+                self._terms[idx] += terms
+                c = self._count[level]
+                for e, big in zip(idx, bigs, strict=True):
+                    if self._id_n[e] <= self.id_points:
+                        start = h + (-c) % big
+                        take = buf[:, start::big][:, : self.id_points + 1 - self._id_n[e]]
+                        if take.shape[1]:
+                            self._idx[e].append(take.T.copy())
+                            self._id_n[e] += take.shape[1]
+            c = self._count[level]
             hold = max(self._hold[level], 2)
-            self._tail[level] = buf[-hold:].copy()
-            self._count[level] = c + new.shape[0]
-            new = new[c % 2 :: 2]
+            self._tail[level] = buf[:, -hold:].copy()
+            self._count[level] = c + buf.shape[1] - h
             level += 1
+            if level >= self.levels:
+                break
+            up = buf[:, h + c % 2 :: 2]
+            if up.shape[1] == 0:
+                break
+            tail = self._tail[level]
+            if tail.shape[0] != self.k:
+                tail = np.zeros((self.k, 0))
+            buf = np.concatenate([tail, up], axis=1)
+        return -1 if bad < 0 else bad
+
+    def blocks(self):
+        """Block means of the rate (nb, k) and the standard deviation of the increments
+        in each block, over the blocks completed so far (``block_n`` samples each)."""
+        if not self._blocks:
+            return np.zeros((0, self.k)), np.zeros((0, self.k))
+        sums = np.vstack(self._blocks) * self.tau0  # of the increments less the reference
+        sq = np.vstack(self._squares)
+        n = self._fill[1]
+        mean = sums / n
+        var = np.maximum(sq / n - mean**2, 0.0)
+        return mean / self.tau0 + self.reference, np.sqrt(var)
 
     def finish(self):
         """The deviations: :class:`Deviation` (kind ``"oadev"``)."""

@@ -153,18 +153,14 @@ class Pass:
 
 
 def _pass(source, dt, ms, cfg, start, stop, keep):
-    acc = allan.AllanAccumulator(dt, 6, ms, cfg.deviation.offsets)
-    block_n = max(1, round(cfg.static.block_s / dt))
-    means, spreads, kept = [], [], []
-    carry = np.zeros((0, 6))
+    block_n = max(1, int(round(cfg.static.block_s / dt)))
+    acc = allan.AllanAccumulator(dt, 6, ms, cfg.deviation.offsets, block_n=block_n)
+    kept = []
     sat = _saturation_limits(cfg, dt)
     n = 0
     for k0, dtheta, dv in source.chunks(start, stop):
-        inc = np.hstack([dtheta, dv])
-        if not np.all(np.isfinite(inc)):
-            raise InputError(f"non-finite increments near sample {k0}", source=source.name)
         if sat is not None:
-            hit = np.abs(inc) >= sat
+            hit = np.abs(np.hstack([dtheta, dv])) >= sat
             if hit.any():
                 row, col = np.argwhere(hit)[0]
                 raise InputError(
@@ -172,8 +168,10 @@ def _pass(source, dt, ms, cfg, start, stop, keep):
                     f"({(k0 + row) * dt:.6g} s): at its range (static.*_range_*)",
                     source=source.name,
                 )
-        acc.add(inc)
-        n += inc.shape[0]
+        bad = acc.add(dtheta, dv)
+        if bad >= 0:
+            raise InputError(f"non-finite increments at sample {k0 + bad}", source=source.name)
+        n += dtheta.shape[0]
         if keep:
             if n > cfg.deviation.in_memory_limit:
                 raise InputError(
@@ -182,19 +180,11 @@ def _pass(source, dt, ms, cfg, start, stop, keep):
                     "deviation.totdev false, or raise deviation.in_memory_limit",
                     key="deviation.in_memory_limit",
                 )
-            kept.append(inc)
-        block = np.vstack([carry, inc]) if carry.shape[0] else inc
-        whole = block.shape[0] // block_n * block_n
-        if whole:
-            b = block[:whole].reshape(-1, block_n, 6)
-            means.append(b.mean(axis=1) / dt)
-            spreads.append(b.std(axis=1) / dt)
-        carry = block[whole:]
+            kept.append(np.hstack([dtheta, dv]))
     dev = acc.finish() if n else None
     record = np.vstack(kept) if keep and kept else None
-    blocks = np.vstack(means) if means else np.zeros((0, 6))
-    spread = np.vstack(spreads) if spreads else np.zeros((0, 6))
-    return Pass(dev, blocks, spread, block_n, n, record)
+    blocks, spread = acc.blocks()
+    return Pass(dev, blocks, spread / dt, block_n, n, record)
 
 
 def _saturation_limits(cfg, dt):
