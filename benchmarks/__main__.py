@@ -24,7 +24,7 @@ HERE = Path(__file__).parent
 ROOT = HERE.parent
 SLOW_MODULES = ("bench_compile",)
 """Left out by ``--quick``."""
-QUICK_AWARE = ("bench_ekf", "bench_sweep", "bench_imu")
+QUICK_AWARE = ("bench_ekf", "bench_sweep", "bench_imu", "bench_noise")
 """Modules whose ``run(quick=True)`` drops their long parts (the 4-h EKF stream, the
 sweep throughput runs, the chunked sensor-error pass)."""
 TARGETS = (  # (figure path, relation, target, what)
@@ -54,6 +54,9 @@ TARGETS = (  # (figure path, relation, target, what)
     ("bench_sweep.overhead.overhead_ms", "<", 20.0, "sweep overhead per point, ms"),
     ("bench_sweep.throughput.speedup_2_workers", ">=", 1.8, "sweep 2 workers / 1 worker"),
     ("bench_sweep.throughput.dask_over_local", ">=", 0.8, "sweep Dask loopback / local"),
+    ("bench_noise.noise_24h_extrapolated_s", "<", 10.0, "noise 24 h 1 kHz 6 sensors, s (extrap.)"),
+    ("bench_noise.noise_peak_rss_mb", "<", 1024.0, "noise peak RSS, MB"),
+    ("bench_noise.speedup_over_allantools", ">=", 5.0, "noise / allantools oadev speed-up"),
 )
 MODULES = (
     "bench_strapdown",
@@ -63,6 +66,7 @@ MODULES = (
     "bench_observability",
     "bench_ekf",
     "bench_sweep",
+    "bench_noise",
 )
 
 

@@ -153,7 +153,7 @@ class Pass:
 
 
 def _pass(source, dt, ms, cfg, start, stop, keep):
-    block_n = max(1, int(round(cfg.static.block_s / dt)))
+    block_n = max(1, round(cfg.static.block_s / dt))
     acc = allan.AllanAccumulator(dt, 6, ms, cfg.deviation.offsets, block_n=block_n)
     kept = []
     sat = _saturation_limits(cfg, dt)
