@@ -85,7 +85,7 @@ class StaticSettings(Section):
 
     window_s: tuple[float, float] | None = Field(
         None,
-        description="use only this part [start, end] (s from the first sample); default all",
+        description="use only this part [start, end] from the first sample (s); default all",
     )
     motion: Literal["refuse", "cut"] = Field(
         "refuse",
