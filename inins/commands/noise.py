@@ -23,10 +23,7 @@ from inins.exceptions import InputError
 from inins.scenario.noise import NoiseScenario
 
 SCENARIO_MODEL = NoiseScenario
-SENSORS = ("gyro", "accel")
-AXES = "xyz"
-CHANNELS = tuple(f"{s}_{a}" for s in SENSORS for a in AXES)
-"""The six channels, in the order of the accumulator's columns."""
+CHANNELS = noise_report.CHANNELS
 MIN_SAMPLES = 256
 """Shortest record accepted."""
 
@@ -89,9 +86,8 @@ def open_source(scenario, seed, progress=None):
 
 
 def _log_source(scenario, progress):
-    from inins.commands.import_log import import_settings
     from inins.io.logimport import LogReader
-    from inins.scenario.import_log import ImportLogScenario
+    from inins.scenario.import_log import ImportLogScenario, import_settings
 
     site = scenario.site
     log = scenario.log.model_dump()

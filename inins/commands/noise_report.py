@@ -34,6 +34,8 @@ from inins.calibration import allan
 from inins.core.units import ARCSEC, DEG_RTH, DPH, HOUR, UG, UG_RTHZ, UG_S
 from inins.results import CommandResult, Series, format_table
 
+CHANNELS = tuple(f"{s}_{a}" for s in ("gyro", "accel") for a in "xyz")
+"""The six channels, in the order of the accumulator's columns."""
 SHORT = {
     "gyro": {
         "quantization": "q",
@@ -232,8 +234,6 @@ def _tau_of_min(dev, fits, cols):
 
 def build(cfg, dev, extra, fits, dt, n, n_total, span, warnings):
     """The :class:`CommandResult` of a run."""
-    from inins.commands.noise import CHANNELS
-
     fits_g, fits_a = fits[:3], fits[3:]
     tau_min = (_tau_of_min(dev, fits, range(3)), _tau_of_min(dev, fits, range(3, 6)))
     corr = cfg.output.bias_corr_time_s
@@ -395,8 +395,6 @@ def report(cfg, dev, extra, fits, dt, n, n_total, span, block, kalibr):
         "Model check (model within the curve's "
         f"{cfg.fit.confidence:g} interval at every tau but a tenth):",
     ]
-    from inins.commands.noise import CHANNELS
-
     for c, ch in enumerate(CHANNELS):
         f = fits[c]
         lines.append(

@@ -116,9 +116,8 @@ def test_rlg_log_against_import_log(tmp_path):
     assert result.exit_code == 0, result.output
     r = _summary(tmp_path / "out")
     assert r["static_end_s"] - r["static_start_s"] > 300
-    from inins.commands.import_log import import_settings
     from inins.io.logimport import LogReader
-    from inins.scenario.import_log import ImportLogScenario
+    from inins.scenario.import_log import ImportLogScenario, import_settings
 
     cfg = import_settings(
         ImportLogScenario.model_validate(
