@@ -42,10 +42,13 @@ variance. Those edf assume **one power-law noise** ``S_y(f) ~ f^alpha`` at each 
 alpha is identified per tau from the lag-1 autocorrelation of the tau-averaged rate
 (Riley & Greenhall, "Power law noise identification using the lag 1
 autocorrelation", 2004: difference the series d times until
-``delta = r1 / (1 + r1) < 0.25``, then ``alpha = -2 (round(delta) ... )``; needs 30
-averages; with fewer the alpha of the next shorter tau is kept). For inertial
-sensors: alpha = +2 quantization (white angle), 0 angle/velocity random walk
-(white rate), -1 bias instability (flicker rate), -2 rate random walk.
+``delta = r1 / (1 + r1) < 0.25`` (at most twice), then
+``alpha = -round(2 delta) - 2 d``, clipped to [-4, 2]; needs 30 averages; with fewer
+the alpha of the next shorter tau is kept). The edf takes alpha >= -2 (d = 2). For
+inertial sensors: alpha = +2 quantization (white angle), 0 angle/velocity random
+walk (white rate), -1 bias instability (flicker rate), -2 rate random walk. A curve
+that mixes terms at a tau, or carries a periodic part (an RLG's dither), breaks the
+single-noise assumption; the interval is then approximate.
 
 Noise terms (IEEE Std 952-1997 Annex C, Table C.1)
 --------------------------------------------------
