@@ -794,7 +794,9 @@ class Fit:
     model : ndarray (j,)
         Model deviation at each tau of the curve.
     inside : ndarray of bool (j,)
-        The model lies within the curve's interval at ``check_confidence``.
+        The model lies within the curve's interval at ``check_confidence``, with the
+        edf capped at :data:`EDF_CAP` as in the fit (a point is not asked to agree
+        better than 4.5 % in variance).
     chi2_per_dof : float
         Weighted residual sum of squares per degree of freedom.
     """
@@ -881,7 +883,8 @@ def fit_terms(dev, channel=0, confidence=0.95, check_confidence=0.95, use=TERMS)
         cov[np.ix_(active, active)] = cov_a
     z = stats.norm.ppf(0.5 + confidence / 2.0)
     share = (a * coef) / model[:, None]
-    lo_dev, hi_dev = chi2_interval(np.sqrt(s2), edf, check_confidence)
+    # the check allows each point the scatter the fit allows it (edf capped)
+    lo_dev, hi_dev = chi2_interval(np.sqrt(s2), weight_edf, check_confidence)
     inside = (np.sqrt(model) >= lo_dev) & (np.sqrt(model) <= hi_dev)
     _, hi_curve = chi2_interval(np.sqrt(s2), edf, confidence)
     bound = np.min(hi_curve[:, None] ** 2 / a, axis=0)

@@ -392,8 +392,8 @@ def report(cfg, dev, extra, fits, dt, n, n_total, span, block, kalibr):
         "= N sqrt(fs); rate-random-walk bias step sd = K sqrt(dt); quantization pulse "
         "= sqrt(12) Q (uniform angle error of sd Q); rate ramp R dt per sample.",
         "",
-        "Model check (model within the curve's "
-        f"{cfg.fit.confidence:g} interval at every tau but a tenth):",
+        "Model check (model within the curve's 0.95 interval, edf capped at "
+        f"{allan.EDF_CAP:g} as in the fit, at every fitted tau but a tenth):",
     ]
     for c, ch in enumerate(CHANNELS):
         f = fits[c]
