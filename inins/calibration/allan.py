@@ -65,13 +65,15 @@ interval from the fit covariance widened for the correlation of the overlapping
 estimates at neighbouring tau (see :func:`fit_terms`).
 """
 
+import itertools
 import math
 from dataclasses import dataclass
+from statistics import NormalDist
 
 import numpy as np
-from scipy import optimize, stats
 
 from inins.core import jit
+from inins.core.stats import chi2_ppf
 
 ONE_SIGMA = math.erf(1.0 / math.sqrt(2.0))
 """Confidence of a 1-sigma interval, 0.6827 (Stable32's default)."""
@@ -432,8 +434,8 @@ def chi2_interval(dev, edf, confidence=ONE_SIGMA):
     """``dev sqrt(edf / chi2_hi)``, ``dev sqrt(edf / chi2_lo)`` (NIST SP 1065 eq. 45)."""
     p = (1.0 - confidence) / 2.0
     edf = np.asarray(edf, dtype=float)
-    lo = dev * np.sqrt(edf / stats.chi2.ppf(1.0 - p, edf))
-    hi = dev * np.sqrt(edf / stats.chi2.ppf(p, edf))
+    lo = dev * np.sqrt(edf / chi2_ppf(1.0 - p, edf))
+    hi = dev * np.sqrt(edf / chi2_ppf(p, edf))
     return lo, hi
 
 
@@ -832,6 +834,27 @@ the overlap each point shares about half its information with its neighbours, so
 fit's parameter variance is widened by this factor (coverage measured in the tests)."""
 
 
+def nnls(a, b):
+    """Non-negative least squares ``min |a x - b|, x >= 0`` for a few unknowns (here at
+    most 5): the least-squares solution of every subset of columns, the best one with
+    no negative coefficient (exact; 2^n small solves instead of scipy.optimize, whose
+    import costs more than a short run)."""
+    n = a.shape[1]
+    best, best_x = math.inf, np.zeros(n)
+    for size in range(n + 1):
+        for cols in itertools.combinations(range(n), size):
+            x = np.zeros(n)
+            if cols:
+                sol = np.linalg.lstsq(a[:, cols], b, rcond=None)[0]
+                if np.any(sol < 0):
+                    continue
+                x[list(cols)] = sol
+            r = float(np.sum((a @ x - b) ** 2))
+            if r < best * (1 - 1e-12):
+                best, best_x = r, x
+    return best_x
+
+
 def fit_terms(dev, channel=0, confidence=0.95, check_confidence=0.95, use=TERMS):
     """Fit the IEEE five-term model to one channel of a :class:`Deviation`.
 
@@ -864,7 +887,7 @@ def fit_terms(dev, channel=0, confidence=0.95, check_confidence=0.95, use=TERMS)
         w = np.sqrt(weight_edf / 2.0) / model
         scale = np.linalg.norm(a * w[:, None], axis=0)
         scale[scale == 0] = 1.0
-        sol, _ = optimize.nnls(a * w[:, None] / scale, s2 * w)
+        sol = nnls(a * w[:, None] / scale, s2 * w)
         coef = sol / scale
         model = np.maximum(a @ coef, 1e-300)
     w2 = weight_edf / (2.0 * model**2)
@@ -881,7 +904,7 @@ def fit_terms(dev, channel=0, confidence=0.95, check_confidence=0.95, use=TERMS)
         except np.linalg.LinAlgError:
             cov_a = np.linalg.pinv(info) * CORRELATION_INFLATION * birge
         cov[np.ix_(active, active)] = cov_a
-    z = stats.norm.ppf(0.5 + confidence / 2.0)
+    z = NormalDist().inv_cdf(0.5 + confidence / 2.0)
     share = (a * coef) / model[:, None]
     # the check allows each point the scatter the fit allows it (edf capped)
     lo_dev, hi_dev = chi2_interval(np.sqrt(s2), weight_edf, check_confidence)
