@@ -10,6 +10,10 @@ five-term fit (:func:`inins.calibration.allan.fit_terms`) with intervals, the te
 in continuous SI, lab and discrete per-sample units, and the fitted model is written
 as the ``imu:`` block of simulate-table, the ``filter.noise:`` block of run-ekf and a
 Kalibr ``imu.yaml`` (:data:`FILES`). Scenario keys: :mod:`inins.scenario.noise`.
+
+Spec §10 reads each term off its slope (N at tau = 1 s, K at 3 s, B = min / 0.664); the
+fit does the same wherever one term dominates and keeps the read-offs consistent where
+terms overlap, and it says over which tau each term was seen.
 """
 
 import math
