@@ -959,7 +959,7 @@ def simulate_increments(
 
     - ``arw`` N: white rate of density N (increments ``N sqrt(tau0)`` per sample);
     - ``bias`` B: flicker rate, one-sided PSD ``h/f`` with ``h = B^2 / pi`` (so the flat
-      Allan variance is ``2 ln 2 h = (2 ln 2 / pi) B^2``, IEEE 952 Table C.1), made by
+      Allan variance is ``2 ln 2 h = (2 ln 2 / pi) B^2``, IEEE Std 952-1997 Table C.1), made by
       shaping white noise in the frequency domain over ``span`` times the record (the
       first part kept), so it is flicker down to ``1 / (span n tau0)``;
     - ``rrw`` K: a random-walk rate, steps ``K sqrt(tau0)``;

@@ -89,7 +89,7 @@ DISPLAY = {
 
 def _gm_peak():
     """Peak over tau of the Allan deviation of a unit first-order Gauss-Markov bias,
-    and the tau/T of the peak (IEEE 952 Table C.2 form of the correlated noise)."""
+    and the tau/T of the peak (IEEE Std 952-1997 Table C.2 form of the correlated noise)."""
     u = np.geomspace(0.05, 50.0, 20001)
     var = (2.0 / u) * (1.0 - (3.0 - 4.0 * np.exp(-u) + np.exp(-2.0 * u)) / (2.0 * u))
     k = int(np.argmax(var))
