@@ -75,11 +75,14 @@ def simulate_drive(
     init_attitude=(0.5 * DEG, 0.5 * DEG, 2.0 * DEG),
     init_pos=0.05,
     init_vel=0.02,
+    tag_offset=0.0,
 ):
     """IMU, GNSS solutions and truth of a plan (module docstring).
 
     The initial INS state at t = 0 has the stated errors (roll, pitch, heading;
-    position per axis in m; velocity per axis in m/s), drawn with the seed.
+    position per axis in m; velocity per axis in m/s), drawn with the seed. The
+    solution taken at IMU time ``t`` is tagged ``t - tag_offset`` (the time offset
+    the loose filter's ``dt_g`` state estimates); truth stays at the true times.
     """
     rng = np.random.default_rng(seed)
     truth = flight_trajectory(plan)
@@ -103,7 +106,7 @@ def simulate_drive(
         v_ant = vel + np.einsum("kij,kj->ki", mat, np.cross(omega_eb, lever))
         svel = np.broadcast_to(np.asarray(sigma_vel, float), (t.size, 3))
         vel_meas = v_ant + rng.standard_normal((t.size, 3)) * svel
-    sol = GnssSolution(t, sol_lla, np.broadcast_to(sig, (t.size, 3)), vel_meas, svel)
+    sol = GnssSolution(t - tag_offset, sol_lla, np.broadcast_to(sig, (t.size, 3)), vel_meas, svel)
     mat0, vel0, lla0 = truth.state([0.0])
     eul = rotation.euler_from_mat(mat0[0]) + np.asarray(init_attitude) * rng.choice([-1, 1], 3)
     lla_i = error_model.lla_offset(lla0[0], init_pos * rng.standard_normal(3))

@@ -18,14 +18,14 @@ is the one of :mod:`inins.ekf.filter` without the receiver clock:
   With the errors ``dr, dv, phi`` (estimated minus true), the antenna at
   ``r_ant = r + C_nb l`` and moving at ``v_ant = v + C_nb (omega_eb x l)``::
 
-      y_pos = z_pos - r_ant_est = -dr - [l_n x] phi        - v dt_g + noise
+      y_pos = z_pos - r_ant_est = -dr - [l_n x] phi        + v dt_g + noise
       y_vel = z_vel - v_ant_est = -dv - [u_n x] phi                 + noise
 
   in NED metres at the INS position, ``l_n = C_nb l``, ``u_n = C_nb (omega_eb x l)``
   (``C_est = (I - [phi x]) C`` gives ``C_est l = C l + [l_n x] phi``). So ``H`` is
-  ``-I`` on position (velocity), ``-[l_n x]`` (``-[u_n x]``) on attitude and ``-v``
-  on ``dt_g`` (the antenna reaches the tagged position ``dt_g`` later on the IMU
-  axis). The frame rotation ``J_v dr`` of the velocity (O(v/R)) is dropped.
+  ``-I`` on position (velocity), ``-[l_n x]`` (``-[u_n x]``) on attitude and
+  ``+v`` on ``dt_g`` (a solution tagged ``t_k`` was taken at IMU time ``t_k + dt_g``:
+  the prediction is the INS antenna position carried to it by ``v (t_k - t_b + dt_g)``). The frame rotation ``J_v dr`` of the velocity (O(v/R)) is dropped.
 - Scalar Joseph updates per axis, each gated on chi-square(1)
   (:func:`inins.ekf.kernels.sequential_update`); the NED sigmas are taken as
   uncorrelated (RTKLIB's ``sdne``, ``sdeu``, ``sdun`` are not used).
@@ -277,7 +277,23 @@ def _block(
         oq, ov, ol = np.empty((m, 4)), np.empty((m, 3)), np.empty((m, 3))
         if m > 0:
             strapdown._navigate(
-                quat, vel, lla, prev, count[0], dth, dvv, dt, 0, True, True, 1, _HOME, oi, oq, ov, ol
+                quat,
+                vel,
+                lla,
+                prev,
+                count[0],
+                dth,
+                dvv,
+                dt,
+                0,
+                True,
+                True,
+                1,
+                _HOME,
+                oi,
+                oq,
+                ov,
+                ol,
             )
             count[0] += m
         t_k = state[1] + hi * dt + ep_frac[k]  # state[1]: time of the block's sample 0
@@ -293,7 +309,9 @@ def _block(
             else:
                 mq, mv, ml = oq[mid - 1], ov[mid - 1], ol[mid - 1]
             step.mean_rates(dth, dvv, mid, window, dt, rates)
-            kernels.system_matrix26(ml[0], ml[2], mv, rates[1], step.mat_from_quat(mq), rates[0], Ff)
+            kernels.system_matrix26(
+                ml[0], ml[2], mv, rates[1], step.mat_from_quat(mq), rates[0], Ff
+            )
             kernels.noise26(
                 step.mat_from_quat(mq),
                 noise[0:3],
@@ -342,7 +360,7 @@ def _block(
                 y0[i] = d_n[i]
                 r[i] = ep_var[k, i]
                 if td >= 0:
-                    H[i, td] = -cv[i]
+                    H[i, td] = cv[i]
             _skew_rows(H, 0, 6, lever_n, -1.0)
             if has_vel:
                 for i in range(3):
