@@ -25,7 +25,8 @@ is the one of :mod:`inins.ekf.filter` without the receiver clock:
   (``C_est = (I - [phi x]) C`` gives ``C_est l = C l + [l_n x] phi``). So ``H`` is
   ``-I`` on position (velocity), ``-[l_n x]`` (``-[u_n x]``) on attitude and
   ``+v`` on ``dt_g`` (a solution tagged ``t_k`` was taken at IMU time ``t_k + dt_g``:
-  the prediction is the INS antenna position carried to it by ``v (t_k - t_b + dt_g)``). The frame rotation ``J_v dr`` of the velocity (O(v/R)) is dropped.
+  the prediction is the INS antenna position carried to it by ``v (t_k - t_b + dt_g)``).
+  The frame rotation ``J_v dr`` of the velocity (O(v/R)) is dropped.
 - Scalar Joseph updates per axis, each gated on chi-square(1)
   (:func:`inins.ekf.kernels.sequential_update`); the NED sigmas are taken as
   uncorrelated (RTKLIB's ``sdne``, ``sdeu``, ``sdun`` are not used).
@@ -302,7 +303,7 @@ def _block(
             for j in range(n):
                 Phi[i, j] = 1.0 if i == j else 0.0
         if math.isfinite(state[0]) and dt_k > 0.0:
-            mid = m - int(round(0.5 * dt_k / dt))
+            mid = m - math.floor(0.5 * dt_k / dt + 0.5)
             if mid <= 0 or m == 0:
                 mq, mv, ml = sq, sv, sl
                 mid = 0
