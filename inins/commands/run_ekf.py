@@ -15,7 +15,7 @@ from dataclasses import replace
 
 import numpy as np
 
-from inins.commands import figures
+from inins.commands import figures, run_ekf_post
 from inins.core import earth, rotation, strapdown
 from inins.core.units import ARCSEC, DEG, DEG_RTH, DPH, UG, UG_RTHZ
 from inins.ekf import flight as fl
@@ -44,6 +44,8 @@ _KIND = {"wait": fl.LegKind.WAIT, "takeoff": fl.LegKind.TAKEOFF, "straight": fl.
 
 def run(scenario, seed, *, sink=None, progress=None):
     """Run the filter on the scenario's flight or recording."""
+    if scenario.post is not None:  # loosely coupled post-processing of a drive
+        return run_ekf_post.run(scenario, seed, sink=sink, progress=progress)
     if scenario.data is not None:
         result, info = _recorded(scenario)
     else:
@@ -357,6 +359,8 @@ TRUTH_NAMES = ("gyro_bias_z_est_dph", "mg_yz_est_arcsec", "mg_zy_est_arcsec")
 
 def declared_results(scenario):
     """``(results, truth)`` names of every run, for validating checks before it."""
+    if scenario.post is not None:
+        return run_ekf_post.RESULT_NAMES, ()
     return RESULT_NAMES, TRUTH_NAMES
 
 

@@ -17,6 +17,9 @@ to NED keeping the diagonal; the cross terms (``sdne`` ...) are not used.
 """
 
 import csv
+import datetime
+import gzip
+import io
 import math
 from dataclasses import dataclass
 
@@ -24,7 +27,10 @@ import numpy as np
 
 from inins.core import earth
 from inins.exceptions import InputError
-from inins.gnss import gpstime
+
+WEEK = 604800.0
+"""Seconds in a GPS week."""
+_GPS_EPOCH = datetime.date(1980, 1, 6)
 
 Q_NAMES = {1: "fix", 2: "float", 3: "sbas", 4: "dgps", 5: "single", 6: "ppp"}
 """RTKLIB quality flags."""
@@ -96,6 +102,13 @@ class SolutionFile:
         )
 
 
+def _open_text(path):
+    """A text stream of ``path`` (gzip when it ends in .gz)."""
+    if str(path).endswith(".gz"):
+        return io.TextIOWrapper(gzip.open(path, "rb"), encoding="utf-8", errors="replace")
+    return open(path, encoding="utf-8", errors="replace", newline="")
+
+
 def _ned_sigma(lla, sig_xyz):
     """Diagonal of ``M^T diag(s^2) M`` (``M`` = mat_en), (m, 3)."""
     m_en = earth.mat_en(lla[:, 0], lla[:, 1])
@@ -129,7 +142,7 @@ def read_rtklib_pos(path):
     path = str(path)
     header, rows, lines = None, [], []
     try:
-        with open(path, encoding="ascii", errors="replace") as f:
+        with _open_text(path) as f:
             for n, text in enumerate(f, 1):
                 s = text.strip()
                 if not s:
@@ -142,8 +155,8 @@ def read_rtklib_pos(path):
                     raise InputError("data before the column header line", source=path, line=n)
                 rows.append(s.split())
                 lines.append(n)
-    except OSError as exc:
-        raise InputError(f"cannot read: {exc.strerror}", source=path) from exc
+    except (OSError, EOFError) as exc:
+        raise InputError(f"cannot read: {exc}", source=path) from exc
     if header is None:
         raise InputError("no column header line (% GPST ...)", source=path)
     hline, names = header
@@ -174,12 +187,12 @@ def read_rtklib_pos(path):
             if calendar:
                 y, mo, d = (int(v) for v in r[0].split("/"))
                 hh, mm, ss = r[1].split(":")
-                week, sow = gpstime.from_calendar(y, mo, d, int(hh), int(mm), float(ss))
+                days = (datetime.date(y, mo, d) - _GPS_EPOCH).days
+                time[i] = days * 86400.0 + int(hh) * 3600.0 + int(mm) * 60.0 + float(ss)
             else:
-                week, sow = int(r[0]), float(r[1])
+                time[i] = int(r[0]) * WEEK + float(r[1])
         except ValueError as exc:
             raise InputError(f"bad time {r[0]} {r[1]}", source=path, line=lines[i]) from exc
-        time[i] = week * gpstime.WEEK + sow
     col = {c: values[:, i] for i, c in enumerate(cols)}
 
     def need(*names_):
@@ -272,11 +285,11 @@ def read_solution_csv(path, columns, angle_unit="deg", time_scale=1.0, time_offs
     if angle_unit not in ("deg", "rad"):
         raise InputError("angle unit must be deg or rad", key="angle_unit")
     try:
-        with open(path, newline="", encoding="utf-8") as f:
+        with _open_text(path) as f:
             reader = csv.reader(f)
             head = [h.strip() for h in next(reader)]
             rows = [(n, r) for n, r in enumerate(reader, 2) if r and any(x.strip() for x in r)]
-    except (OSError, StopIteration) as exc:
+    except (OSError, EOFError, StopIteration) as exc:
         raise InputError(f"cannot read a header row: {exc}", source=path) from exc
     for role, name in columns.items():
         if name not in head:
@@ -320,3 +333,82 @@ def read_solution_csv(path, columns, angle_unit="deg", time_scale=1.0, time_offs
     _check(path, time, sig, svel, vel, line)
     vel[~np.isfinite(svel).all(1)] = np.nan  # a velocity without its sigma is not used
     return SolutionFile(path, time, lla, sig, vel, svel, q, line)
+
+
+@dataclass(frozen=True, eq=False)
+class ImuRates:
+    """An IMU log of rates: ``time`` (n,) s on the log's own axis, ``gyro`` (n, 3) rad/s,
+    ``accel`` (n, 3) m/s^2, in body axes (forward, right, down) after the axis map."""
+
+    path: str
+    time: np.ndarray
+    gyro: np.ndarray
+    accel: np.ndarray
+
+
+_AXIS = {
+    "x": (0, 1.0),
+    "-x": (0, -1.0),
+    "y": (1, 1.0),
+    "-y": (1, -1.0),
+    "z": (2, 1.0),
+    "-z": (2, -1.0),
+}
+G0 = 9.80665
+
+
+def read_imu_rates_csv(
+    path, accel_columns, gyro_columns, time_column, time_scale, accel_unit, gyro_unit, axes
+):
+    """Read a header-less numeric CSV of IMU rates (one sample a row).
+
+    ``axes``: for body x, y, z the IMU axis (``"-x"``: minus IMU x). Rows with the
+    wrong number of fields or non-numbers are bad input (line named); so is time not
+    increasing.
+    """
+    path = str(path)
+    rows, lines = [], []
+    width = None
+    try:
+        with _open_text(path) as f:
+            for n, text in enumerate(f, 1):
+                s = text.strip()
+                if not s:
+                    continue
+                parts = s.split(",")
+                width = width or len(parts)
+                if len(parts) != width:
+                    raise InputError(
+                        f"expected {width} fields, got {len(parts)}", source=path, line=n
+                    )
+                try:
+                    rows.append([float(v) for v in parts])
+                except ValueError as exc:
+                    raise InputError(f"not a number: {exc}", source=path, line=n) from exc
+                lines.append(n)
+    except (OSError, EOFError) as exc:
+        raise InputError(f"cannot read: {exc}", source=path) from exc
+    if len(rows) < 2:
+        raise InputError("fewer than 2 IMU rows", source=path)
+    a = np.asarray(rows)
+    for key, cols in (("accel_columns", accel_columns), ("gyro_columns", gyro_columns)):
+        if max(cols) >= a.shape[1]:
+            raise InputError(f"column {max(cols)} beyond the {a.shape[1]} fields", key=key)
+    if time_column >= a.shape[1]:
+        raise InputError(f"column {time_column} beyond the {a.shape[1]} fields", key="time_column")
+    time = a[:, time_column] * time_scale
+    bad = np.flatnonzero(np.diff(time) <= 0)
+    if bad.size:
+        i = bad[0] + 1
+        raise InputError(
+            f"time {time[i]:.6f} s does not increase (previous {time[i - 1]:.6f} s)",
+            source=path,
+            line=lines[i],
+        )
+    acc = a[:, list(accel_columns)] * (G0 if accel_unit == "g" else 1.0)
+    gyro = a[:, list(gyro_columns)] * (math.pi / 180.0 if gyro_unit == "dps" else 1.0)
+    index = [_AXIS[x][0] for x in axes]
+    sign = np.array([_AXIS[x][1] for x in axes])
+    if sorted(index) != [0, 1, 2]:
+        raise InputError(f"axes {list(axes)} do not name x, y and z once each", key="axes")
+    return ImuRates(path, time, gyro[:, index] * sign, acc[:, index] * sign)

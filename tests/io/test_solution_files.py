@@ -45,7 +45,10 @@ def test_rtklib_pos_lat_lon_height_with_velocity(tmp_path):
 def test_rtklib_pos_ecef_matches_llh(tmp_path):
     lla = np.array([[math.radians(40.1), math.radians(-105.1), 1600.0]])
     r = earth.ecef_from_llh(*lla[0])
-    head = "%  GPST x-ecef(m) y-ecef(m) z-ecef(m) Q ns sdx(m) sdy(m) sdz(m) sdxy(m) sdyz(m) sdzx(m) age(s) ratio\n"
+    head = (
+        "%  GPST x-ecef(m) y-ecef(m) z-ecef(m) Q ns sdx(m) sdy(m) sdz(m) sdxy(m) sdyz(m)"
+        " sdzx(m) age(s) ratio\n"
+    )
     rows = [
         f"2367 243258.{k}00 {r[0]:.4f} {r[1]:.4f} {r[2]:.4f} 1 12 0.01 0.02 0.03 0 0 0 0 0\n"
         for k in (0, 5)
@@ -63,7 +66,7 @@ def test_real_rtklib_file_reads():
     """The lc-drive RTK solution (see data README): 2,197 epochs at 4 Hz, 2,189 fixed."""
     from pathlib import Path
 
-    path = Path(__file__).parents[2] / "data" / "lc-drive" / "gnss_1934_sf.pos"
+    path = Path(__file__).parents[2] / "data" / "lc-drive" / "gnss_1934_sf.pos.gz"
     if not path.exists():
         pytest.skip("lc-drive data not packaged")
     sol = sf.read_rtklib_pos(path)

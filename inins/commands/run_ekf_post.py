@@ -1,0 +1,375 @@
+"""``inins run-ekf`` with a ``post:`` section: a recorded drive post-processed loosely coupled.
+
+1. Read the GNSS solution file (:mod:`inins.io.solution_files`), keep the quality
+   flags asked for, scale their sigmas; read the IMU log of rates.
+2. Time mapping (:mod:`inins.ekf.timeoffset`): the IMU yaw rate against the GNSS
+   course rate in windows, a line ``t_gnss = t_imu + a + b (t_imu - t_ref)``; the
+   filter's ``dt_g`` state the residual constant offset.
+3. Resample the rates to a uniform grid on the GNSS axis (linear interpolation of
+   the rates at each interval's midpoint, times the interval).
+4. Level on the static window, heading from the first motion
+   (:func:`inins.ekf.sources.velocity_heading`).
+5. The loosely coupled forward run (:func:`inins.ekf.loose.run_loose`) with the
+   outage windows coasted, its store in temporary memory maps
+   (:func:`inins.io.scratch.memmap_store`); RTS smoothing (:mod:`inins.ekf.smoother`).
+6. The outage protocol (:mod:`inins.ekf.outages`): antenna positions of the forward
+   and smoothed solutions against the reference epochs (quality flag
+   ``reference_q`` of the file, by default the RTK-fixed ones).
+"""
+
+import math
+import time as _time
+
+import numpy as np
+
+from inins.core import earth, error_model, rotation, strapdown
+from inins.core.units import DEG, UG
+from inins.ekf import loose, outages, smoother, sources, timeoffset
+from inins.exceptions import InputError
+from inins.io import scratch
+from inins.io import solution_files as sf
+from inins.results import CommandResult, Series, format_table
+
+RESULT_NAMES = (
+    "post_epochs",
+    "post_gnss_used",
+    "post_outages",
+    "post_fwd_drift_hor_rms_m",
+    "post_fwd_drift_3d_rms_m",
+    "post_sm_drift_hor_rms_m",
+    "post_sm_drift_3d_rms_m",
+    "post_fwd_drift_hor_max_m",
+    "post_sm_drift_hor_max_m",
+    "post_time_offset_fit_s",
+    "post_time_offset_fit_sigma_s",
+    "post_clock_rate_ppm",
+    "post_clock_rate_sigma_ppm",
+    "post_time_offset_state_s",
+    "post_time_offset_state_sigma_s",
+    "post_initial_heading_deg",
+    "post_nis_pos_mean",
+    "post_accel_bias_x_ug",
+    "post_accel_bias_y_ug",
+    "post_accel_bias_z_ug",
+    "post_gyro_bias_x_dph",
+    "post_gyro_bias_y_dph",
+    "post_gyro_bias_z_dph",
+    "post_filter_wall_s",
+    "post_smoother_wall_s",
+)
+"""Results of a ``post:`` run (null where not applicable)."""
+
+
+def _read_gnss(g):
+    if g.format == "rtklib":
+        sol = sf.read_rtklib_pos(g.file)
+    else:
+        sol = sf.read_solution_csv(g.file, g.columns, g.angle_unit, g.time_scale_s)
+    return sol
+
+
+def _uniform(tig, rates, dt, t0, t1):
+    """Increments (n, 3) on ``[t0 + k dt, t0 + (k + 1) dt]`` from rates at times ``tig``."""
+    grid = np.arange(t0, t1 - 0.5 * dt, dt)
+    mid = grid + 0.5 * dt
+    return np.stack([np.interp(mid, tig, rates[:, i]) for i in range(3)], -1) * dt, grid
+
+
+def _antenna(quat, lla, lever):
+    lever_n = rotation.mat_from_quat(quat) @ lever
+    return error_model.lla_offset(lla, lever_n)
+
+
+def run(scenario, seed, *, sink=None, progress=None):
+    """Post-process the scenario's drive (module docstring)."""
+    p = scenario.post
+    g = p.gnss
+    full = _read_gnss(g)
+    keep = np.isin(full.q, g.q_flags)
+    if not keep.any():
+        raise InputError(
+            f"no epoch with a quality flag in {g.q_flags}",
+            source=str(g.file),
+            key="post.gnss.q_flags",
+        )
+    sol = full.select(keep)
+    scale = np.array([g.sigma_scale.get(int(q), 1.0) for q in sol.q])
+    imu = sf.read_imu_rates_csv(
+        p.imu.file,
+        p.imu.accel_columns,
+        p.imu.gyro_columns,
+        p.imu.time_column,
+        p.imu.time_scale_s,
+        p.imu.accel_unit,
+        p.imu.gyro_unit,
+        p.imu.axes,
+    )
+    t_g0 = float(full.time[0])
+    tg = sol.time - t_g0
+    ti = imu.time - imu.time[0]
+    # 2. time mapping
+    fit = None
+    if p.time.fit == "turn_rate":
+        ecef = earth.ecef_from_llh(sol.lla[:, 0], sol.lla[:, 1], sol.lla[:, 2])
+        m_en = earth.mat_en(sol.lla[0, 0], sol.lla[0, 1])
+        vel = np.gradient((ecef - ecef[0]) @ m_en, tg, axis=0)
+        course = timeoffset.course_rate(tg, vel, min_speed=p.motion_speed_mps)
+        start = p.static_window_s[1]
+        w = p.time.window_s
+        windows = [(a, a + w) for a in np.arange(start, tg[-1] - w + 1e-9, w)]
+        if not windows:
+            raise InputError(
+                "the drive is shorter than one time-fit window", key="post.time.window_s"
+            )
+        fit = timeoffset.fit_clock(
+            ti, imu.gyro[:, 2], tg, course, windows, search=(-p.time.search_s, p.time.search_s)
+        )
+        tig = fit.to_gnss(ti)
+    else:
+        tig = ti + p.time.offset_s
+    # 3. uniform grid where IMU and GNSS overlap
+    dt = 1.0 / p.imu.rate_hz
+    t0 = max(math.ceil(tig[0] / dt) * dt, float(tg[0]))
+    t1 = min(float(tig[-1]), float(tg[-1]))
+    if not t1 > t0 + 10.0:
+        raise InputError(
+            f"IMU ({tig[0]:.1f}..{tig[-1]:.1f} s) and GNSS ({tg[0]:.1f}..{tg[-1]:.1f} s) "
+            "overlap by less than 10 s (GNSS time from its first epoch)",
+            source=str(p.imu.file),
+            key="post.time",
+        )
+    dth, grid = _uniform(tig, imu.gyro, dt, t0, t1)
+    dvv, _ = _uniform(tig, imu.accel, dt, t0, t1)
+    # 4. initial attitude
+    first = int(np.searchsorted(tg, t0))
+    lla0 = sol.lla[min(first, len(tg) - 1)]
+    sw = (t0 + p.static_window_s[0], t0 + p.static_window_s[1])
+    init = sources.velocity_heading(
+        grid + dt, dth, dvv, dt, lla0, sw, tg, sol.vel_ned, p.motion_speed_mps
+    )
+    lever = np.asarray(p.lever_arm_m, float)
+    lla_imu = error_model.lla_offset(lla0, -(init.mat_nb @ lever))
+    nav0 = strapdown.NavState.from_attitude(init.mat_nb, np.zeros(3), lla_imu)
+    # 5. outages and the run
+    o = p.outages
+    t_end = float(grid[-1] + dt)
+    wins = []
+    if o.every_s is not None:
+        first_s = None if o.first_s is None else t0 + o.first_s
+        wins += outages.periodic_windows(
+            t0, t_end, o.every_s, o.length_s, first_s, key="post.outages"
+        )
+    if o.windows:
+        wins += outages.check_windows(
+            [(t0 + a, t0 + b) for a, b in o.windows], t0, t_end, key="post.outages.windows"
+        )
+    wins = sorted(wins)
+    n = p.noise
+    k = n.factor
+    s0 = p.initial_sigma
+    sigma0 = [s0.position_m] * 3 + [s0.velocity_mps] * 3
+    sigma0 += [s0.tilt_deg * DEG] * 2 + [s0.heading_deg * DEG]
+    sigma0 += [s0.accel_bias_ug * UG] * 3 + [s0.gyro_bias_dps * DEG] * 3
+    sigma0 += [1e-3] * 9 if p.misalignments else []
+    cfg = loose.LooseConfig(
+        dt=dt,
+        misalignments=p.misalignments,
+        feedback=p.feedback,
+        lever_arm=lever,
+        arw=np.full(3, k * n.arw_dps_rthz * DEG),
+        vrw=np.full(3, k * n.vrw_ug_rthz * UG),
+        gyro_bias_rw=np.full(3, k * n.gyro_bias_walk_dps_rthz * DEG),
+        accel_bias_rw=np.full(3, k * n.accel_bias_walk_ug_rthz * UG),
+        sigma0=np.array(sigma0),
+        time_offset=p.time.state,
+        time_offset_sigma=p.time.state_sigma_s,
+        gate_probability=p.gate_probability,
+    )
+    use_vel = g.use_velocity
+    solution = loose.GnssSolution(
+        tg,
+        sol.lla,
+        sol.sigma_ned * scale[:, None],
+        sol.vel_ned if use_vel else None,
+        sol.sigma_vel * scale[:, None] if use_vel else None,
+    )
+    with scratch.memmap_store() as store:
+        tick = _time.perf_counter()
+        fwd = loose.run_loose(
+            cfg, nav0, t0, lambda a, b: (dth[a:b], dvv[a:b]), solution, outages=wins, store=store
+        )
+        wall_f = _time.perf_counter() - tick
+        tick = _time.perf_counter()
+        sm = smoother.smooth(fwd, store) if p.smoother == "rts" else None
+        wall_s = _time.perf_counter() - tick if sm is not None else None
+        quat, vel_f, lla_f, sens, sig = (np.array(a) for a in fwd.output())
+        time = np.array(fwd.time)
+        x_last, P_last = np.array(fwd.x[-1]), np.array(fwd.P[-1])
+        innov, var = np.array(fwd.innovation), np.array(fwd.variance)
+        if sm is not None:
+            sq, sv, sl = np.array(sm.quat), np.array(sm.vel), np.array(sm.lla)
+            ssens, ssig = np.array(sm.sensors), np.array(sm.sigma)
+            s0_td = float(sm.s[0, -1]) if p.time.state else None
+            s0_td_sig = float(sm.sigma[0, -1]) if p.time.state else None
+    # 6. scoring against the reference epochs
+    ref_sel = full.q == p.reference_q
+    rt = full.time[ref_sel] - t_g0
+    idx = np.searchsorted(rt, time)
+    idx = np.minimum(idx, max(rt.size - 1, 0))
+    hit = (rt.size > 0) & (np.abs(rt[idx] - time) < 1e-6) if rt.size else np.zeros(time.size, bool)
+    scores = {}
+    if wins:
+        for a, b in wins:
+            if not np.any(hit & (time >= a) & (time < b)):
+                raise InputError(
+                    f"the reference (quality {p.reference_q}) has no epoch in the outage "
+                    f"[{a - t0:g}, {b - t0:g}) s: it does not cover the run",
+                    source=str(g.file),
+                    key="post.reference_q",
+                )
+        ref = full.lla[ref_sel][idx[hit]]
+        mats = rotation.mat_from_quat(quat)
+        scores["fwd"] = outages.score(
+            time[hit], _antenna(quat, lla_f, lever)[hit], None, ref, None, wins
+        )
+        if sm is not None:
+            scores["sm"] = outages.score(
+                time[hit], _antenna(sq, sl, lever)[hit], None, ref, None, wins
+            )
+        del mats
+    td = cfg.n_base if p.time.state else None
+    out = dict.fromkeys(RESULT_NAMES)
+    nis = innov[:, :3] ** 2 / var[:, :3]
+    out.update(
+        post_epochs=int(time.size),
+        post_gnss_used=int(np.sum(fwd.used)),
+        post_outages=len(wins),
+        post_initial_heading_deg=float(init.heading / DEG),
+        post_nis_pos_mean=float(np.nanmean(nis)) if np.isfinite(nis).any() else None,
+        post_filter_wall_s=wall_f,
+        post_smoother_wall_s=wall_s,
+    )
+    final = ssens[-1] if sm is not None else sens[-1]
+    for i, axis in enumerate("xyz"):
+        out[f"post_accel_bias_{axis}_ug"] = float(final[i] / UG)
+        out[f"post_gyro_bias_{axis}_dph"] = float(final[3 + i] / DEG * 3600.0)
+    if fit is not None:
+        out.update(
+            post_time_offset_fit_s=fit.offset,
+            post_time_offset_fit_sigma_s=_null(fit.offset_sigma),
+            post_clock_rate_ppm=fit.rate * 1e6,
+            post_clock_rate_sigma_ppm=_null(fit.rate_sigma * 1e6),
+        )
+    if td is not None:
+        est, sd = float(x_last[td]), float(math.sqrt(P_last[td, td]))
+        if sm is not None:
+            est, sd = s0_td, s0_td_sig
+        out.update(post_time_offset_state_s=est, post_time_offset_state_sigma_s=sd)
+    if "fwd" in scores:
+        f = scores["fwd"]
+        out.update(
+            post_fwd_drift_hor_rms_m=f.rms_horizontal,
+            post_fwd_drift_3d_rms_m=f.rms_3d,
+            post_fwd_drift_hor_max_m=float(f.max_horizontal.max()),
+        )
+    if "sm" in scores:
+        s = scores["sm"]
+        out.update(
+            post_sm_drift_hor_rms_m=s.rms_horizontal,
+            post_sm_drift_3d_rms_m=s.rms_3d,
+            post_sm_drift_hor_max_m=float(s.max_horizontal.max()),
+        )
+    datasets = {
+        "post/time": Series(time, "s", "", "filter epoch, GNSS time from the file's first epoch"),
+        "post/forward/lla": Series(lla_f, "rad, rad, m", "", "forward solution (IMU)"),
+        "post/forward/vel_n": Series(vel_f, "m/s", "n", "forward velocity"),
+        "post/forward/quat_nb": Series(quat, "1", "nb", "forward attitude"),
+        "post/forward/sigma": Series(sig, "SI", "", "forward 1-sigma of each state"),
+        "post/forward/sensors": Series(sens, "m/s^2, rad/s", "b", "forward sensor estimates"),
+        "post/innovation": Series(innov, "m, m/s", "n", "pos N E D, vel N E D innovations"),
+        "post/innovation_variance": Series(var, "m^2, m^2/s^2", "n", "their variances"),
+    }
+    if sm is not None:
+        datasets |= {
+            "post/smoothed/lla": Series(sl, "rad, rad, m", "", "smoothed solution (IMU)"),
+            "post/smoothed/vel_n": Series(sv, "m/s", "n", "smoothed velocity"),
+            "post/smoothed/quat_nb": Series(sq, "1", "nb", "smoothed attitude"),
+            "post/smoothed/sigma": Series(ssig, "SI", "", "smoothed 1-sigma of each state"),
+            "post/smoothed/sensors": Series(ssens, "m/s^2, rad/s", "b", "smoothed sensors"),
+        }
+    for key, sc in scores.items():
+        datasets[f"post/outages/{key}/window"] = Series(sc.window - t0, "s", "", "from run start")
+        datasets[f"post/outages/{key}/max_horizontal"] = Series(sc.max_horizontal, "m", "", "")
+        datasets[f"post/outages/{key}/max_3d"] = Series(sc.max_3d, "m", "", "")
+    report = _report(p, out, scores, fit, t0, wins)
+    return CommandResult(
+        command="run-ekf",
+        results=out,
+        datasets=datasets,
+        attrs={"post": {"states": cfg.n, "coupling_mode": p.coupling_mode}},
+        report=report,
+    )
+
+
+def _null(v):
+    return None if v is None or not np.isfinite(v) else float(v)
+
+
+def _fmt(v, spec=".3g"):
+    return "n/a" if v is None else format(v, spec)
+
+
+def _report(p, out, scores, fit, t0, wins):
+    lines = [
+        f"loosely coupled post-processing of {p.gnss.file.name} + {p.imu.file.name}: "
+        f"{out['post_epochs']} epochs, {out['post_gnss_used']} GNSS updates, "
+        f"{'24' if p.misalignments else '15'} states"
+        f"{' + time offset' if p.time.state else ''}, {'FB' if p.feedback else 'FF'}, "
+        f"smoother {p.smoother}",
+        f"filter {out['post_filter_wall_s']:.3g} s, smoother {_fmt(out['post_smoother_wall_s'])} s"
+        " (first run includes JIT compilation); position NIS mean "
+        f"{_fmt(out['post_nis_pos_mean'])}",
+        f"initial heading {out['post_initial_heading_deg']:.2f} deg (from the first motion)",
+    ]
+    if fit is not None:
+        lines.append(
+            f"time mapping (turn-rate fit, {len(fit.lags)} windows): GNSS = IMU + "
+            f"{fit.offset:.4f} s (1-sigma {_fmt(out['post_time_offset_fit_sigma_s'])} s), rate "
+            f"{fit.rate * 1e6:.0f} ppm (1-sigma {_fmt(out['post_clock_rate_sigma_ppm'], '.0f')})"
+        )
+    if out["post_time_offset_state_s"] is not None:
+        lines.append(
+            f"residual time-offset state: {1e3 * out['post_time_offset_state_s']:.1f} ms "
+            f"+- {1e3 * out['post_time_offset_state_sigma_s']:.2f} ms (a solution tagged t "
+            "was taken at IMU time t + offset)"
+        )
+    lines.append(
+        "sensor estimates: accel bias "
+        + ", ".join(f"{out[f'post_accel_bias_{a}_ug']:.0f}" for a in "xyz")
+        + " ug; gyro bias "
+        + ", ".join(f"{out[f'post_gyro_bias_{a}_dph']:.1f}" for a in "xyz")
+        + " deg/h"
+    )
+    if scores:
+        rows = []
+        f = scores["fwd"]
+        sm = scores.get("sm")
+        for i, (a, b) in enumerate(f.window):
+            rows.append(
+                [
+                    f"{a - t0:.0f}-{b - t0:.0f}",
+                    float(f.max_horizontal[i]),
+                    float(f.max_3d[i]),
+                    float(sm.max_horizontal[i]) if sm else math.nan,
+                    float(sm.max_3d[i]) if sm else math.nan,
+                ]
+            )
+        lines += [
+            "",
+            f"outages ({len(wins)}), max drift against the reference epochs (Q={p.reference_q}), m",
+            format_table(rows, ["window s", "fwd hor", "fwd 3D", "sm hor", "sm 3D"]),
+            f"RMS of the maxima: forward {out['post_fwd_drift_hor_rms_m']:.3g} m horizontal, "
+            f"{out['post_fwd_drift_3d_rms_m']:.3g} m 3D; smoothed "
+            f"{_fmt(out['post_sm_drift_hor_rms_m'])} m, {_fmt(out['post_sm_drift_3d_rms_m'])} m",
+        ]
+    return "\n".join(lines)
