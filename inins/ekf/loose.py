@@ -47,8 +47,8 @@ from dataclasses import dataclass, field
 import numpy as np
 from scipy import stats
 
-from inins.core import earth, jit, strapdown
-from inins.ekf import kernels, step
+from inins.core import earth, jit, rotation, strapdown
+from inins.ekf import aiding, kernels, step
 from inins.exceptions import InputError
 
 BLOCK = 512
@@ -82,6 +82,12 @@ class LooseConfig:
         Chi-square(1) gate of each scalar row.
     window : int
         Samples averaged for ``f_b``, ``omega_b`` of the model and the lever-arm rate.
+    nhc_sigma, zupt_sigma, zaru_sigma : float
+        Vehicle aiding 1-sigma (m/s, m/s, rad/s), 0 = off (:mod:`inins.ekf.aiding`).
+    mounting : ndarray (3,)
+        Roll, pitch, yaw (rad) of the IMU body in the vehicle axes (``C_vb`` for the NHC).
+    stationary_accel, stationary_gyro, stationary_window : float
+        Stationary detector: ``|f|`` std (m/s^2), mean ``|omega|`` (rad/s), window (s).
     """
 
     dt: float
@@ -97,6 +103,13 @@ class LooseConfig:
     time_offset_sigma: float = 0.5
     gate_probability: float = 0.9999
     window: int = 1
+    nhc_sigma: float = 0.0
+    zupt_sigma: float = 0.0
+    zaru_sigma: float = 0.0
+    mounting: np.ndarray = field(default_factory=lambda: np.zeros(3))
+    stationary_accel: float = 0.05
+    stationary_gyro: float = 0.0087266
+    stationary_window: float = 0.5
 
     def __post_init__(self):
         if not (math.isfinite(self.dt) and 0.0 < self.dt <= 0.1):
@@ -116,6 +129,11 @@ class LooseConfig:
         object.__setattr__(self, "sigma0", sig)
         if not 0.5 < self.gate_probability <= 1.0:
             raise InputError("gate probability must be in (0.5, 1]", key="gate_probability")
+        for name in ("nhc_sigma", "zupt_sigma", "zaru_sigma"):
+            if not 0.0 <= getattr(self, name) < 100.0:
+                raise InputError("aiding sigma must be in [0, 100) (0: off)", key=name)
+        mount = np.asarray(self.mounting, float).reshape(3)
+        object.__setattr__(self, "mounting", mount)
         if not 0.0 < self.time_offset_sigma < 100.0:
             raise InputError("time offset sigma must be in (0, 100) s", key="time_offset_sigma")
 
@@ -138,6 +156,10 @@ class LooseConfig:
         """Diagonal ``P0`` (n, n)."""
         s = list(self.sigma0) + ([self.time_offset_sigma] if self.time_offset else [])
         return np.diag(np.square(s))
+
+    def c_vb(self):
+        """IMU body to vehicle axes (3, 3) from the mounting roll, pitch, yaw."""
+        return rotation.mat_from_euler(*self.mounting)
 
     def noise(self):
         """Densities in the order of :func:`inins.ekf.step.propagate` (clock PSDs zero)."""
@@ -229,6 +251,9 @@ def _block(
     ep_vel,
     ep_var_vel,
     ep_use,
+    ep_stat,
+    aid_sig,
+    c_vb,
     lever,
     noise,
     keep,
@@ -249,6 +274,7 @@ def _block(
     o_y,
     o_s,
     o_acc,
+    o_aid,
 ):
     """Run the epochs of one block (module docstring); state arrays updated in place.
 
@@ -376,6 +402,18 @@ def _block(
                 o_y[k, i] = yy[i]
                 o_s[k, i] = ss[i]
                 o_acc[k, i] = acc[i]
+        if aid_sig[0] > 0.0 or ep_stat[k]:
+            omega = np.zeros(3)
+            for j in range(m):
+                for i in range(3):
+                    omega[i] += dth[j, i]
+            if m > 0:
+                omega /= m * dt
+            aiding.vehicle_update(
+                x, P, quat, vel, lla, omega, c_vb, ep_stat[k], aid_sig, threshold, o_aid[k]
+            )
+        else:
+            o_aid[k].fill(False)
         o_x[k] = x
         o_r[k].fill(0.0)
         if feedback:
@@ -412,7 +450,8 @@ class LooseRun:
     ``time`` (m,) s; ``quat`` (m, 4), ``vel`` (m, 3), ``lla`` (m, 3): ``N_k+``;
     ``comp`` (m, 15) sensor compensation; ``x``, ``r`` (m, n); ``P``, ``P_pred``,
     ``Phi`` (m, n, n); ``innovation``, ``variance`` (m, 6), ``accepted`` (m, 6) per
-    pos N/E/D, vel N/E/D row; ``used`` (m,) bool.
+    pos N/E/D, vel N/E/D row; ``used`` (m,) bool; ``aided`` (m, 8) accepted vehicle
+    rows (NHC y, z, ZUPT N, E, D, ZARU x, y, z); ``stationary`` (m,) the detector's flag.
     """
 
     config: LooseConfig
@@ -430,6 +469,8 @@ class LooseRun:
     variance: np.ndarray
     accepted: np.ndarray
     used: np.ndarray
+    aided: np.ndarray
+    stationary: np.ndarray
 
     def output(self):
         """Forward navigation output ``N+ (-) (x - r)`` (quat, vel, lla), sensor estimates
@@ -461,7 +502,9 @@ def _correct_all(quat, vel, lla, dx, oq, ov, ol):
         step.correct(quat[k], vel[k], lla[k], dx[k], oq[k], ov[k], ol[k])
 
 
-def run_loose(config, initial, t0, imu, solution, outages=(), store=default_store):
+def run_loose(
+    config, initial, t0, imu, solution, outages=(), store=default_store, stationary_windows=None
+):
     """Forward loosely coupled run over a whole IMU record and its GNSS solutions.
 
     Parameters
@@ -479,6 +522,9 @@ def run_loose(config, initial, t0, imu, solution, outages=(), store=default_stor
     outages : sequence of (float, float)
         Windows ``[a, b)`` (s) whose epochs are coasted (not used).
     store : callable ``(name, shape) -> ndarray``
+    stationary_windows : sequence of (float, float), optional
+        Where the vehicle stands (s): ZUPT/ZARU epochs. None: the stationary detector
+        of :func:`inins.ekf.aiding.stationary` (when ZUPT or ZARU is on).
 
     Returns
     -------
@@ -518,6 +564,15 @@ def run_loose(config, initial, t0, imu, solution, outages=(), store=default_stor
     }
     out = {k: store(k, s) for k, s in names.items()}
     out["accepted"] = store("accepted", (m, 6), np.bool_)
+    out["aided"] = store("aided", (m, 8), np.bool_)
+    out["stationary"] = store("stationary", (m,), np.bool_)
+    aid_sig = np.array([cfg.nhc_sigma, cfg.zupt_sigma, cfg.zaru_sigma])
+    c_vb = cfg.c_vb()
+    want_stat = cfg.zupt_sigma > 0 or cfg.zaru_sigma > 0
+    if stationary_windows is not None:
+        stat_all = np.zeros(m, np.bool_)
+        for a, b in stationary_windows:
+            stat_all |= (time >= a) & (time < b)
     quat, velo, lla = initial.quat_nb.copy(), initial.vel_n.copy(), initial.lla.copy()
     prev = np.concatenate([initial.dtheta_prev, initial.dv_prev])
     count = np.array([initial.count], np.int64)
@@ -539,6 +594,21 @@ def run_loose(config, initial, t0, imu, solution, outages=(), store=default_stor
         state[1] = t0 + sample0 * cfg.dt
         buf = {k: np.empty((hi - lo, *s[1:])) for k, s in names.items()}
         acc = np.zeros((hi - lo, 6), np.bool_)
+        aided = np.zeros((hi - lo, 8), np.bool_)
+        if not want_stat:
+            stat = np.zeros(hi - lo, np.bool_)
+        elif stationary_windows is not None:
+            stat = stat_all[lo:hi]
+        else:
+            stat = aiding.stationary(
+                dtheta,
+                dv,
+                cfg.dt,
+                end[lo:hi] - sample0,
+                max(round(cfg.stationary_window / cfg.dt), 2),
+                cfg.stationary_accel,
+                cfg.stationary_gyro,
+            )
         _block(
             np.ascontiguousarray(dtheta, float),
             np.ascontiguousarray(dv, float),
@@ -559,6 +629,9 @@ def run_loose(config, initial, t0, imu, solution, outages=(), store=default_stor
             np.ascontiguousarray(vel[lo:hi]),
             np.ascontiguousarray(var_vel[lo:hi]),
             use[lo:hi],
+            stat,
+            aid_sig,
+            c_vb,
             lever,
             noise,
             keep,
@@ -579,7 +652,10 @@ def run_loose(config, initial, t0, imu, solution, outages=(), store=default_stor
             buf["innovation"],
             buf["variance"],
             acc,
+            aided,
         )
+        out["aided"][lo:hi] = aided
+        out["stationary"][lo:hi] = stat
         for k, v in buf.items():
             out[k][lo:hi] = v
         out["accepted"][lo:hi] = acc
