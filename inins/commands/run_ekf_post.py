@@ -54,6 +54,7 @@ RESULT_NAMES = (
     "post_gyro_bias_x_dph",
     "post_gyro_bias_y_dph",
     "post_gyro_bias_z_dph",
+    "post_stationary_epochs",
     "post_filter_wall_s",
     "post_smoother_wall_s",
 )
@@ -184,20 +185,38 @@ def run(scenario, seed, *, sink=None, progress=None):
         time_offset=p.time.state,
         time_offset_sigma=p.time.state_sigma_s,
         gate_probability=p.gate_probability,
+        nhc_sigma=p.aiding.nhc_sigma_mps,
+        zupt_sigma=p.aiding.zupt_sigma_mps,
+        zaru_sigma=p.aiding.zaru_sigma_dps * DEG,
+        mounting=np.radians(p.aiding.mounting_deg),
+        stationary_accel=p.aiding.stationary.accel_mps2,
+        stationary_gyro=p.aiding.stationary.gyro_dps * DEG,
+        stationary_window=p.aiding.stationary.window_s,
     )
+    stat_w = p.aiding.stationary_windows_s
+    stat_w = None if stat_w is None else [(t0 + a, t0 + b) for a, b in stat_w]
     use_vel = g.use_velocity
+    inside = (tg >= t0 - 1e-9) & (tg <= t_end + 1e-9)  # epochs the IMU covers
     solution = loose.GnssSolution(
-        tg,
-        sol.lla,
-        sol.sigma_ned * scale[:, None],
-        sol.vel_ned if use_vel else None,
-        sol.sigma_vel * scale[:, None] if use_vel else None,
+        tg[inside],
+        sol.lla[inside],
+        (sol.sigma_ned * scale[:, None])[inside],
+        sol.vel_ned[inside] if use_vel else None,
+        (sol.sigma_vel * scale[:, None])[inside] if use_vel else None,
     )
     with scratch.memmap_store() as store:
         tick = _time.perf_counter()
         fwd = loose.run_loose(
-            cfg, nav0, t0, lambda a, b: (dth[a:b], dvv[a:b]), solution, outages=wins, store=store
+            cfg,
+            nav0,
+            t0,
+            lambda a, b: (dth[a:b], dvv[a:b]),
+            solution,
+            outages=wins,
+            store=store,
+            stationary_windows=stat_w,
         )
+        n_stat = int(np.sum(fwd.stationary))
         wall_f = _time.perf_counter() - tick
         tick = _time.perf_counter()
         sm = smoother.smooth(fwd, store) if p.smoother == "rts" else None
@@ -247,6 +266,7 @@ def run(scenario, seed, *, sink=None, progress=None):
         post_initial_heading_deg=float(init.heading / DEG),
         post_nis_pos_mean=float(np.nanmean(nis)) if np.isfinite(nis).any() else None,
         post_filter_wall_s=wall_f,
+        post_stationary_epochs=n_stat,
         post_smoother_wall_s=wall_s,
     )
     final = ssens[-1] if sm is not None else sens[-1]
@@ -315,6 +335,10 @@ def _null(v):
     return None if v is None or not np.isfinite(v) else float(v)
 
 
+def _sigma(v, unit):
+    return "off" if v <= 0 else f"{v:g} {unit}"
+
+
 def _fmt(v, spec=".3g"):
     return "n/a" if v is None else format(v, spec)
 
@@ -330,6 +354,10 @@ def _report(p, out, scores, fit, t0, wins):
         " (first run includes JIT compilation); position NIS mean "
         f"{_fmt(out['post_nis_pos_mean'])}",
         f"initial heading {out['post_initial_heading_deg']:.2f} deg (from the first motion)",
+        f"aiding: NHC {_sigma(p.aiding.nhc_sigma_mps, 'm/s')}, ZUPT "
+        f"{_sigma(p.aiding.zupt_sigma_mps, 'm/s')}, ZARU {_sigma(p.aiding.zaru_sigma_dps, 'deg/s')}"
+        f"; {out['post_stationary_epochs']} stationary epochs; mounting "
+        f"{list(p.aiding.mounting_deg)} deg",
     ]
     if fit is not None:
         lines.append(

@@ -19,8 +19,9 @@ Measurements at a filter epoch, with the states as errors (estimate minus true,
 
 Stationary detector (:func:`stationary`): over the ``window`` samples up to each
 epoch, the RMS deviation of the specific-force vector from its window mean,
-``sqrt(mean |f - mean f|^2)``, below ``accel_threshold`` (m/s^2), and the mean
-angular-rate magnitude ``|omega|`` below ``gyro_threshold`` (rad/s). Defaults
+``sqrt(mean |f - mean f|^2)``, below ``accel_threshold`` (m/s^2), and the
+magnitude of the window-mean angular rate ``|mean omega|`` below ``gyro_threshold``
+(rad/s; the mean averages vibration and noise down, a turn stays). Defaults
 0.05 m/s^2 and 0.5 deg/s over 0.5 s. It cannot tell rest from motion at constant
 velocity without vibration (a simulated drive on a straight): there, give the
 stationary windows instead; a real car's vibration while rolling exceeds it.
@@ -105,14 +106,14 @@ def stationary(dtheta, dv, dt, ends, window, accel_threshold=0.05, gyro_threshol
     epoch; ``window`` samples before each end; thresholds m/s^2 and rad/s (0.5 deg/s).
     Returns bool (m,)."""
     f = dv / dt
-    w = np.linalg.norm(dtheta, axis=1) / dt
+    w = dtheta / dt
     c1 = np.concatenate([np.zeros((1, 3)), np.cumsum(f, axis=0)])
     c2 = np.concatenate([[0.0], np.cumsum(np.sum(f * f, axis=1))])
-    cw = np.concatenate([[0.0], np.cumsum(w)])
+    cw = np.concatenate([np.zeros((1, 3)), np.cumsum(w, axis=0)])
     hi = np.clip(np.asarray(ends, np.int64), 0, f.shape[0])
     lo = np.maximum(hi - window, 0)
     cnt = np.maximum(hi - lo, 1)
     mean = (c1[hi] - c1[lo]) / cnt[:, None]
     var = np.maximum((c2[hi] - c2[lo]) / cnt - np.sum(mean**2, axis=1), 0.0)
-    wmean = (cw[hi] - cw[lo]) / cnt
+    wmean = np.linalg.norm((cw[hi] - cw[lo]) / cnt[:, None], axis=1)
     return (hi - lo >= window) & (np.sqrt(var) < accel_threshold) & (wmean < gyro_threshold)

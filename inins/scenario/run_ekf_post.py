@@ -134,6 +134,37 @@ class PostSigma(Section):
     gyro_bias_dps: PositiveFloat = Field(0.1, description="gyro bias (deg/s)")
 
 
+class Stationary(Section):
+    """Stationary detector on the IMU (inins.ekf.aiding): both below their thresholds."""
+
+    accel_mps2: PositiveFloat = Field(
+        0.05, description="RMS deviation of the specific force from its window mean (m/s^2)"
+    )
+    gyro_dps: PositiveFloat = Field(0.5, description="mean angular-rate magnitude (deg/s)")
+    window_s: PositiveFloat = Field(0.5, description="window before each epoch (s)")
+
+
+class Aiding(Section):
+    """Vehicle constraints (0 = off)."""
+
+    nhc_sigma_mps: NonNegFloat = Field(
+        0.0, le=10.0, description="NHC: lateral and vertical vehicle velocity 1-sigma (m/s)"
+    )
+    zupt_sigma_mps: NonNegFloat = Field(
+        0.0, le=10.0, description="ZUPT while stationary: velocity 1-sigma (m/s)"
+    )
+    zaru_sigma_dps: NonNegFloat = Field(
+        0.0, le=10.0, description="ZARU while stationary: angular-rate 1-sigma (deg/s)"
+    )
+    mounting_deg: tuple[float, float, float] = Field(
+        (0.0, 0.0, 0.0), description="roll, pitch, yaw of the IMU body in the vehicle axes (deg)"
+    )
+    stationary: Stationary = Field(default_factory=Stationary)
+    stationary_windows_s: list[tuple[float, float]] | None = Field(
+        None, description="stationary windows (s from the run start) instead of the detector"
+    )
+
+
 class PostProcess(Section):
     """Post-processing of a recorded drive with the loosely coupled filter."""
 
@@ -160,6 +191,7 @@ class PostProcess(Section):
         1.0, gt=0.5, le=1.0, description="chi-square(1) gate per scalar row (1: no gate)"
     )
     smoother: Literal["rts", "none"] = Field("rts", description="backward RTS pass")
+    aiding: Aiding = Field(default_factory=Aiding)
     outages: Outages = Field(default_factory=Outages)
     reference_q: int = Field(
         1, description="quality flag of the epochs the outages are scored against (1: fix)"
