@@ -24,7 +24,7 @@ HERE = Path(__file__).parent
 ROOT = HERE.parent
 SLOW_MODULES = ("bench_compile",)
 """Left out by ``--quick``."""
-QUICK_AWARE = ("bench_ekf", "bench_sweep", "bench_imu")
+QUICK_AWARE = ("bench_ekf", "bench_sweep", "bench_imu", "bench_ekf_post")
 """Modules whose ``run(quick=True)`` drops their long parts (the 4-h EKF stream, the
 sweep throughput runs, the chunked sensor-error pass)."""
 TARGETS = (  # (figure path, relation, target, what)
@@ -54,6 +54,8 @@ TARGETS = (  # (figure path, relation, target, what)
     ("bench_sweep.overhead.overhead_ms", "<", 20.0, "sweep overhead per point, ms"),
     ("bench_sweep.throughput.speedup_2_workers", ">=", 1.8, "sweep 2 workers / 1 worker"),
     ("bench_sweep.throughput.dask_over_local", ">=", 0.8, "sweep Dask loopback / local"),
+    ("bench_ekf_post.hour_loose_total_s", "<", 0.5, "loose + RTS one hour, s"),
+    ("bench_ekf_post.stream_4h_peak_rss_mb", "<", 1024.0, "loose + RTS 4-h peak RSS, MB"),
 )
 MODULES = (
     "bench_strapdown",
@@ -63,6 +65,7 @@ MODULES = (
     "bench_observability",
     "bench_ekf",
     "bench_sweep",
+    "bench_ekf_post",
 )
 
 

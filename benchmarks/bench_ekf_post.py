@@ -9,8 +9,10 @@ so the input never sits in memory whole; the per-epoch store is the temporary
 memory map the command uses (:func:`inins.io.scratch.memmap_store`).
 
 ``run()`` warms the JIT up on 60 s, then times the hour (forward, smoother; best of
-3; target < 0.5 s for both) on increments generated beforehand, and measures the peak RSS of a child process streaming
-1 h and 4 h (target < 1 GB, flat in length).
+3; target < 0.5 s for both) on increments generated beforehand, and measures the
+peak RSS of a child process streaming 1 h and 4 h (target < 1 GB, flat in length:
+what grows is the memory-mapped store, ~30 MB per hour of 16-state covariances,
+file-backed pages the kernel may drop).
 
 Run alone: ``python -m benchmarks.bench_ekf_post`` (``--rss-hours H``: one child run).
 """
