@@ -19,12 +19,13 @@ is the one of :mod:`inins.ekf.filter` without the receiver clock:
   ``r_ant = r + C_nb l`` and moving at ``v_ant = v + C_nb (omega_eb x l)``::
 
       y_pos = z_pos - r_ant_est = -dr - [l_n x] phi        + v dt_g + noise
-      y_vel = z_vel - v_ant_est = -dv - [u_n x] phi                 + noise
+      y_vel = z_vel - v_ant_est = -dv - [u_n x] phi        + a dt_g + noise
 
   in NED metres at the INS position, ``l_n = C_nb l``, ``u_n = C_nb (omega_eb x l)``
   (``C_est = (I - [phi x]) C`` gives ``C_est l = C l + [l_n x] phi``). So ``H`` is
   ``-I`` on position (velocity), ``-[l_n x]`` (``-[u_n x]``) on attitude and
-  ``+v`` on ``dt_g`` (a solution tagged ``t_k`` was taken at IMU time ``t_k + dt_g``:
+  ``+v`` (``+a``, ``a = C_nb f_b + g`` the INS acceleration, Coriolis dropped) on
+  ``dt_g`` (a solution tagged ``t_k`` was taken at IMU time ``t_k + dt_g``:
   the prediction is the INS antenna position carried to it by ``v (t_k - t_b + dt_g)``).
   The frame rotation ``J_v dr`` of the velocity (O(v/R)) is dropped.
 - Scalar Joseph updates per axis, each gated on chi-square(1)
@@ -390,10 +391,15 @@ def _block(
                     H[i, td] = cv[i]
             _skew_rows(H, 0, 6, lever_n, -1.0)
             if has_vel:
+                # acceleration (NED) carries the velocity over the lag: C_nb f_b + g
+                a_n = mat_nb @ rates[1]
+                a_n[2] += kernels._gravity(cl[0], cl[2])
                 for i in range(3):
                     H[3 + i, 3 + i] = -1.0
-                    y0[3 + i] = ep_vel[k, i] - cv[i] - u_n[i]
+                    y0[3 + i] = ep_vel[k, i] - cv[i] - u_n[i] - a_n[i] * lag
                     r[3 + i] = ep_var_vel[k, i]
+                    if td >= 0:
+                        H[3 + i, td] = a_n[i]
                 _skew_rows(H, 3, 6, u_n, -1.0)
             acc = np.zeros(rows, np.bool_)
             yy, ss = np.empty(rows), np.empty(rows)
