@@ -33,12 +33,14 @@ from inins.results import CommandResult, Series, format_table
 from inins.scenario.run_ekf import RunEkfScenario
 
 SCENARIO_MODEL = RunEkfScenario
-FIGURES = {
-    "run-ekf-heading-error.png": figures.run_ekf_heading,
-    "run-ekf-gyro-bias.png": figures.run_ekf_gyro_bias,
-    "run-ekf-misalignment.png": figures.run_ekf_misalignment,
-    "run-ekf-fb-corrections.png": figures.run_ekf_corrections,
-}
+FIGURES = run_ekf_post.with_post_figures(
+    {
+        "run-ekf-heading-error.png": figures.run_ekf_heading,
+        "run-ekf-gyro-bias.png": figures.run_ekf_gyro_bias,
+        "run-ekf-misalignment.png": figures.run_ekf_misalignment,
+        "run-ekf-fb-corrections.png": figures.run_ekf_corrections,
+    }
+)
 _KIND = {"wait": fl.LegKind.WAIT, "takeoff": fl.LegKind.TAKEOFF, "straight": fl.LegKind.STRAIGHT}
 
 
