@@ -166,3 +166,22 @@ def test_bad_input_exit_2_nothing_written(tmp_path, kind, expect):
     for text in expect:
         assert text in out.stderr, out.stderr
     assert not (tmp_path / "out").exists() or list((tmp_path / "out").iterdir()) == []
+
+
+@pytest.mark.slow
+def test_plot_post_and_tight(tmp_path):
+    """--plot draws every run-ekf figure name for a post run (its own figures) and for a
+    tight run (the new trajectory map beside the tight figures)."""
+    pytest.importorskip("matplotlib")
+    names = {
+        "run-ekf-heading-error.png",
+        "run-ekf-gyro-bias.png",
+        "run-ekf-misalignment.png",
+        "run-ekf-fb-corrections.png",
+        "run-ekf-trajectory.png",
+    }
+    for scenario, out in ((RUN / "lc-drive-15s.yaml", "post"), (RUN / "psins-tc.yaml", "tc")):
+        res = run(scenario, "-o", tmp_path / out, "--plot")
+        assert res.exit_code in (0, 1), res.output
+        for name in names:
+            assert (tmp_path / out / name).stat().st_size > 2000
