@@ -46,9 +46,8 @@ import math
 from dataclasses import dataclass, field
 
 import numpy as np
-from scipy import stats
 
-from inins.core import earth, jit, rotation, strapdown
+from inins.core import earth, jit, rotation, stats, strapdown
 from inins.ekf import aiding, kernels, step
 from inins.exceptions import InputError
 
@@ -584,7 +583,7 @@ def run_loose(
     count = np.array([initial.count], np.int64)
     comp, x, P = np.zeros(15), np.zeros(n), cfg.covariance0()
     state = np.array([t0, 0.0])  # the first epoch propagates from t0
-    threshold = float(stats.chi2.ppf(cfg.gate_probability, 1))
+    threshold = float(stats.chi2_ppf(cfg.gate_probability, 1))
     noise, keep = cfg.noise(), cfg.keep.astype(np.int64)
     td = cfg.n_base if cfg.time_offset else -1
     lever = cfg.lever_arm
