@@ -28,7 +28,7 @@ class _Config:
 
 @dataclass(frozen=True, eq=False)
 class TightRun:
-    """The fields :func:`inins.ekf.smoother.smooth` reads (see :class:`inins.ekf.loose.LooseRun`)."""
+    """The fields :func:`inins.ekf.smoother.smooth` reads (as :class:`inins.ekf.loose.LooseRun`)."""
 
     config: object
     time: np.ndarray
