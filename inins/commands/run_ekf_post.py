@@ -108,7 +108,13 @@ def run(scenario, seed, *, sink=None, progress=None):
         p.imu.accel_unit,
         p.imu.gyro_unit,
         p.imu.axes,
+        p.imu.odometer_column,
+        p.imu.odometer_scale_mps,
     )
+    if p.aiding.odometer_sigma_mps > 0 and imu.odometer is None:
+        raise InputError(
+            "odometer aiding needs imu.odometer_column", key="post.aiding.odometer_sigma_mps"
+        )
     t_g0 = float(full.time[0])
     tg = sol.time - t_g0
     ti = imu.time - imu.time[0]
@@ -190,6 +196,7 @@ def run(scenario, seed, *, sink=None, progress=None):
         time_offset_sigma=p.time.state_sigma_s,
         gate_probability=p.gate_probability,
         nhc_sigma=p.aiding.nhc_sigma_mps,
+        odometer_sigma=p.aiding.odometer_sigma_mps,
         zupt_sigma=p.aiding.zupt_sigma_mps,
         zaru_sigma=p.aiding.zaru_sigma_dps * DEG,
         mounting=np.radians(p.aiding.mounting_deg),
@@ -219,6 +226,7 @@ def run(scenario, seed, *, sink=None, progress=None):
             outages=wins,
             store=store,
             stationary_windows=stat_w,
+            odometer=None if imu.odometer is None else (tig, imu.odometer),
         )
         n_stat = int(np.sum(fwd.stationary))
         wall_f = _time.perf_counter() - tick

@@ -16,6 +16,8 @@ Measurements at a filter epoch, with the states as errors (estimate minus true,
   ``+C_vb C_bn [v x]`` on attitude (rows y, z). The lever arm between the IMU and
   the point that does not slip (rear axle) is neglected: it adds ``omega x l``,
   below 0.1 m/s for 1 m at 5 deg/s.
+- Odometer (wheel speed, where a column exists): the forward vehicle speed,
+  ``z = (C_vb C_bn v)_x``, rows as the NHC's for x; ``y = z - (C_vb C_bn_est v_est)_x``.
 
 Stationary detector (:func:`stationary`): over the ``window`` samples up to each
 epoch, the RMS deviation of the specific-force vector from its window mean,
@@ -36,11 +38,15 @@ from inins.ekf import kernels, step
 
 
 @jit.njit(cache=True)
-def vehicle_update(x, P, quat, vel, lla, omega_mean, c_vb, stationary, sig, threshold, acc_out):
-    """ZUPT + ZARU (when ``stationary``) and NHC rows at one epoch; returns rows accepted.
+def vehicle_update(
+    x, P, quat, vel, lla, omega_mean, c_vb, stationary, odo, sig, threshold, acc_out
+):
+    """ZUPT + ZARU (when ``stationary``), NHC and odometer rows at one epoch; returns
+    the rows accepted.
 
-    ``sig``: [nhc, zupt, zaru] 1-sigma (m/s, m/s, rad/s); a value <= 0 turns that aid
-    off. ``acc_out`` (8,): accepted flags of rows NHC y, z, ZUPT N, E, D, ZARU x, y, z.
+    ``sig``: [nhc, zupt, zaru, odometer] 1-sigma (m/s, m/s, rad/s, m/s); a value <= 0
+    turns that aid off; ``odo`` the odometer's forward speed (m/s, NaN: none).
+    ``acc_out`` (9,): accepted flags of rows NHC y, z, ZUPT N, E, D, ZARU x, y, z, odometer.
     """
     n = x.shape[0]
     cq, cv, cl = np.empty(4), np.empty(3), np.empty(3)
@@ -48,16 +54,16 @@ def vehicle_update(x, P, quat, vel, lla, omega_mean, c_vb, stationary, sig, thre
     c_nb = step.mat_from_quat(cq)
     c_bn = c_nb.T
     rows = 0
-    H = np.zeros((8, n))
-    y0, r = np.zeros(8), np.zeros(8)
+    H = np.zeros((9, n))
+    y0, r = np.zeros(9), np.zeros(9)
     acc_out.fill(False)
+    m = c_vb @ c_bn
+    vv = m @ cv
+    vx = np.zeros((3, 3))
+    vx[0, 1], vx[0, 2], vx[1, 0] = -cv[2], cv[1], cv[2]
+    vx[1, 2], vx[2, 0], vx[2, 1] = -cv[0], -cv[1], cv[0]
+    mv = m @ vx
     if sig[0] > 0.0:
-        m = c_vb @ c_bn
-        vv = m @ cv
-        vx = np.zeros((3, 3))
-        vx[0, 1], vx[0, 2], vx[1, 0] = -cv[2], cv[1], cv[2]
-        vx[1, 2], vx[2, 0], vx[2, 1] = -cv[0], -cv[1], cv[0]
-        mv = m @ vx
         for i in (1, 2):
             for j in range(3):
                 H[rows, 3 + j] = -m[i, j]
@@ -80,6 +86,14 @@ def vehicle_update(x, P, quat, vel, lla, omega_mean, c_vb, stationary, sig, thre
             y0[rows] = z[i] - x[12 + i]
             r[rows] = sig[2] ** 2
             rows += 1
+    use_odo = sig[3] > 0.0 and math.isfinite(odo)
+    if use_odo:
+        for j in range(3):
+            H[rows, 3 + j] = -m[0, j]
+            H[rows, 6 + j] = mv[0, j]
+        y0[rows] = odo - vv[0]
+        r[rows] = sig[3] ** 2
+        rows += 1
     if rows == 0:
         return 0
     acc = np.zeros(rows, np.bool_)
@@ -98,6 +112,9 @@ def vehicle_update(x, P, quat, vel, lla, omega_mean, c_vb, stationary, sig, thre
     if stationary and sig[2] > 0.0:
         for i in range(3):
             acc_out[5 + i] = acc[j + i]
+        j += 3
+    if use_odo:
+        acc_out[8] = acc[j]
     return count
 
 

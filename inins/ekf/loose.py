@@ -82,8 +82,8 @@ class LooseConfig:
         Chi-square(1) gate of each scalar row.
     window : int
         Samples averaged for ``f_b``, ``omega_b`` of the model and the lever-arm rate.
-    nhc_sigma, zupt_sigma, zaru_sigma : float
-        Vehicle aiding 1-sigma (m/s, m/s, rad/s), 0 = off (:mod:`inins.ekf.aiding`).
+    nhc_sigma, zupt_sigma, zaru_sigma, odometer_sigma : float
+        Vehicle aiding 1-sigma (m/s, m/s, rad/s, m/s), 0 = off (:mod:`inins.ekf.aiding`).
     mounting : ndarray (3,)
         Roll, pitch, yaw (rad) of the IMU body in the vehicle axes (``C_vb`` for the NHC).
     stationary_accel, stationary_gyro, stationary_window : float
@@ -104,6 +104,7 @@ class LooseConfig:
     gate_probability: float = 0.9999
     window: int = 1
     nhc_sigma: float = 0.0
+    odometer_sigma: float = 0.0
     zupt_sigma: float = 0.0
     zaru_sigma: float = 0.0
     mounting: np.ndarray = field(default_factory=lambda: np.zeros(3))
@@ -129,7 +130,7 @@ class LooseConfig:
         object.__setattr__(self, "sigma0", sig)
         if not 0.5 < self.gate_probability <= 1.0:
             raise InputError("gate probability must be in (0.5, 1]", key="gate_probability")
-        for name in ("nhc_sigma", "zupt_sigma", "zaru_sigma"):
+        for name in ("nhc_sigma", "zupt_sigma", "zaru_sigma", "odometer_sigma"):
             if not 0.0 <= getattr(self, name) < 100.0:
                 raise InputError("aiding sigma must be in [0, 100) (0: off)", key=name)
         mount = np.asarray(self.mounting, float).reshape(3)
@@ -252,6 +253,7 @@ def _block(
     ep_var_vel,
     ep_use,
     ep_stat,
+    ep_odo,
     aid_sig,
     c_vb,
     lever,
@@ -407,7 +409,7 @@ def _block(
                 o_y[k, i] = yy[i]
                 o_s[k, i] = ss[i]
                 o_acc[k, i] = acc[i]
-        if aid_sig[0] > 0.0 or ep_stat[k]:
+        if aid_sig[0] > 0.0 or ep_stat[k] or (aid_sig[3] > 0.0 and math.isfinite(ep_odo[k])):
             omega = np.zeros(3)
             for j in range(m):
                 for i in range(3):
@@ -415,7 +417,18 @@ def _block(
             if m > 0:
                 omega /= m * dt
             aiding.vehicle_update(
-                x, P, quat, vel, lla, omega, c_vb, ep_stat[k], aid_sig, threshold, o_aid[k]
+                x,
+                P,
+                quat,
+                vel,
+                lla,
+                omega,
+                c_vb,
+                ep_stat[k],
+                ep_odo[k],
+                aid_sig,
+                threshold,
+                o_aid[k],
             )
         else:
             o_aid[k].fill(False)
@@ -455,8 +468,8 @@ class LooseRun:
     ``time`` (m,) s; ``quat`` (m, 4), ``vel`` (m, 3), ``lla`` (m, 3): ``N_k+``;
     ``comp`` (m, 15) sensor compensation; ``x``, ``r`` (m, n); ``P``, ``P_pred``,
     ``Phi`` (m, n, n); ``innovation``, ``variance`` (m, 6), ``accepted`` (m, 6) per
-    pos N/E/D, vel N/E/D row; ``used`` (m,) bool; ``aided`` (m, 8) accepted vehicle
-    rows (NHC y, z, ZUPT N, E, D, ZARU x, y, z); ``stationary`` (m,) the detector's flag.
+    pos N/E/D, vel N/E/D row; ``used`` (m,) bool; ``aided`` (m, 9) accepted vehicle
+    rows (NHC y, z, ZUPT N, E, D, ZARU x, y, z, odometer); ``stationary`` (m,) the flag.
     """
 
     config: LooseConfig
@@ -508,7 +521,15 @@ def _correct_all(quat, vel, lla, dx, oq, ov, ol):
 
 
 def run_loose(
-    config, initial, t0, imu, solution, outages=(), store=default_store, stationary_windows=None
+    config,
+    initial,
+    t0,
+    imu,
+    solution,
+    outages=(),
+    store=default_store,
+    stationary_windows=None,
+    odometer=None,
 ):
     """Forward loosely coupled run over a whole IMU record and its GNSS solutions.
 
@@ -530,6 +551,9 @@ def run_loose(
     stationary_windows : sequence of (float, float), optional
         Where the vehicle stands (s): ZUPT/ZARU epochs. None: the stationary detector
         of :func:`inins.ekf.aiding.stationary` (when ZUPT or ZARU is on).
+    odometer : (ndarray, ndarray), optional
+        Times (s) and forward speeds (m/s) of a wheel odometer, interpolated to the
+        epochs (used when ``odometer_sigma`` > 0).
 
     Returns
     -------
@@ -569,9 +593,14 @@ def run_loose(
     }
     out = {k: store(k, s) for k, s in names.items()}
     out["accepted"] = store("accepted", (m, 6), np.bool_)
-    out["aided"] = store("aided", (m, 8), np.bool_)
+    out["aided"] = store("aided", (m, 9), np.bool_)
     out["stationary"] = store("stationary", (m,), np.bool_)
-    aid_sig = np.array([cfg.nhc_sigma, cfg.zupt_sigma, cfg.zaru_sigma])
+    aid_sig = np.array([cfg.nhc_sigma, cfg.zupt_sigma, cfg.zaru_sigma, cfg.odometer_sigma])
+    odo = np.full(m, np.nan)
+    if odometer is not None:
+        o_t, o_v = (np.asarray(a, float) for a in odometer)
+        inside = (time >= o_t[0]) & (time <= o_t[-1])
+        odo[inside] = np.interp(time[inside], o_t, o_v)
     c_vb = cfg.c_vb()
     want_stat = cfg.zupt_sigma > 0 or cfg.zaru_sigma > 0
     if stationary_windows is not None:
@@ -599,7 +628,7 @@ def run_loose(
         state[1] = t0 + sample0 * cfg.dt
         buf = {k: np.empty((hi - lo, *s[1:])) for k, s in names.items()}
         acc = np.zeros((hi - lo, 6), np.bool_)
-        aided = np.zeros((hi - lo, 8), np.bool_)
+        aided = np.zeros((hi - lo, 9), np.bool_)
         if not want_stat:
             stat = np.zeros(hi - lo, np.bool_)
         elif stationary_windows is not None:
@@ -635,6 +664,7 @@ def run_loose(
             np.ascontiguousarray(var_vel[lo:hi]),
             use[lo:hi],
             stat,
+            odo[lo:hi],
             aid_sig,
             c_vb,
             lever,

@@ -344,6 +344,7 @@ class ImuRates:
     time: np.ndarray
     gyro: np.ndarray
     accel: np.ndarray
+    odometer: np.ndarray | None = None
 
 
 _AXIS = {
@@ -358,7 +359,16 @@ G0 = 9.80665
 
 
 def read_imu_rates_csv(
-    path, accel_columns, gyro_columns, time_column, time_scale, accel_unit, gyro_unit, axes
+    path,
+    accel_columns,
+    gyro_columns,
+    time_column,
+    time_scale,
+    accel_unit,
+    gyro_unit,
+    axes,
+    odometer_column=None,
+    odometer_scale=1.0,
 ):
     """Read a header-less numeric CSV of IMU rates (one sample a row).
 
@@ -411,4 +421,11 @@ def read_imu_rates_csv(
     sign = np.array([_AXIS[x][1] for x in axes])
     if sorted(index) != [0, 1, 2]:
         raise InputError(f"axes {list(axes)} do not name x, y and z once each", key="axes")
-    return ImuRates(path, time, gyro[:, index] * sign, acc[:, index] * sign)
+    odo = None
+    if odometer_column is not None:
+        if odometer_column >= a.shape[1]:
+            raise InputError(
+                f"column {odometer_column} beyond the {a.shape[1]} fields", key="odometer_column"
+            )
+        odo = a[:, odometer_column] * odometer_scale
+    return ImuRates(path, time, gyro[:, index] * sign, acc[:, index] * sign, odo)

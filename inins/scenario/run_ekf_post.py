@@ -43,6 +43,12 @@ class ImuLog(Section):
     rate_hz: PositiveFloat = Field(
         100.0, le=2000.0, description="uniform rate the rates are resampled to (Hz)"
     )
+    odometer_column: int | None = Field(
+        None, ge=0, description="0-based column of a wheel-odometer forward speed, if any"
+    )
+    odometer_scale_mps: PositiveFloat = Field(
+        1.0, description="m/s per unit of the odometer column"
+    )
 
 
 class GnssFile(Section):
@@ -149,6 +155,9 @@ class Aiding(Section):
 
     nhc_sigma_mps: NonNegFloat = Field(
         0.0, le=10.0, description="NHC: lateral and vertical vehicle velocity 1-sigma (m/s)"
+    )
+    odometer_sigma_mps: NonNegFloat = Field(
+        0.0, le=10.0, description="odometer forward speed 1-sigma (m/s; needs imu.odometer_column)"
     )
     zupt_sigma_mps: NonNegFloat = Field(
         0.0, le=10.0, description="ZUPT while stationary: velocity 1-sigma (m/s)"
