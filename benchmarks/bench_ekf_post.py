@@ -81,12 +81,14 @@ class _Stored:
         return self.dtheta[lo:hi], self.dv[lo:hi]
 
 
-def _once(cfg, nav0, sol, store, imu=None):
-    start = time.perf_counter()
+def _once(cfg, nav0, sol, store, imu=None, cpu=None):
+    start, c0 = time.perf_counter(), time.process_time()
     run = loose.run_loose(cfg, nav0, 0.0, imu or _Lazy(), sol, store=store)
-    mid = time.perf_counter()
+    mid, c1 = time.perf_counter(), time.process_time()
     sm = smoother.smooth(run, store)
-    end = time.perf_counter()
+    end, c2 = time.perf_counter(), time.process_time()
+    if cpu is not None:
+        cpu.append((c1 - c0, c2 - c1))
     return run, sm, mid - start, end - mid
 
 
@@ -111,11 +113,13 @@ def run(quick=False):
     cfg, nav0, sol = _setup(1.0)
     best = None
     stored = _Stored(round(3601 / DT))
+    cpu = []
     with scratch.memmap_store() as store:
         for _ in range(3):
-            run_, sm, f, s = _once(cfg, nav0, sol, store, stored)
+            run_, sm, f, s = _once(cfg, nav0, sol, store, stored, cpu)
             if best is None or f + s < best[0] + best[1]:
                 best = (f, s)
+    cpu_best = min(cpu, key=sum)
     one = None if quick else _streamed(1.0)
     four = None if quick else _streamed(4.0)
     out = {
@@ -124,6 +128,7 @@ def run(quick=False):
         "hour_loose_forward_s": best[0],
         "hour_loose_smoother_s": best[1],
         "hour_loose_total_s": best[0] + best[1],
+        "hour_loose_total_cpu_s": sum(cpu_best),  # comparable on a shared, loaded machine
         "hour_time_offset_sigma_ms": 1e3 * float(sm.sigma[0, -1]),
     }
     if one is not None:
