@@ -42,6 +42,7 @@ RESULT_NAMES = (
     "post_sm_drift_hor_max_m",
     "post_time_offset_fit_s",
     "post_time_offset_fit_sigma_s",
+    "post_time_fit_residual_rms_s",
     "post_clock_rate_ppm",
     "post_clock_rate_sigma_ppm",
     "post_time_offset_state_s",
@@ -133,7 +134,13 @@ def run(scenario, seed, *, sink=None, progress=None):
                 "the drive is shorter than one time-fit window", key="post.time.window_s"
             )
         fit = timeoffset.fit_clock(
-            ti, imu.gyro[:, 2], tg, course, windows, search=(-p.time.search_s, p.time.search_s)
+            ti,
+            imu.gyro[:, 2],
+            tg,
+            course,
+            windows,
+            search=(-p.time.search_s, p.time.search_s),
+            piecewise=p.time.model == "piecewise",
         )
         tig = fit.to_gnss(ti)
     else:
@@ -294,6 +301,11 @@ def run(scenario, seed, *, sink=None, progress=None):
             post_time_offset_fit_s=fit.offset,
             post_time_offset_fit_sigma_s=_null(fit.offset_sigma),
             post_clock_rate_ppm=fit.rate * 1e6,
+            post_time_fit_residual_rms_s=float(
+                np.sqrt(
+                    np.mean((fit.to_gnss(fit.lags[:, 0] - fit.lags[:, 1]) - fit.lags[:, 0]) ** 2)
+                )
+            ),
             post_clock_rate_sigma_ppm=_null(fit.rate_sigma * 1e6),
         )
     if td is not None:
@@ -391,7 +403,9 @@ def _report(p, out, scores, fit, t0, wins):
         lines.append(
             f"time mapping (turn-rate fit, {len(fit.lags)} windows): GNSS = IMU + "
             f"{fit.offset:.4f} s (1-sigma {_fmt(out['post_time_offset_fit_sigma_s'])} s), rate "
-            f"{fit.rate * 1e6:.0f} ppm (1-sigma {_fmt(out['post_clock_rate_sigma_ppm'], '.0f')})"
+            f"{fit.rate * 1e6:.0f} ppm (1-sigma {_fmt(out['post_clock_rate_sigma_ppm'], '.0f')}); "
+            f"window lags scatter {1e3 * out['post_time_fit_residual_rms_s']:.0f} ms RMS about "
+            "the line"
         )
     if out["post_time_offset_state_s"] is not None:
         lines.append(

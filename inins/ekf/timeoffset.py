@@ -12,6 +12,15 @@ axis) and the rate error
 1-sigma are those of the least-squares line from the scatter of the window lags
 about it (with fewer than three windows: the mean lag, no rate, sigmas NaN).
 
+A bias of the method: the course is the direction of the velocity of the antenna,
+not of the vehicle's heading. A point a distance ``l`` ahead of the rear axle of a
+car slips by ``beta = atan(l omega / v)``, so the course rate is
+``omega + (l / v) omega'``: it leads the yaw rate by ``l / v`` (0.1 s for 1.5 m at
+15 m/s) and the fitted lag comes out that much late. On the lc-drive car the
+filter's offset state finds a residual 0.10-0.13 s of that sign (a line or a
+piecewise mapping alike), which this would explain (the antenna's distance from the
+rear axle is not in the data, so this is not verified).
+
 A constant residual offset is then a state of the loosely coupled filter
 (:mod:`inins.ekf.loose`, ``time_offset``): this fit takes out the gross offset and
 the rate, the state the rest with its Kalman 1-sigma.
@@ -27,7 +36,10 @@ from inins.exceptions import InputError
 @dataclass(frozen=True)
 class ClockFit:
     """``t_gnss = t_imu + offset + rate (t_imu - t_ref)`` (s); ``lags`` per window
-    (centre time, lag, correlation)."""
+    (centre time, lag, correlation). ``piecewise``: the lag interpolated between the
+    window lags instead (held beyond the first and last), after dropping windows
+    whose lag is more than 3 robust sigma (1.4826 MAD) from the median of it and its
+    two neighbours."""
 
     offset: float
     offset_sigma: float
@@ -35,11 +47,26 @@ class ClockFit:
     rate_sigma: float
     t_ref: float
     lags: np.ndarray
+    piecewise: bool = False
 
     def to_gnss(self, t_imu):
         """GNSS time of IMU times (s)."""
         t_imu = np.asarray(t_imu, float)
+        if self.piecewise:
+            keep = _inliers(self.lags[:, 1])
+            centre, lag = self.lags[keep, 0], self.lags[keep, 1]
+            return t_imu + np.interp(t_imu, centre - lag, lag)
         return t_imu + self.offset + self.rate * (t_imu - self.t_ref)
+
+
+def _inliers(lag):
+    """Windows whose lag is within 3 robust sigma of the median of it and its neighbours."""
+    if lag.size < 3:
+        return np.ones(lag.size, bool)
+    local = np.array([np.median(lag[max(i - 1, 0) : i + 2]) for i in range(lag.size)])
+    dev = np.abs(lag - local)
+    scale = max(1.4826 * float(np.median(dev)), 1e-3)
+    return dev <= 3.0 * scale
 
 
 def course_rate(time, vel_ned, min_speed=3.0):
@@ -73,7 +100,9 @@ def window_lag(t_imu, rate_imu, t_gnss, rate_gnss, lo, hi, search, step=0.01, gr
     return float(lags[k]), float(c[k])
 
 
-def fit_clock(t_imu, rate_imu, t_gnss, rate_gnss, windows, search=(-10.0, 10.0), min_corr=0.8):
+def fit_clock(
+    t_imu, rate_imu, t_gnss, rate_gnss, windows, search=(-10.0, 10.0), min_corr=0.8, piecewise=False
+):
     """Fit the time mapping over windows of GNSS time (module docstring).
 
     Parameters
@@ -88,6 +117,8 @@ def fit_clock(t_imu, rate_imu, t_gnss, rate_gnss, windows, search=(-10.0, 10.0),
         Lag range searched (s).
     min_corr : float
         Windows whose peak correlation is below are dropped.
+    piecewise : bool
+        Map by the window lags interpolated (:class:`ClockFit`) instead of the line.
 
     Returns
     -------
@@ -111,7 +142,7 @@ def fit_clock(t_imu, rate_imu, t_gnss, rate_gnss, windows, search=(-10.0, 10.0),
     t_ref = float(np.mean(lags[:, 0]))
     if len(rows) < 3:
         off = float(np.mean(lags[:, 1]))
-        return ClockFit(off, np.nan, 0.0, np.nan, t_ref - off, lags)
+        return ClockFit(off, np.nan, 0.0, np.nan, t_ref - off, lags, piecewise)
     A = np.column_stack([np.ones(len(rows)), lags[:, 0] - t_ref])
     coef, *_ = np.linalg.lstsq(A, lags[:, 1], rcond=None)
     res = lags[:, 1] - A @ coef
@@ -124,4 +155,5 @@ def fit_clock(t_imu, rate_imu, t_gnss, rate_gnss, windows, search=(-10.0, 10.0),
         float(np.sqrt(cov[1, 1])),
         t_ref - float(coef[0]),  # the reference instant on the IMU axis
         lags,
+        piecewise,
     )

@@ -85,6 +85,11 @@ class TimeMapping(Section):
         "windows, a line (offset, rate) through them; none: IMU time is GNSS time minus "
         "the first GNSS epoch plus offset_s",
     )
+    model: Literal["line", "piecewise"] = Field(
+        "line",
+        description="turn_rate: a line through the window lags, or the lags interpolated "
+        "(outlier windows dropped) for a mapping that steps",
+    )
     offset_s: float = Field(
         0.0, description="fit none: GNSS time (from the first epoch) of IMU time 0 (s)"
     )
