@@ -19,12 +19,14 @@
 
 import math
 import time as _time
+from dataclasses import dataclass
 
 import numpy as np
 
 from inins.core import earth, error_model, rotation, strapdown
 from inins.core.units import DEG, UG
 from inins.ekf import loose, outages, smoother, sources, timeoffset
+from inins.ekf.tight_store import TightStore
 from inins.exceptions import InputError
 from inins.io import scratch
 from inins.io import solution_files as sf
@@ -633,3 +635,69 @@ def with_post_figures(tight):
         return draw
 
     return {name: pick(name) for name in (*tight, *(k for k in POST_FIGURES if k not in tight))}
+
+
+# --------------------------------------------------------------------------- tight smoothing
+
+TIGHT_SMOOTH_NAMES = (
+    "smoothed_hor_sigma_median_m",
+    "forward_hor_sigma_median_m",
+    "smoothed_heading_sigma_start_deg",
+    "smoothed_forward_hor_diff_max_m",
+    "smoothed_pos_err_rms_m",
+)
+"""Results of ``filter.smoother: rts`` in the tight mode (null without it)."""
+
+
+@dataclass(frozen=True)
+class TightSmoothed:
+    """What the smoother adds to a tight run's results, datasets and report."""
+
+    results: dict
+    datasets: dict
+    report: str
+
+
+def tight_store(filter_settings):
+    """A :class:`inins.ekf.tight_store.TightStore` when the scenario smooths, else None."""
+    return TightStore() if filter_settings.smoother == "rts" else None
+
+
+def tight_smoothed(result, store):
+    """Smooth a tight run recorded in ``store`` (None: nulls)."""
+    out = dict.fromkeys(TIGHT_SMOOTH_NAMES)
+    if store is None:
+        return TightSmoothed(out, {}, "")
+    sm = smoother.smooth(store.run())
+    fwd_h = np.hypot(result.sigma[:, 0], result.sigma[:, 1])
+    sm_h = np.hypot(sm.sigma[:, 0], sm.sigma[:, 1])
+    diff = error_model.position_error_ned(result.lla, sm.lla)
+    out.update(
+        smoothed_hor_sigma_median_m=float(np.median(sm_h)),
+        forward_hor_sigma_median_m=float(np.median(fwd_h)),
+        smoothed_heading_sigma_start_deg=float(sm.sigma[0, 8] / DEG),
+        smoothed_forward_hor_diff_max_m=float(np.hypot(diff[:, 0], diff[:, 1]).max()),
+    )
+    if result.nav_error.shape[0]:
+        # truth position = forward output minus its error
+        true = error_model.lla_offset(result.lla, -result.nav_error[:, 0:3])
+        err = error_model.position_error_ned(sm.lla, true)
+        out["smoothed_pos_err_rms_m"] = float(np.sqrt(np.mean(np.sum(err**2, axis=1))))
+    datasets = {
+        "smoothed/lla": Series(sm.lla, "rad, rad, m", "", "RTS-smoothed position (IMU)"),
+        "smoothed/vel_n": Series(sm.vel, "m/s", "n", "smoothed velocity"),
+        "smoothed/quat_nb": Series(sm.quat, "1", "nb", "smoothed attitude"),
+        "smoothed/sigma": Series(sm.sigma, "SI", "", "smoothed 1-sigma of each state"),
+    }
+    report = (
+        f"\n\nRTS smoothing: median horizontal 1-sigma {out['forward_hor_sigma_median_m']:.3g} m "
+        f"forward, {out['smoothed_hor_sigma_median_m']:.3g} m smoothed; heading 1-sigma at the "
+        f"start {out['smoothed_heading_sigma_start_deg']:.3g} deg smoothed; largest horizontal "
+        f"forward-smoothed difference {out['smoothed_forward_hor_diff_max_m']:.3g} m"
+        + (
+            ""
+            if out["smoothed_pos_err_rms_m"] is None
+            else f"; smoothed position error RMS {out['smoothed_pos_err_rms_m']:.3g} m"
+        )
+    )
+    return TightSmoothed(out, datasets, report)

@@ -281,6 +281,9 @@ class FilterSettings(Section):
     turning_from_s: NonNegFloat = Field(
         0.0, description="start of the window of the heading-error RMS (s)"
     )
+    smoother: Literal["none", "rts"] = Field(
+        "none", description="rts: a Rauch-Tung-Striebel pass over the stored forward run"
+    )
 
     def to_si(self):
         """Keyword arguments in SI of :class:`inins.ekf.config.FilterConfig` (model and
