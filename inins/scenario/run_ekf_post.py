@@ -30,7 +30,7 @@ class ImuLog(Section):
     )
     time_column: int = Field(6, ge=0, description="0-based column of the sample time")
     time_scale_s: PositiveFloat = Field(
-        1e-3, description="seconds per unit of the time column (1e-3: a millisecond tick)"
+        1e-3, description="seconds per unit of the time column (s); 1e-3 for a millisecond tick"
     )
     accel_unit: Literal["g", "mps2"] = Field(
         "g", description="accelerometer unit (g: 9.80665 m/s^2)"
@@ -47,7 +47,7 @@ class ImuLog(Section):
         None, ge=0, description="0-based column of a wheel-odometer forward speed, if any"
     )
     odometer_scale_mps: PositiveFloat = Field(
-        1.0, description="m/s per unit of the odometer column"
+        1.0, description="speed per unit of the odometer column (m/s)"
     )
 
 
@@ -63,7 +63,9 @@ class GnssFile(Section):
         "sigma_ve, sigma_vd, q",
     )
     angle_unit: Literal["deg", "rad"] = Field("deg", description="csv: unit of lat and lon")
-    time_scale_s: PositiveFloat = Field(1.0, description="csv: seconds per unit of time")
+    time_scale_s: PositiveFloat = Field(
+        1.0, description="csv: seconds per unit of the time column (s)"
+    )
     q_flags: list[int] = Field(
         [1, 2], min_length=1, description="quality flags used (RTKLIB 1 fix, 2 float, 5 single)"
     )
@@ -105,7 +107,7 @@ class Outages(Section):
     every_s: PositiveFloat | None = Field(None, description="spacing of periodic outages (s)")
     length_s: PositiveFloat | None = Field(None, description="length of each outage (s)")
     first_s: NonNegFloat | None = Field(
-        None, description="start of the first (s, from the run start); default every_s"
+        None, description="start of the first, from the run start (s); default every_s"
     )
     windows: list[tuple[float, float]] = Field(
         [], description="explicit windows [start, end) (s, from the run start)"
@@ -124,10 +126,10 @@ class PostNoise(Section):
     arw_dps_rthz: NonNegFloat = Field(0.0038, le=10.0, description="gyro noise (deg/s/sqrt(Hz))")
     vrw_ug_rthz: NonNegFloat = Field(70.0, le=1e5, description="accel noise (ug/sqrt(Hz))")
     gyro_bias_walk_dps_rthz: NonNegFloat = Field(
-        3.8e-5, le=1.0, description="gyro bias random walk (deg/s per sqrt(s))"
+        3.8e-5, le=1.0, description="gyro bias random walk (deg/s/sqrt(Hz))"
     )
     accel_bias_walk_ug_rthz: NonNegFloat = Field(
-        7.0, le=1e5, description="accel bias random walk (ug per sqrt(s))"
+        7.0, le=1e5, description="accel bias random walk (ug/sqrt(Hz))"
     )
     factor: PositiveFloat = Field(
         3.0, le=100.0, description="multiplier on all densities (unmodelled errors; 1)"
@@ -162,7 +164,7 @@ class Aiding(Section):
         0.0, le=10.0, description="NHC: lateral and vertical vehicle velocity 1-sigma (m/s)"
     )
     odometer_sigma_mps: NonNegFloat = Field(
-        0.0, le=10.0, description="odometer forward speed 1-sigma (m/s; needs imu.odometer_column)"
+        0.0, le=10.0, description="odometer forward speed 1-sigma (m/s); needs imu.odometer_column"
     )
     zupt_sigma_mps: NonNegFloat = Field(
         0.0, le=10.0, description="ZUPT while stationary: velocity 1-sigma (m/s)"
@@ -175,7 +177,7 @@ class Aiding(Section):
     )
     stationary: Stationary = Field(default_factory=Stationary)
     stationary_windows_s: list[tuple[float, float]] | None = Field(
-        None, description="stationary windows (s from the run start) instead of the detector"
+        None, description="stationary windows from the run start (s), instead of the detector"
     )
 
 
@@ -192,7 +194,7 @@ class PostProcess(Section):
         (0.0, 0.0, 0.0), description="antenna minus IMU, body axes (m), each within 100 m"
     )
     static_window_s: tuple[float, float] = Field(
-        (1.0, 30.0), description="standing still (s from the first GNSS epoch): levelling"
+        (1.0, 30.0), description="standing still, from the first GNSS epoch (s): levelling"
     )
     motion_speed_mps: PositiveFloat = Field(
         3.0, description="GNSS speed above which the motion gives the initial heading (m/s)"
