@@ -123,10 +123,13 @@ def run(scenario, seed, *, sink=None, progress=None):
     ti = imu.time - imu.time[0]
     # 2. time mapping
     fit = None
+    # velocities from the positions (central differences): the course, and the
+    # initial heading where the file has no velocities
+    ecef = earth.ecef_from_llh(sol.lla[:, 0], sol.lla[:, 1], sol.lla[:, 2])
+    m_en = earth.mat_en(sol.lla[0, 0], sol.lla[0, 1])
+    vel = np.gradient((ecef - ecef[0]) @ m_en, tg, axis=0)
+    vel_init = np.where(np.isfinite(sol.vel_ned), sol.vel_ned, vel)
     if p.time.fit == "turn_rate":
-        ecef = earth.ecef_from_llh(sol.lla[:, 0], sol.lla[:, 1], sol.lla[:, 2])
-        m_en = earth.mat_en(sol.lla[0, 0], sol.lla[0, 1])
-        vel = np.gradient((ecef - ecef[0]) @ m_en, tg, axis=0)
         course = timeoffset.course_rate(tg, vel, min_speed=p.motion_speed_mps)
         start = p.static_window_s[1]
         w = p.time.window_s
@@ -164,9 +167,13 @@ def run(scenario, seed, *, sink=None, progress=None):
     first = int(np.searchsorted(tg, t0))
     lla0 = sol.lla[min(first, len(tg) - 1)]
     sw = (t0 + p.static_window_s[0], t0 + p.static_window_s[1])
-    init = sources.velocity_heading(
-        grid + dt, dth, dvv, dt, lla0, sw, tg, sol.vel_ned, p.motion_speed_mps
-    )
+    try:
+        init = sources.velocity_heading(
+            grid + dt, dth, dvv, dt, lla0, sw, tg, vel_init, p.motion_speed_mps
+        )
+    except InputError as exc:  # its keys are the tight scenario's
+        key = str(exc.key or "").replace("data.", "post.")
+        raise InputError(exc.message, source=str(g.file), key=key) from None
     lever = np.asarray(p.lever_arm_m, float)
     lla_imu = error_model.lla_offset(lla0, -(init.mat_nb @ lever))
     nav0 = strapdown.NavState.from_attitude(init.mat_nb, np.zeros(3), lla_imu)
