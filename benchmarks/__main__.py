@@ -60,6 +60,7 @@ TARGETS = (  # (figure path, relation, target, what)
     ("bench_ekf.process_run_ekf_1h_warm_s", "<", 1.5, "run-ekf 1-h flight whole process, s"),
     ("bench_ekf_post.hour_loose_total_s", "<", 0.5, "loose + RTS one hour, s"),
     ("bench_ekf_post.stream_4h_peak_rss_mb", "<", 1024.0, "loose + RTS 4-h peak RSS, MB"),
+    ("bench_ekf_post.hour_tight_total_s", "<", 2.0, "tight EKF2-FB + RTS one hour, s"),
 )
 MODULES = (
     "bench_strapdown",

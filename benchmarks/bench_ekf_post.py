@@ -12,7 +12,8 @@ memory map the command uses (:func:`inins.io.scratch.memmap_store`).
 3; target < 0.5 s for both) on increments generated beforehand, and measures the
 peak RSS of a child process streaming 1 h and 4 h (target < 1 GB, flat in length:
 what grows is the memory-mapped store, ~30 MB per hour of 16-state covariances,
-file-backed pages the kernel may drop).
+file-backed pages the kernel may drop). Not ``quick``: the tight EKF2-FB over
+bench_ekf's simulated hour with the store, then smoothed (target < 2 s).
 
 Run alone: ``python -m benchmarks.bench_ekf_post`` (``--rss-hours H``: one child run).
 """
@@ -92,6 +93,27 @@ def _once(cfg, nav0, sol, store, imu=None, cpu=None):
     return run, sm, mid - start, end - mid
 
 
+def _tight_hour():
+    """Tight EKF2-FB (26 states) over bench_ekf's simulated hour with the smoother's store,
+    then the RTS pass: (forward s, smoother s, forward CPU s, smoother CPU s)."""
+    from benchmarks import bench_ekf
+    from inins.ekf.filter import run_filter
+    from inins.ekf.tight_store import TightStore
+
+    config, initial, stream = bench_ekf._setup(1.0)
+    epochs = list(stream)
+    warm = TightStore()
+    run_filter(config, initial, 0.0, epochs[:5], store=warm)
+    smoother.smooth(warm.run())
+    store = TightStore()
+    w0, c0 = time.perf_counter(), time.process_time()
+    run_filter(config, initial, 0.0, epochs, store=store)
+    w1, c1 = time.perf_counter(), time.process_time()
+    smoother.smooth(store.run())
+    w2, c2 = time.perf_counter(), time.process_time()
+    return w1 - w0, w2 - w1, c1 - c0, c2 - c1
+
+
 def _peak_rss_mb():
     scale = 1.0 if sys.platform == "darwin" else 1024.0
     return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss * scale / 2**20
@@ -122,6 +144,7 @@ def run(quick=False):
     cpu_best = min(cpu, key=sum)
     one = None if quick else _streamed(1.0)
     four = None if quick else _streamed(4.0)
+    tight = None if quick else _tight_hour()
     out = {
         "jit_warmup_s": warmup,
         "hour_epochs": int(run_.time.size),
@@ -131,6 +154,10 @@ def run(quick=False):
         "hour_loose_total_cpu_s": sum(cpu_best),  # comparable on a shared, loaded machine
         "hour_time_offset_sigma_ms": 1e3 * float(sm.sigma[0, -1]),
     }
+    if tight is not None:
+        out["hour_tight_forward_s"], out["hour_tight_smoother_s"] = tight[0], tight[1]
+        out["hour_tight_total_s"] = tight[0] + tight[1]
+        out["hour_tight_total_cpu_s"] = tight[2] + tight[3]
     if one is not None:
         out["stream_1h_peak_rss_mb"] = one["peak_rss_mb"]
     if four is not None:
