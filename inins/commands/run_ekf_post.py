@@ -58,6 +58,11 @@ RESULT_NAMES = (
     "post_gyro_bias_y_dph",
     "post_gyro_bias_z_dph",
     "post_stationary_epochs",
+    "post_heading_diff_mean_deg",
+    "post_heading_diff_std_deg",
+    "post_sm_heading_diff_mean_deg",
+    "post_sm_heading_diff_std_deg",
+    "post_tilt_diff_max_deg",
     "post_filter_wall_s",
     "post_smoother_wall_s",
 )
@@ -67,9 +72,26 @@ RESULT_NAMES = (
 def _read_gnss(g):
     if g.format == "rtklib":
         sol = sf.read_rtklib_pos(g.file)
+    elif g.format == "mat":
+        cols = {k: int(v) for k, v in g.columns.items()}
+        sol = sf.read_solution_mat(
+            g.file, g.mat_variable, cols, g.angle_unit, g.sigma_m, g.sigma_vel_mps
+        )
     else:
         sol = sf.read_solution_csv(g.file, g.columns, g.angle_unit, g.time_scale_s)
     return sol
+
+
+def _reference_attitude(g):
+    """Reference ``mat_nb`` (m, 3, 3) of a .mat solution with attitude columns, or None."""
+    if g.format != "mat" or g.attitude_columns is None:
+        return None
+    c = g.attitude_columns
+    a = sf.read_mat_columns(
+        g.file, g.mat_variable, [c["roll"], c["pitch"], c["yaw"]], "post.gnss.attitude_columns"
+    )
+    k = DEG if g.angle_unit == "deg" else 1.0
+    return rotation.mat_from_euler(a[:, 0] * k, a[:, 1] * k, g.yaw_sign * a[:, 2] * k)
 
 
 def _uniform(tig, rates, dt, t0, t1):
@@ -102,18 +124,31 @@ def run(scenario, seed, *, sink=None, progress=None):
         )
     sol = full.select(keep)
     scale = np.array([g.sigma_scale.get(int(q), 1.0) for q in sol.q])
-    imu = sf.read_imu_rates_csv(
-        p.imu.file,
-        p.imu.accel_columns,
-        p.imu.gyro_columns,
-        p.imu.time_column,
-        p.imu.time_scale_s,
-        p.imu.accel_unit,
-        p.imu.gyro_unit,
-        p.imu.axes,
-        p.imu.odometer_column,
-        p.imu.odometer_scale_mps,
-    )
+    if p.imu.format == "mat":
+        imu = sf.read_imu_increments_mat(
+            p.imu.file,
+            p.imu.mat_variable,
+            p.imu.gyro_columns,
+            p.imu.accel_columns,
+            p.imu.time_column,
+            p.imu.axes,
+        )
+    else:
+        imu = sf.read_imu_rates_csv(
+            p.imu.file,
+            p.imu.accel_columns,
+            p.imu.gyro_columns,
+            p.imu.time_column,
+            p.imu.time_scale_s,
+            p.imu.accel_unit,
+            p.imu.gyro_unit,
+            p.imu.axes,
+            p.imu.odometer_column,
+            p.imu.odometer_scale_mps,
+        )
+    ref_att = _reference_attitude(g)
+    if ref_att is not None:
+        ref_att = ref_att[keep]
     if p.aiding.odometer_sigma_mps > 0 and imu.odometer is None:
         raise InputError(
             "odometer aiding needs imu.odometer_column", key="post.aiding.odometer_sigma_mps"
@@ -167,16 +202,27 @@ def run(scenario, seed, *, sink=None, progress=None):
     first = int(np.searchsorted(tg, t0))
     lla0 = sol.lla[min(first, len(tg) - 1)]
     sw = (t0 + p.static_window_s[0], t0 + p.static_window_s[1])
-    try:
-        init = sources.velocity_heading(
-            grid + dt, dth, dvv, dt, lla0, sw, tg, vel_init, p.motion_speed_mps
-        )
-    except InputError as exc:  # its keys are the tight scenario's
-        key = str(exc.key or "").replace("data.", "post.")
-        raise InputError(exc.message, source=str(g.file), key=key) from None
+    if p.init == "reference":
+        if ref_att is None:
+            raise InputError("init: reference needs gnss.attitude_columns", key="post.init")
+        j = min(first, len(tg) - 1)
+        eul = rotation.euler_from_mat(ref_att[j]) + np.array([0, 0, p.init_heading_error_deg * DEG])
+        mat0 = rotation.mat_from_euler(*eul)
+        vel0 = vel_init[j]
+        lla0 = error_model.lla_offset(sol.lla[j], -vel0 * (tg[j] - t0))
+        init = sources.HeadingInit(mat0, float(eul[2]), 0.0, tg[j : j + 1])
+    else:
+        vel0 = np.zeros(3)
+        try:
+            init = sources.velocity_heading(
+                grid + dt, dth, dvv, dt, lla0, sw, tg, vel_init, p.motion_speed_mps
+            )
+        except InputError as exc:  # its keys are the tight scenario's
+            key = str(exc.key or "").replace("data.", "post.")
+            raise InputError(exc.message, source=str(g.file), key=key) from None
     lever = np.asarray(p.lever_arm_m, float)
     lla_imu = error_model.lla_offset(lla0, -(init.mat_nb @ lever))
-    nav0 = strapdown.NavState.from_attitude(init.mat_nb, np.zeros(3), lla_imu)
+    nav0 = strapdown.NavState.from_attitude(init.mat_nb, vel0, lla_imu)
     # 5. outages and the run
     o = p.outages
     t_end = float(grid[-1] + dt)
@@ -301,6 +347,8 @@ def run(scenario, seed, *, sink=None, progress=None):
         post_stationary_epochs=n_stat,
         post_smoother_wall_s=wall_s,
     )
+    if ref_att is not None:
+        _attitude_scores(out, time, quat, sq if sm is not None else None, tg, ref_att, t0, p)
     final = ssens[-1] if sm is not None else sens[-1]
     for i, axis in enumerate("xyz"):
         out[f"post_accel_bias_{axis}_ug"] = float(final[i] / UG)
@@ -380,6 +428,25 @@ def run(scenario, seed, *, sink=None, progress=None):
     )
 
 
+def _attitude_scores(out, time, quat, squat, tg, ref_att, t0, p):
+    """Attitude minus the reference at the solution epochs from score_from_s on."""
+    idx = np.clip(np.searchsorted(tg, time), 0, tg.size - 1)
+    ok = (np.abs(tg[idx] - time) < 1e-6) & (time >= t0 + p.score_from_s)
+    if not ok.any():
+        raise InputError("no reference attitude epoch to score", key="post.score_from_s")
+    ref = np.array([rotation.euler_from_mat(m) for m in ref_att[idx[ok]]])
+    tilt = []
+    for key, q in (("", quat), ("sm_", squat)):
+        if q is None:
+            continue
+        e = np.array([rotation.euler_from_mat(m) for m in rotation.mat_from_quat(q[ok])]) - ref
+        e = np.degrees((e + math.pi) % (2 * math.pi) - math.pi)
+        out[f"post_{key}heading_diff_mean_deg"] = float(e[:, 2].mean())
+        out[f"post_{key}heading_diff_std_deg"] = float(e[:, 2].std())
+        tilt.append(float(np.abs(e[:, :2].mean(0)).max()))
+    out["post_tilt_diff_max_deg"] = max(tilt)
+
+
 def _null(v):
     return None if v is None or not np.isfinite(v) else float(v)
 
@@ -402,7 +469,12 @@ def _report(p, out, scores, fit, t0, wins):
         f"filter {out['post_filter_wall_s']:.3g} s, smoother {_fmt(out['post_smoother_wall_s'])} s"
         " (first run includes JIT compilation); position NIS mean "
         f"{_fmt(out['post_nis_pos_mean'])}",
-        f"initial heading {out['post_initial_heading_deg']:.2f} deg (from the first motion)",
+        f"initial heading {out['post_initial_heading_deg']:.2f} deg ("
+        + (
+            "from the first motion)"
+            if p.init == "motion"
+            else "the reference's + init_heading_error_deg)"
+        ),
         f"aiding: NHC {_sigma(p.aiding.nhc_sigma_mps, 'm/s')}, ZUPT "
         f"{_sigma(p.aiding.zupt_sigma_mps, 'm/s')}, ZARU {_sigma(p.aiding.zaru_sigma_dps, 'deg/s')}"
         f"; {out['post_stationary_epochs']} stationary epochs; mounting "
@@ -421,6 +493,15 @@ def _report(p, out, scores, fit, t0, wins):
             f"residual time-offset state: {1e3 * out['post_time_offset_state_s']:.1f} ms "
             f"+- {1e3 * out['post_time_offset_state_sigma_s']:.2f} ms (a solution tagged t "
             "was taken at IMU time t + offset)"
+        )
+    if out["post_heading_diff_mean_deg"] is not None:
+        lines.append(
+            f"attitude against the reference from {p.score_from_s:g} s: heading "
+            f"{out['post_heading_diff_mean_deg']:.3f} deg mean "
+            f"(std {out['post_heading_diff_std_deg']:.3f}) forward, "
+            f"{_fmt(out['post_sm_heading_diff_mean_deg'], '.3f')} deg "
+            f"(std {_fmt(out['post_sm_heading_diff_std_deg'], '.3f')}) smoothed; "
+            f"roll/pitch mean within {out['post_tilt_diff_max_deg']:.3f} deg"
         )
     lines.append(
         "sensor estimates: accel bias "

@@ -241,6 +241,7 @@ def _floats(values):
 
 
 CSV_ROLES = (
+    "vel_u",
     "time",
     "lat",
     "lon",
@@ -327,7 +328,8 @@ def read_solution_csv(path, columns, angle_unit="deg", time_scale=1.0, time_offs
     else:
         raise InputError("need lat, lon, height or x, y, z columns", key="columns")
     sig = np.column_stack([get["sigma_n"], get["sigma_e"], get["sigma_d"]])
-    vel = np.column_stack([get["vel_n"], get["vel_e"], get["vel_d"]])
+    vel_d = -get["vel_u"] if "vel_u" in columns else get["vel_d"]
+    vel = np.column_stack([get["vel_n"], get["vel_e"], vel_d])
     svel = np.column_stack([get["sigma_vn"], get["sigma_ve"], get["sigma_vd"]])
     q = np.ones(time.size, np.int64) if "q" not in columns else get["q"].astype(np.int64)
     _check(path, time, sig, svel, vel, line)
@@ -429,3 +431,82 @@ def read_imu_rates_csv(
             )
         odo = a[:, odometer_column] * odometer_scale
     return ImuRates(path, time, gyro[:, index] * sign, acc[:, index] * sign, odo)
+
+
+def _mat_array(path, variable, key):
+    import scipy.io  # only for a .mat input
+
+    try:
+        mat = scipy.io.loadmat(path)
+    except (OSError, ValueError) as exc:
+        raise InputError(f"cannot read the .mat file: {exc}", source=str(path)) from exc
+    if variable not in mat:
+        names = sorted(k for k in mat if not k.startswith("__"))
+        raise InputError(f"no variable {variable!r} (has {names})", source=str(path), key=key)
+    a = np.asarray(mat[variable], float)
+    if a.ndim != 2:
+        raise InputError(f"{variable!r} is not a 2-D array", source=str(path), key=key)
+    return a
+
+
+def read_solution_mat(path, variable, columns, angle_unit="rad", sigma=None, sigma_vel=None):
+    """Solutions from a 2-D array in a .mat file: ``columns`` role -> 0-based column index
+    (roles as :data:`CSV_ROLES`); constant ``sigma`` (m) / ``sigma_vel`` (m/s) where the
+    array has no sigma columns. Rows are reported as lines (1-based)."""
+    path = str(path)
+    a = _mat_array(path, variable, "post.gnss.mat_variable")
+    for role, col in columns.items():
+        if role not in CSV_ROLES:
+            raise InputError(f"unknown role {role!r}", key=f"columns.{role}")
+        if not 0 <= int(col) < a.shape[1]:
+            raise InputError(f"column {col} beyond the {a.shape[1]} columns", key=f"columns.{role}")
+    get = {r: a[:, int(c)] for r, c in columns.items()}
+    n = a.shape[0]
+    line = np.arange(1, n + 1)
+    k = math.pi / 180.0 if angle_unit == "deg" else 1.0
+    lla = np.column_stack([get["lat"] * k, get["lon"] * k, get["height"]])
+    if "sigma_n" in get:
+        sig = np.column_stack([get["sigma_n"], get["sigma_e"], get["sigma_d"]])
+    elif sigma is not None:
+        sig = np.full((n, 3), float(sigma))
+    else:
+        raise InputError("no sigma columns and no constant sigma given", key="post.gnss.sigma_m")
+    vel = np.full((n, 3), np.nan)
+    svel = np.full((n, 3), np.nan)
+    if "vel_n" in get:
+        vd = -get["vel_u"] if "vel_u" in get else get["vel_d"]
+        vel = np.column_stack([get["vel_n"], get["vel_e"], vd])
+        if sigma_vel is not None:
+            svel = np.full((n, 3), float(sigma_vel))
+    time = get["time"]
+    q = np.ones(n, np.int64)
+    _check(path, time, sig, svel, vel, line)
+    vel[~np.isfinite(svel).all(1)] = np.nan
+    return SolutionFile(path, time, lla, sig, vel, svel, q, line)
+
+
+def read_mat_columns(path, variable, cols, key):
+    """Columns ``cols`` (0-based) of a 2-D array in a .mat file, (n, len(cols))."""
+    a = _mat_array(str(path), variable, key)
+    if max(cols) >= a.shape[1]:
+        raise InputError(f"column {max(cols)} beyond the {a.shape[1]} columns", key=key)
+    return a[:, list(cols)]
+
+
+def read_imu_increments_mat(path, variable, gyro_columns, accel_columns, time_column, axes):
+    """IMU increments (rad, m/s over each interval ending at its time tag) from a .mat
+    array, as rates at the interval midpoints (:class:`ImuRates`)."""
+    path = str(path)
+    a = _mat_array(path, variable, "post.imu.mat_variable")
+    t = a[:, time_column]
+    if np.any(np.diff(t) <= 0):
+        i = int(np.flatnonzero(np.diff(t) <= 0)[0]) + 1
+        raise InputError(f"time {t[i]} s does not increase", source=path, line=i + 1)
+    dt = np.diff(t, prepend=t[0] - np.median(np.diff(t)))
+    index = [_AXIS[x][0] for x in axes]
+    sign = np.array([_AXIS[x][1] for x in axes])
+    if sorted(index) != [0, 1, 2]:
+        raise InputError(f"axes {list(axes)} do not name x, y and z once each", key="axes")
+    gyro = a[:, list(gyro_columns)] / dt[:, None]
+    acc = a[:, list(accel_columns)] / dt[:, None]
+    return ImuRates(path, t - 0.5 * dt, gyro[:, index] * sign, acc[:, index] * sign)

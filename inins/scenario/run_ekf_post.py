@@ -19,9 +19,16 @@ AxisName = Literal["x", "-x", "y", "-y", "z", "-z"]
 
 
 class ImuLog(Section):
-    """IMU log: a CSV of rates, one sample a row, no header (columns by 0-based index)."""
+    """IMU log: a CSV of rates, one sample a row, no header (columns by 0-based index), or
+    a 2-D array of increments in a .mat file."""
 
-    file: InputFile = Field(description="IMU CSV file (.csv or .csv.gz), relative to this file")
+    file: InputFile = Field(description="IMU file (.csv, .csv.gz or .mat), relative to this file")
+    format: Literal["csv", "mat"] = Field(
+        "csv",
+        description="csv: rates; mat: increments (rad, m/s) over each interval ending at "
+        "its time tag, in the array mat_variable",
+    )
+    mat_variable: str = Field("mimu", description="mat: the array's name")
     accel_columns: tuple[int, int, int] = Field(
         (0, 1, 2), description="0-based columns of the accelerometer x, y, z"
     )
@@ -52,15 +59,29 @@ class ImuLog(Section):
 
 
 class GnssFile(Section):
-    """GNSS solutions: RTKLIB .pos or a CSV with named columns."""
+    """GNSS solutions (or a reference INS's): RTKLIB .pos, a CSV with named columns, or
+    a 2-D array in a .mat file (columns by 0-based index)."""
 
-    file: InputFile = Field(description="solution file (.pos, .csv, optionally .gz)")
-    format: Literal["rtklib", "csv"] = Field("rtklib", description="file format")
-    columns: dict[str, str] = Field(
+    file: InputFile = Field(description="solution file (.pos, .csv, .mat, optionally .gz)")
+    format: Literal["rtklib", "csv", "mat"] = Field("rtklib", description="file format")
+    mat_variable: str = Field("", description="mat: the array's name")
+    sigma_m: PositiveFloat | None = Field(
+        None, description="mat: position 1-sigma of every epoch (m), without sigma columns"
+    )
+    sigma_vel_mps: PositiveFloat | None = Field(
+        None, description="mat: velocity 1-sigma of every epoch (m/s)"
+    )
+    attitude_columns: dict[Literal["roll", "pitch", "yaw"], int] | None = Field(
+        None, description="mat: 0-based columns of a reference attitude (rad), for scoring"
+    )
+    yaw_sign: Literal[1, -1] = Field(
+        1, description="heading = yaw_sign * yaw (PSINS yaw is positive west: -1)"
+    )
+    columns: dict[str, str | int] = Field(
         default_factory=dict,
-        description="csv: role -> column name; roles time, lat, lon, height (or x, y, z "
-        "ECEF m), sigma_n, sigma_e, sigma_d (m), vel_n, vel_e, vel_d (m/s), sigma_vn, "
-        "sigma_ve, sigma_vd, q",
+        description="csv: role -> column name (mat: 0-based index); roles time, lat, lon, "
+        "height (or x, y, z ECEF m), sigma_n, sigma_e, sigma_d (m), vel_n, vel_e, vel_d "
+        "or vel_u (m/s), sigma_vn, sigma_ve, sigma_vd, q",
     )
     angle_unit: Literal["deg", "rad"] = Field("deg", description="csv: unit of lat and lon")
     time_scale_s: PositiveFloat = Field(
@@ -198,6 +219,17 @@ class PostProcess(Section):
     )
     motion_speed_mps: PositiveFloat = Field(
         3.0, description="GNSS speed above which the motion gives the initial heading (m/s)"
+    )
+    init: Literal["motion", "reference"] = Field(
+        "motion",
+        description="motion: level on static_window_s, heading from the first motion; "
+        "reference: attitude and velocity of the file's first epoch (gnss.attitude_columns)",
+    )
+    init_heading_error_deg: float = Field(
+        0.0, description="reference init: heading error added on purpose (deg), a convergence test"
+    )
+    score_from_s: NonNegFloat = Field(
+        0.0, description="attitude scored against the reference from this time on (s)"
     )
     noise: PostNoise = Field(default_factory=PostNoise)
     initial_sigma: PostSigma = Field(default_factory=PostSigma)
