@@ -7,14 +7,15 @@ from pathlib import Path
 
 from typer.testing import CliRunner
 
-from inins.cli import _display, _runner
+from inins.cli import _runner
 from inins.cli import app as real_app
 from inins.cli.schema import schema_dict, schema_rows, schema_table
 
 ROOT = Path(__file__).resolve().parents[2]
 
 
-def test_schema_table_of_fake_command(invoke):
+def test_schema_table_of_fake_command(invoke, monkeypatch):
+    monkeypatch.delenv("COLUMNS", raising=False)  # not a terminal: the unwrapped table
     result = invoke("schema", "fake")
     assert result.exit_code == 0, result.output
     rows = {line.split()[0]: line for line in result.stdout.splitlines()[4:] if line.strip()}
@@ -60,15 +61,6 @@ def test_no_bool_placeholders_in_help():
         assert result.exit_code == 0
         assert "<bool>" not in result.stdout and "<int range>" not in result.stdout, args
         assert "--force" in result.stdout or args != ["calibrate-bias", "--help"]
-
-
-def test_first_run_says_it_compiles(invoke, tmp_path, monkeypatch):
-    monkeypatch.setattr(_display, "kernels_compiled", lambda: False)
-    result = invoke("fake", "-o", tmp_path / "out")
-    assert result.exit_code == 0
-    assert "compiling numerical kernels (first run only, ~30 s)" in result.stderr
-    monkeypatch.setattr(_display, "kernels_compiled", lambda: True)
-    assert "compiling" not in invoke("fake", "-o", tmp_path / "out").stderr
 
 
 def test_progress_phases_are_labelled(monkeypatch):
