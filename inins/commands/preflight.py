@@ -58,6 +58,7 @@ def run_ekf_estimate(scenario):
     _check_forward_axis(scenario)
     if scenario.flight is None:
         return None  # a recording: a few MB, checked as it is read
+
     flight = scenario.flight
     plan = flight.plan()
     duration = float(plan.duration)
