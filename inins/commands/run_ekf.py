@@ -90,12 +90,6 @@ def filter_config(f, dt, lever, dither_window):
     )
 
 
-def flight_plan(flight):
-    """The scenario's :class:`inins.core.flight.FlightPlan` (kept for callers: the
-    conversion is :meth:`inins.scenario.run_ekf.Flight.plan`)."""
-    return flight.plan()
-
-
 def _ephemeris(c, duration):
     week, sow0 = gpstime.from_calendar(2015, 1, 8, 0, 0, 0.0)
     sow0 += c.start_hour_s
