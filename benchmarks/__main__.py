@@ -26,7 +26,7 @@ SLOW_MODULES = ("bench_compile",)
 FIXED_COST = "bench_fixed_cost"
 """Whole-process figures of the default commands (``--quick``: 3 runs, no first run)."""
 """Left out by ``--quick``."""
-QUICK_AWARE = ("bench_ekf", "bench_sweep", "bench_imu", "bench_noise")
+QUICK_AWARE = ("bench_ekf", "bench_sweep", "bench_imu", "bench_noise", "bench_ekf_post")
 """Modules whose ``run(quick=True)`` drops their long parts (the 4-h EKF stream, the
 sweep throughput runs, the chunked sensor-error pass)."""
 TARGETS = (  # (figure path, relation, target, what)
@@ -74,6 +74,9 @@ TARGETS = (  # (figure path, relation, target, what)
     ("bench_noise.noise_24h_extrapolated_s", "<", 10.0, "noise 24 h 1 kHz 6 sensors, s (extrap.)"),
     ("bench_noise.noise_peak_rss_mb", "<", 1024.0, "noise peak RSS, MB"),
     ("bench_noise.speedup_over_allantools", ">=", 5.0, "noise / allantools oadev speed-up"),
+    ("bench_ekf_post.hour_loose_total_s", "<", 0.5, "loose + RTS one hour, s"),
+    ("bench_ekf_post.stream_4h_peak_rss_mb", "<", 1024.0, "loose + RTS 4-h peak RSS, MB"),
+    ("bench_ekf_post.hour_tight_total_s", "<", 2.0, "tight EKF2-FB + RTS one hour, s"),
 )
 MODULES = (
     "bench_strapdown",
@@ -84,6 +87,7 @@ MODULES = (
     "bench_ekf",
     "bench_sweep",
     "bench_noise",
+    "bench_ekf_post",
 )
 
 

@@ -19,6 +19,7 @@ from inins.exceptions import InputError
 from inins.scenario.base import ScenarioModel, ScenarioPath
 from inins.scenario.base import ScenarioSection as Section
 from inins.scenario.common import Imu, Site
+from inins.scenario.run_ekf_post import PostProcess
 from inins.scenario.types import NonNegFloat, PositiveFloat
 from inins.scenario.validation import KeyPathError
 
@@ -287,6 +288,9 @@ class FilterSettings(Section):
     turning_from_s: NonNegFloat = Field(
         0.0, description="start of the window of the heading-error RMS (s)"
     )
+    smoother: Literal["none", "rts"] = Field(
+        "none", description="rts: a Rauch-Tung-Striebel pass over the stored forward run"
+    )
 
     def to_si(self):
         """Keyword arguments in SI of :class:`inins.ekf.config.FilterConfig` (model and
@@ -339,9 +343,16 @@ class RunEkfScenario(ScenarioModel):
     gnss: Gnss | None = Field(None, description="simulated receiver (with flight)")
     data: Data | None = Field(None, description="a recording instead of flight and gnss")
     filter: FilterSettings = Field(default_factory=FilterSettings)
+    post: PostProcess | None = Field(
+        None, description="post-process a recorded drive loosely coupled (alone)"
+    )
 
     @model_validator(mode="after")
     def _one_source(self):
+        if self.post is not None:
+            if self.flight is not None or self.gnss is not None or self.data is not None:
+                raise KeyPathError(("post",), "post goes alone: no flight, gnss or data")
+            return self
         simulated = self.flight is not None or self.gnss is not None
         if simulated == (self.data is not None):
             raise KeyPathError(
