@@ -110,6 +110,13 @@ COMMANDS = (
         "Observability of an INS error model along a piecewise-constant manoeuvre: "
         "ranks, unobservable combinations, degree of observability.",
     ),
+    CommandSpec(
+        "noise",
+        "Noise of an IMU at rest (any import-log format, a table-data file or a simulated "
+        "hold): overlapping Allan deviation with confidence intervals, the IEEE 952 noise "
+        "terms fitted with intervals, and the sensor error-model blocks for simulate-table, "
+        "run-ekf and Kalibr.",
+    ),
 )
 """The five commands of spec §1 and import-log, in the order ``inins --help`` lists them."""
 
