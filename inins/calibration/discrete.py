@@ -161,8 +161,13 @@ def _spin_interval(s, enc_time, enc, geometry, t0, dt, n_samples, encoder_sigma)
     if i1 - i0 < 2:
         return None
     ta, tb = t0 + i0 * dt, t0 + i1 * dt
-    ang_a = np.array([np.interp(ta, enc_time[sel], enc[sel, k]) for k in range(enc.shape[1])])
-    ang_b = np.array([np.interp(tb, enc_time[sel], enc[sel, k]) for k in range(enc.shape[1])])
+    # the spinning gimbal at the ends; the others (at rest) as their mean over the
+    # interval, so that encoder noise does not tilt the spin axis
+    inside = sel[(enc_time[sel] >= ta) & (enc_time[sel] <= tb)]
+    still = enc[inside].mean(axis=0) if inside.size else enc[sel].mean(axis=0)
+    ang_a, ang_b = still.copy(), still.copy()
+    ang_a[g] = np.interp(ta, enc_time[sel], enc[sel, g])
+    ang_b[g] = np.interp(tb, enc_time[sel], enc[sel, g])
     duration = tb - ta
     # the angle is linear in time over the cruise: Simpson on a fine grid is exact to
     # far below the noise for the mean attitude
@@ -226,7 +231,9 @@ def jacobian(values, names, ivs):
     for k in range(len(names)):
         e = np.zeros(len(names))
         e[k] = h[k]
-        cols.append((predict(values + e, names, ivs) - predict(values - e, names, ivs)) / (2 * h[k]))
+        cols.append(
+            (predict(values + e, names, ivs) - predict(values - e, names, ivs)) / (2 * h[k])
+        )
     return np.stack(cols, axis=-1)
 
 
@@ -247,13 +254,17 @@ def sigmas(ivs, noise, names=None, values=None):
     out = np.full((len(ivs), 6), np.nan)
     gain = np.ones(3) if values is None else 1.0
     if values is not None:
-        gain = np.abs(np.diag(imu_model.ImuTerms(dict(zip(names, values, strict=True))).gyro_matrix()))
+        gain = np.abs(
+            np.diag(imu_model.ImuTerms(dict(zip(names, values, strict=True))).gyro_matrix())
+        )
     for k, iv in enumerate(ivs):
         t = iv.duration
         g = np.hypot(noise.arw / np.sqrt(t), noise.gyro_quantum / (np.sqrt(6.0) * t))
         out[k, GYRO] = np.hypot(g, gain * iv.w_ref_sigma)
         if iv.kind == "hold":
-            out[k, ACCEL] = np.hypot(noise.vrw / np.sqrt(t), noise.accel_quantum / (np.sqrt(6.0) * t))
+            out[k, ACCEL] = np.hypot(
+                noise.vrw / np.sqrt(t), noise.accel_quantum / (np.sqrt(6.0) * t)
+            )
     return out
 
 

@@ -110,6 +110,13 @@ COMMANDS = (
         "Observability of an INS error model along a piecewise-constant manoeuvre: "
         "ranks, unobservable combinations, degree of observability.",
     ),
+    CommandSpec(
+        "calibrate-imu",
+        "Calibration of every error term of both triads (biases, scale factors, "
+        "misalignments, g-sensitivity): multi-position and rate tests on a table, or "
+        "table-free; the schedule checked by a planner first; compensation file and "
+        "calibration certificate.",
+    ),
 )
 """The five commands of spec §1 and import-log, in the order ``inins --help`` lists them."""
 
