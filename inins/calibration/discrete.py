@@ -402,7 +402,7 @@ def calibrate(ivs, measured, names, noise, *, max_iter=10):
         step, *_ = np.linalg.lstsq(jac * scale, res, rcond=1e-10)
         step = step * scale
         x = x + step
-        if np.all(np.abs(step) <= 1e-13 * np.maximum(scale, np.abs(x))):
+        if np.all(np.abs(step) <= 1e-9 * scale):  # 1e-12 rad, 1e-12 of a scale factor
             break
     found = plan(ivs, names, noise, x)
     sig = sigmas(ivs, noise, names, x)

@@ -160,13 +160,3 @@ def compensate(dtheta, dv, dt, terms):
     dv_c = np.linalg.solve(terms.accel_matrix(), (dv - terms.accel_bias() * dt).T).T
     rhs = dtheta - terms.gyro_bias() * dt - dv_c @ terms.g_sensitivity().T
     return np.linalg.solve(terms.gyro_matrix(), rhs.T).T, dv_c
-
-
-def rq(mat):
-    """``mat = L Q`` with ``L`` lower triangular (positive diagonal) and ``Q`` orthogonal."""
-    q, r = np.linalg.qr(np.asarray(mat, dtype=float).T)
-    sign = np.sign(np.diag(r))
-    sign[sign == 0.0] = 1.0
-    r = sign[:, None] * r
-    q = q * sign[None, :]
-    return r.T, q.T

@@ -560,7 +560,7 @@ def _certificate_info(scenario):
 # ----------------------------------------------------------------------------- plan only
 
 
-def plan_intervals(setup, scenario):
+def plan_intervals(setup, settle, encoder_sigma=0.0):
     """The intervals of a simulate: section's motion program, from the program alone
     (gimbal angles of the compiled program on the truth grid; nothing simulated)."""
     from inins.table import simulate
@@ -572,15 +572,7 @@ def plan_intervals(setup, scenario):
     traj = sim.trajectory
     geometry = discrete.Geometry(traj.axes, traj.mat_n_base, setup.mount.nominal(), traj.lla)
     ivs = discrete.intervals(
-        steps,
-        grid,
-        angles,
-        geometry,
-        0.0,
-        sim.dt,
-        sim.n_samples,
-        scenario.settle_s,
-        _encoder_sigma(scenario),
+        steps, grid, angles, geometry, 0.0, sim.dt, sim.n_samples, settle, encoder_sigma
     )
     return ivs, sim
 
@@ -588,7 +580,7 @@ def plan_intervals(setup, scenario):
 def _plan_only(scenario, names):
     if scenario.simulate is None:
         raise InputError("plan.only needs the motion program: a simulate: section", key="plan")
-    ivs, sim = plan_intervals(scenario.simulate, scenario)
+    ivs, sim = plan_intervals(scenario.simulate, scenario.settle_s, _encoder_sigma(scenario))
     noise = noise_figures(scenario, sim.sensor)
     planned = discrete.plan(ivs, names, noise)
     results = {}
