@@ -5,7 +5,7 @@ ICRA 2014; the method as imu_tk implements it).
 1. **Static detector** (Tedaldi §IV-A): the variance of each accelerometer axis over a
    centred sliding window of ``window`` s; its norm ``||(var_x, var_y, var_z)||`` is
    compared with ``threshold_factor`` times the same norm over the initial static
-   interval (``init`` s, which must be at rest). Runs of samples below it, at least
+   interval (``init`` s, which must be at rest; at least (1e-5 m/s^2)^2). Runs of samples below it, at least
    ``min_interval`` s long, are static intervals. An interval whose gravity direction
    turns by more than ``max_tilt`` between its first and last fifth is flagged as moving
    and dropped.
@@ -90,7 +90,8 @@ def detect_static(time, acc, detector):
     vnorm = _moving_variance_norm(acc, w)
     n_init = round(detector.init / dt)
     init_var = np.var(acc[:n_init], axis=0)
-    threshold = detector.threshold_factor * float(np.linalg.norm(init_var))
+    # floor (1e-5 m/s^2)^2: noise-free data would otherwise have a zero threshold
+    threshold = max(detector.threshold_factor * float(np.linalg.norm(init_var)), 1e-10)
     static = vnorm < threshold
     edges = np.flatnonzero(np.diff(np.concatenate([[0], static.astype(int), [0]])))
     out = []
