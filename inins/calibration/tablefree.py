@@ -5,8 +5,9 @@ ICRA 2014; the method as imu_tk implements it).
 1. **Static detector** (Tedaldi §IV-A): the variance of each accelerometer axis over a
    centred sliding window of ``window`` s; its norm ``||(var_x, var_y, var_z)||`` is
    compared with ``threshold_factor`` times the same norm over the initial static
-   interval (``init`` s, which must be at rest; at least (1e-5 m/s^2)^2). Runs of samples below it, at least
-   ``min_interval`` s long, are static intervals. An interval whose gravity direction
+   interval (``init`` s, which must be at rest; the threshold is at least
+   (1e-5 m/s^2)^2). Runs of samples below it, at least ``min_interval`` s long, are
+   static intervals. An interval whose gravity direction
    turns by more than ``max_tilt`` between its first and last fifth is flagged as moving
    and dropped.
 2. **Accelerometers from the gravity norm** (Tedaldi eq. 10): the 9 terms of

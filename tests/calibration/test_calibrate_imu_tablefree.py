@@ -3,8 +3,8 @@ simulate-table, and the Xsens log of the imu_tk test data (real)."""
 
 import numpy as np
 import pytest
-
 from helpers import CONFIGS, SHARED_DATA, shipped
+
 from inins.calibration import imu_model, tablefree
 from inins.commands._table import memory_record, table_simulation
 from inins.core import earth
