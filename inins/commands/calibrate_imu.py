@@ -724,3 +724,12 @@ def declared_results(scenario):
         ]
     results += [f"plan_{n}_sigma_{lab(n)[0]}" for n in names] + ["plan_inseparable"]
     return tuple(results), tuple(truth)
+
+
+def estimate(scenario):
+    """Size of the run: the in-memory simulation, or None for a file (read once)."""
+    from inins.commands.budget import table_estimate
+
+    if scenario.simulate is None or scenario.plan.only:
+        return None
+    return table_estimate(scenario.simulate, True)
