@@ -157,6 +157,6 @@ def compensate(dtheta, dv, dt, terms):
     """
     dtheta = np.asarray(dtheta, dtype=float)
     dv = np.asarray(dv, dtype=float)
-    dv_c = np.linalg.solve(terms.accel_matrix(), (dv - terms.accel_bias() * dt).T).T
+    dv_c = (dv - terms.accel_bias() * dt) @ np.linalg.inv(terms.accel_matrix()).T
     rhs = dtheta - terms.gyro_bias() * dt - dv_c @ terms.g_sensitivity().T
-    return np.linalg.solve(terms.gyro_matrix(), rhs.T).T, dv_c
+    return rhs @ np.linalg.inv(terms.gyro_matrix()).T, dv_c

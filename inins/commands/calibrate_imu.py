@@ -14,7 +14,7 @@ import datetime
 
 import numpy as np
 
-from inins.calibration import discrete, imu_model, tablefree
+from inins.calibration import discrete, imu_model, systemlevel, tablefree
 from inins.commands._table import load_record, table_simulation
 from inins.core import earth
 from inins.core.records import MemoryRecord
@@ -283,10 +283,7 @@ def run(scenario, seed, *, sink=None, progress=None):
             fit = _table_free(time, dv / record.dt, dtheta / record.dt, gravity, scenario, None)
             methods["table-free"] = _from_tablefree(fit, "table-free")
         if "system-level" in scenario.methods:
-            warnings.append(
-                "system-level: not available in this version (the Kalman filter on "
-                "navigation errors is not implemented); nothing estimated"
-            )
+            methods["system-level"] = _system_level(scenario, record, sensor)
     results, truth, datasets, attrs = {}, {}, {}, {"": {"unit_name": scenario.unit.name}}
     for method, out in methods.items():
         pre = PREFIX[method]
@@ -418,6 +415,72 @@ def _table_free(time, acc, gyro, gravity, scenario, comp):
         return tablefree.calibrate(time, acc, gyro, gravity, det, scenario.table_free.use_positions)
     except ValueError as exc:
         raise InputError(str(exc), key="table_free.detector") from None
+
+
+def _system_level(scenario, record, sensor):
+    """The Kalman filter on the navigation errors over the whole record."""
+    first = record.steps[0] if record.steps else None
+    if first is None or str(first.kind) != "hold":
+        raise InputError(
+            "system-level calibration needs the record to start at rest (alignment)", key="data"
+        )
+    n_align = first.stop_index - first.start_index
+    step = max(1, round(scenario.system_level.step_s / record.dt))
+    if n_align < step or record.n_samples < 10 * step:
+        raise InputError(
+            f"the first position ({n_align * record.dt:g} s) or the record is shorter than "
+            "the filter needs",
+            key="system_level.step_s",
+        )
+    noise = noise_figures(scenario, sensor, record, None)
+    dtheta, dv = record.imu(0, record.n_samples)
+    fit = systemlevel.calibrate(
+        dtheta,
+        dv,
+        record.dt,
+        np.asarray(record.lla, float),
+        n_align,
+        step,
+        float(np.mean(noise.arw)) or 1e-12,
+        float(np.mean(noise.vrw)) or 1e-12,
+        scenario.system_level.velocity_noise_mps,
+    )
+    corr = fit.covariance / np.outer(fit.sigma, fit.sigma)
+    rms_b = float(np.sqrt(np.mean(fit.velocity_before**2)))
+    rms_a = float(np.sqrt(np.mean(fit.velocity_after**2)))
+    return {
+        "names": fit.names,
+        "values": fit.values,
+        "sigma": fit.sigma,
+        "plan_sigma": None,
+        "terms": dict(zip(fit.names, fit.values, strict=True)),
+        "correlation": corr,
+        "labels": [
+            s.label or f"step{k}" for k, s in enumerate(record.steps) if str(s.kind) == "hold"
+        ],
+        "kinds": ["hold"] * sum(str(s.kind) == "hold" for s in record.steps),
+        "residuals": None,
+        "sigma_means": None,
+        "scalars": {
+            "passes": fit.passes,
+            "filter_steps": int(fit.time.size),
+            "velocity_rms_before_mps": rms_b,
+            "velocity_rms_after_mps": rms_a,
+        },
+        "datasets": {
+            "terms": Series(np.array([fit.values, fit.sigma]), "SI", "b", "estimate and 1-sigma"),
+            "correlation": Series(corr, "1", "", "correlation between the terms"),
+            "time": Series(fit.time, "s", "", "ends of the filter steps"),
+            "innovation": Series(fit.innovation, "m/s", "n", "zero-velocity innovations"),
+            "velocity_before": Series(
+                fit.velocity_before, "m/s", "n", "velocity error of the raw data"
+            ),
+            "velocity_after": Series(
+                fit.velocity_after, "m/s", "n", "velocity error after compensation"
+            ),
+        },
+        "attrs": {"method": "system-level", "inseparable": [], "combinations": []},
+    }
 
 
 # ----------------------------------------------------------------------------- outcomes
@@ -720,6 +783,10 @@ def declared_results(scenario):
                 "gravity_dir_rms_before",
                 "gravity_dir_rms_after",
                 "detector_threshold_m2ps4",
+                "passes",
+                "filter_steps",
+                "velocity_rms_before_mps",
+                "velocity_rms_after_mps",
             )
         ]
     results += [f"plan_{n}_sigma_{lab(n)[0]}" for n in names] + ["plan_inseparable"]

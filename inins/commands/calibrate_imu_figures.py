@@ -13,7 +13,11 @@ import numpy as np
 
 from inins.core.units import DPH, UG
 
-TITLES = {"discrete": "Discrete rate-table method", "table_free": "Table-free multi-position"}
+TITLES = {
+    "discrete": "Discrete rate-table method",
+    "table_free": "Table-free multi-position",
+    "system": "System-level calibration (Kalman filter on navigation errors)",
+}
 
 
 def _pyplot():
@@ -53,6 +57,15 @@ def _panels(result):
                         "|residual| (deg/h)",
                     )
                 )
+        if f"{pre}/velocity_before" in ds:
+            out.append(
+                (
+                    f"{pre}: velocity error at each filter step",
+                    np.linalg.norm(ds[f"{pre}/velocity_before"].data, axis=1),
+                    np.linalg.norm(ds[f"{pre}/velocity_after"].data, axis=1),
+                    "|v| (m/s)",
+                )
+            )
         if f"{pre}/gravity_dir_before" in ds:
             out.append(
                 (

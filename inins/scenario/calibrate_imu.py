@@ -149,7 +149,9 @@ class SystemLevel(ScenarioSection):
 
     step_s: PositiveFloat = Field(1.0, description="filter step (s)")
     velocity_noise_mps: PositiveFloat = Field(
-        1e-3, description="1-sigma of the zero-velocity measurement (m/s)"
+        1e-4,
+        description="1-sigma of the zero-velocity measurement (m/s): table vibration and "
+        "velocity quantization",
     )
 
 
