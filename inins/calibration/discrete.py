@@ -96,7 +96,16 @@ class Geometry:
         return earth.rate_ie_n(self.lla[0])
 
 
-def intervals(steps, enc_time, enc, geometry, t0, dt, n_samples, settle, encoder_sigma=0.0):
+MIN_HOLD = 1.0
+"""Shortest usable hold after the settling time (s)."""
+MOVING = 5e-5
+"""Encoder peak-to-peak (rad, 10 arcsec) beyond which a hold is moving (on top of six
+times the encoder noise)."""
+
+
+def intervals(
+    steps, enc_time, enc, geometry, t0, dt, n_samples, settle, encoder_sigma=0.0, flags=None
+):
     """The holds and spins of a schedule as :class:`Interval` s.
 
     Parameters
@@ -112,17 +121,33 @@ def intervals(steps, enc_time, enc, geometry, t0, dt, n_samples, settle, encoder
         Time skipped at the start of each hold (s).
     encoder_sigma : float
         White noise of one encoder reading (rad).
+    flags : list, optional
+        Receives a message for every hold left out: shorter than :data:`MIN_HOLD` after
+        the settling time, or moving (encoder peak-to-peak beyond :data:`MOVING`).
     """
     out = []
-    for s in steps:
+    flags = [] if flags is None else flags
+    for k, s in enumerate(steps):
         kind = str(s.kind)
         if kind == "hold":
             i0 = min(s.start_index + int(np.ceil(settle / dt - 1e-9)), s.stop_index)
             i1 = s.stop_index
-            if i1 - i0 < 1:
+            if (i1 - i0) * dt < MIN_HOLD:
+                flags.append(
+                    f"step {k} (hold {s.label or '-'}): {(i1 - i0) * dt:g} s after the "
+                    f"settling time, shorter than {MIN_HOLD:g} s: not used"
+                )
                 continue
             ta, tb = t0 + i0 * dt, t0 + i1 * dt
             sel = (enc_time >= ta) & (enc_time <= tb)
+            if sel.any():
+                spread = float(np.max(np.ptp(enc[sel], axis=0)))
+                if spread > MOVING + 6.0 * encoder_sigma:
+                    flags.append(
+                        f"step {k} (hold {s.label or '-'}): the table moves by "
+                        f"{np.degrees(spread) * 3600:.1f} arcsec during the hold: not used"
+                    )
+                    continue
             angles = enc[sel].mean(axis=0) if sel.any() else np.asarray(s.angles_end, float)
             mat_bn = geometry.mat_nb(angles).T
             out.append(
@@ -280,8 +305,8 @@ class Plan:
         Predicted 1-sigma (SI); ``inf`` for a term the schedule cannot separate.
     separable : ndarray of bool, shape (p,)
     combinations : list of dict
-        Each inseparable direction as ``{term: coefficient}`` (normalised, largest
-        coefficients only): the data fix nothing along it.
+        Each inseparable direction as ``{term: coefficient}`` (SI, largest coefficient
+        1): the data fix nothing along it.
     information : ndarray, shape (p, p)
     covariance : ndarray, shape (p, p)
         Pseudo-inverse of the information (NaN rows and columns for the terms that
@@ -332,7 +357,7 @@ def plan(ivs, names, noise, values=None):
     for v in basis.T:
         v = v * scale / np.linalg.norm(v * scale)  # back to SI directions
         v = v / np.abs(v).max()
-        keep = np.abs(v) > 1e-3
+        keep = np.abs(v) > 1e-12
         combos.append({n: float(c) for n, c, k in zip(names, v, keep, strict=True) if k})
     return Plan(names, sigma, separable, combos, info, cov)
 

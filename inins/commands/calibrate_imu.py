@@ -255,6 +255,7 @@ def run(scenario, seed, *, sink=None, progress=None):
         geometry = _geometry(scenario, record)
         if "discrete" in scenario.methods:
             enc_sigma = _encoder_sigma(scenario)
+            flags = []
             ivs = discrete.intervals(
                 record.steps,
                 record.encoder_time,
@@ -265,7 +266,9 @@ def run(scenario, seed, *, sink=None, progress=None):
                 record.n_samples,
                 scenario.settle_s,
                 enc_sigma,
+                flags,
             )
+            warnings += flags
             if not ivs:
                 raise InputError("the record has no hold or spin to calibrate from", key="data")
             noise = noise_figures(scenario, sensor, record, ivs)
@@ -339,15 +342,22 @@ def _encoder_sigma(scenario):
     return 0.0
 
 
+def combination_text(combo):
+    """An inseparable direction in lab units (largest coefficient 1, terms below 1e-5 of
+    it left out): ``+1 ba_x[ug] +0.206 mount_y[arcsec]``."""
+    lab_coef = {n: c / lab(n)[1] for n, c in combo.items()}
+    top = max(abs(c) for c in lab_coef.values())
+    return " ".join(
+        f"{c / top:+.3g} {n}[{lab(n)[0]}]" for n, c in lab_coef.items() if abs(c) > 1e-5 * top
+    )
+
+
 def _refuse(planned, scenario):
     """Bad input when the schedule cannot separate a requested term (or gives a scale
     factor worse than ``plan.max_sigma_ppm``), unless combinations are allowed."""
     bad = planned.inseparable
     if bad and not scenario.plan.allow_combinations:
-        combos = "; ".join(
-            " + ".join(f"{c:+.3g} {n}" for n, c in combo.items())
-            for combo in planned.combinations[:4]
-        )
+        combos = "; ".join(combination_text(c) for c in planned.combinations[:4])
         raise InputError(
             f"the schedule cannot separate {', '.join(bad)} (inseparable: {combos}); "
             "add positions or rate tests, drop the group from estimate, or set "
@@ -529,9 +539,7 @@ def _from_discrete(fit, ivs, geometry, method):
         ),
         "f_ref": Series(ref_f, "m/s^2", "b", "reference specific force per interval"),
     }
-    combos = [
-        " + ".join(f"{c:+.3g} {n}" for n, c in combo.items()) for combo in fit.plan.combinations
-    ]
+    combos = [combination_text(c) for c in fit.plan.combinations]
     return {
         "names": fit.names,
         "values": fit.values,
@@ -662,10 +670,7 @@ def _plan_only(scenario, names):
     ]
     if planned.combinations:
         text.append("inseparable combinations (the data fix nothing along them):")
-        text += [
-            "  " + " + ".join(f"{c:+.3g} {n}" for n, c in combo.items())
-            for combo in planned.combinations
-        ]
+        text += ["  " + combination_text(combo) for combo in planned.combinations]
     warnings = ()
     if planned.inseparable and not scenario.plan.allow_combinations:
         _refuse(planned, scenario)

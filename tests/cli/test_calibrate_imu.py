@@ -199,3 +199,29 @@ def test_certificate_renders_in_headless_chromium(default_run, tmp_path):
     assert shot.is_file() and shot.stat().st_size > 5000, out.stderr[-2000:]
     console = [line for line in out.stderr.splitlines() if "CONSOLE" in line]
     assert console == [], console
+
+
+def test_static_log_planner_says_what_it_can_and_cannot_give(tmp_path):
+    # the schedule of the real RLG log: one position, attitude from the unit itself
+    scen = CONFIGS / "calibrate-imu" / "rlg-static-plan.yaml"
+    result = run(scen, "-o", tmp_path)
+    assert result.exit_code == 0, result.output
+    res = json.loads((tmp_path / "summary.json").read_text())["results"]
+    assert res["plan_ba_z_sigma_ug"] > 0  # the vertical accelerometer bias: separable
+    for name in ("ba_x_sigma_ug", "ba_y_sigma_ug", "bg_x_sigma_dph", "mount_z_sigma_arcsec"):
+        assert res[f"plan_{name}"] is None, name
+    report = (tmp_path / "calibrate-imu.txt").read_text()
+    # accelerometer bias against tilt: 1 ug is 0.206 arcsec of tilt (1 / g)
+    assert "+1 ba_x[ug] +0.206 mount_y[arcsec]" in report
+    # asked for every term without leave to estimate combinations: refused, exit 2
+    result = run(
+        scen,
+        "-o",
+        tmp_path / "all",
+        "--set",
+        "plan.allow_combinations=false",
+        "--set",
+        "estimate=[accel_bias, gyro_bias, accel_scale, gyro_scale, mount]",
+    )
+    assert result.exit_code == 2
+    assert "cannot separate" in result.output and "sg_x" in result.output

@@ -243,3 +243,26 @@ def test_compensated_log_calibrates_to_zero():
     assert np.all(np.abs(fit2.values[sensor]) <= 10 * floor[sensor])
     # the mounting is not a sensor error: it stays
     np.testing.assert_allclose(fit2.values[~sensor], fit.values[~sensor], rtol=1e-6)
+
+
+def test_moving_and_short_holds_are_flagged_and_left_out():
+    s = setup()
+    _sim, rec, ivs = simulated(s)
+    enc = rec.encoder.copy()
+    hold = rec.steps[2]  # the second position
+    sel = (rec.encoder_time >= hold.start_time) & (rec.encoder_time <= hold.end_time)
+    enc[sel, 1] += np.linspace(0.0, 30 * ARCSEC, sel.sum())  # the table creeps 30 arcsec
+    geo = discrete.Geometry(rec.axes, rec.mat_n_base, s.mount.nominal(), rec.lla)
+    flags = []
+    found = discrete.intervals(
+        rec.steps, rec.encoder_time, enc, geo, rec.t0, rec.dt, rec.n_samples, 1.0, 0.0, flags
+    )
+    assert len(found) == len(ivs) - 1
+    assert len(flags) == 1 and "moves by" in flags[0] and hold.label in flags[0]
+    # a settling time that leaves less than a second of each 10-s hold
+    flags = []
+    found = discrete.intervals(
+        rec.steps, rec.encoder_time, rec.encoder, geo, rec.t0, rec.dt, rec.n_samples, 9.5, 0, flags
+    )
+    assert all(iv.kind == "spin" for iv in found) and len(flags) == 24
+    assert "shorter than 1 s" in flags[0]
