@@ -94,6 +94,10 @@ def _sweep(path, outdir, workers, scheduler, keep_runs, restart, retry, max_poin
     from inins.sweep.plan import load_sweep
     from inins.sweep.plot import check_plot_request, plot_result
 
+    if not scheduler:  # the workers' server imports while the sweep is loaded
+        from inins.sweep.executors import start_server
+
+        start_server(_command_of(path))
     plan = load_sweep(path, max_points)
     keys = check_plot_request(plan, plot, against) if plot else ()
     if scheduler:
@@ -117,6 +121,18 @@ def _sweep(path, outdir, workers, scheduler, keep_runs, restart, retry, max_poin
     _print(outcome, paths)
     failed = sum(r["status"] != "passed" for r in outcome.table.records)
     return EXIT_OK if failed == 0 else EXIT_CHECK_FAILED
+
+
+def _command_of(path):
+    """The ``command:`` of a sweep file, or None (errors are left to load_sweep)."""
+    try:
+        import yaml
+
+        content = yaml.safe_load(Path(path).read_text(encoding="utf-8"))
+        command = content.get("command") if isinstance(content, dict) else None
+        return command if isinstance(command, str) else None
+    except (OSError, ValueError, yaml.YAMLError):
+        return None
 
 
 class _Progress:

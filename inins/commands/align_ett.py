@@ -3,7 +3,7 @@ positions with accelerometers only (spec §5, 000 §3.1), compared with gyrocomp
 
 Runs :func:`inins.calibration.ett.align_ett` on the scenario's table record and writes
 the ``ett`` group of ``align-ett.h5``, the summary numbers and the report;
-:func:`read_ett_result` reads that group back for calibrate-bias.
+:func:`inins.commands._table.read_ett_result` reads that group back for calibrate-bias.
 
 Layout written by ``inins align-ett`` (every dataset has ``units``, ``frame`` and
 ``description`` attributes)::
@@ -25,12 +25,11 @@ The IMU heading at any table position is the heading of ``mat_nt(encoder) @ mat_
 
 import numpy as np
 
-from inins.calibration.ett import EttOptions, EttResult, align_ett, paper_angles
+from inins.calibration.ett import EttOptions, align_ett, paper_angles
 from inins.commands import figures
-from inins.commands._table import load_record
+from inins.commands._table import load_record, table_estimate
 from inins.core import rotation
 from inins.core.units import ARCSEC, DEG, DEG_RTH, UG, UG_RTHZ
-from inins.io.hdf5 import read_datasets
 from inins.results import CommandResult, Series, format_table
 from inins.scenario.align_ett import AlignEttScenario
 
@@ -72,8 +71,6 @@ def declared_results(scenario):
 
 def estimate(scenario):
     """Size of the run: the in-memory simulation, or None for a data file (read in chunks)."""
-    from inins.commands.budget import table_estimate
-
     return None if scenario.simulate is None else table_estimate(scenario.simulate, True)
 
 
@@ -104,18 +101,6 @@ def options(scenario):
         accel_vrw=scaled(scenario.accel_vrw_ug_rthz, UG_RTHZ),
         gyro_arw=scaled(scenario.gyro_arw_deg_rth, DEG_RTH),
     )
-
-
-_DATASETS = (
-    "mat_tb",
-    "mat_tb0",
-    "mu",
-    "heading_rad",
-    "heading_sigma_rad",
-    "level_angles",
-    "mat_n_base",
-    "axes",
-)
 
 
 def _deg(rad):
@@ -313,25 +298,4 @@ def command_result(estimate, gimbals, source):
         attrs,
         report(estimate, gimbals, source),
         estimate.warnings,
-    )
-
-
-def read_ett_result(path):
-    """The :class:`~inins.calibration.ett.EttResult` stored in an ``align-ett.h5``.
-
-    Raises
-    ------
-    InputError
-        Missing file, not HDF5, or no complete ``ett`` group.
-    """
-    d = read_datasets(path, "ett", _DATASETS, "an align-ett results file")
-    return EttResult(
-        mat_tb=d["mat_tb"],
-        mat_tb0=d["mat_tb0"],
-        mu=d["mu"],
-        heading=float(d["heading_rad"]),
-        heading_sigma=float(d["heading_sigma_rad"]),
-        level_angles=d["level_angles"],
-        mat_n_base=d["mat_n_base"],
-        axes=d["axes"].reshape(-1, 3),
     )

@@ -12,7 +12,6 @@ from inins.exceptions import InputError, OutputError
 
 MAX_SAMPLES = 1_000_000_000
 """Stated limit of IMU samples in one run (~48 GB of float64 increments)."""
-_F8 = 8
 
 
 @dataclass(frozen=True)
@@ -53,40 +52,6 @@ def human_bytes(n: float) -> str:
             return f"{n:.3g} {unit}" if unit != "B" else f"{int(n)} B"
         n /= 1024
     return f"{n:.3g} PB"
-
-
-def table_estimate(setup, in_memory: bool) -> Estimate:
-    """Size of a rate-table simulation (a simulate-table scenario or a ``simulate:``
-    section): IMU increments, truth and encoder rows.
-
-    ``in_memory``: the record is kept in memory (calibrate-bias, align-ett) rather
-    than streamed in chunks to the output (simulate-table).
-    """
-    from inins.commands._table import BYTES_PER_SAMPLE, SPILL_BYTES, table_simulation
-    from inins.table.simulate import CHUNK_SAMPLES
-
-    try:
-        sim = table_simulation(setup)
-    except (ValueError, ArithmeticError) as exc:
-        raise InputError(f"cannot build the motion program: {exc}", key="motion") from None
-    n, d, g = sim.n_samples, sim.truth_decimation, len(sim.gimbal_names)
-    keys = "imu.sample_rate_hz and the motion durations"
-    if n <= 0:
-        raise InputError(
-            f"the motion program ({sim.trajectory.program.duration:g} s) is shorter than one "
-            f"truth interval ({d} samples at {sim.sample_rate:g} Hz)",
-            key="imu.sample_rate_hz / output.truth_rate_hz",
-        )
-    rows = n // d
-    imu = n * 6 * _F8
-    series = rows * (1 + 4 + g + 3 + 3 + 3 + 1 + g) * _F8
-    chunk = min(n, CHUNK_SAMPLES)
-    if in_memory and n * BYTES_PER_SAMPLE <= SPILL_BYTES:
-        # chunks, then their concatenation; navigation works on the record
-        return Estimate(n, 1 << 20, 3 * (imu + series), keys)
-    if in_memory:  # spilled to a temporary table-data file, read back in chunks
-        return Estimate(n, imu + series, 4 * chunk * 6 * _F8 + series + (64 << 20), keys)
-    return Estimate(n, imu + series, 4 * chunk * 6 * _F8 + (64 << 20), keys)
 
 
 def check_budget(estimate: Estimate | None, outdir=None, force: bool = False) -> None:

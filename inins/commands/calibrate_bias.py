@@ -9,7 +9,7 @@ import numpy as np
 
 from inins.calibration import bias, budget, ett, three_axis
 from inins.commands import figures
-from inins.commands._table import load_record
+from inins.commands._table import load_record, read_ett_result, table_estimate
 from inins.commands.calibrate_bias_report import (
     AXES,
     METHOD_TITLES,
@@ -49,8 +49,6 @@ def _ett(scenario, record):
     if scenario.alignment.method != "ett":
         return None
     if scenario.alignment.ett_file is not None:
-        from inins.commands.align_ett import read_ett_result
-
         return read_ett_result(scenario.alignment.ett_file)
     nominal = None if scenario.simulate is None else scenario.simulate.mount.nominal()
     return ett.align_ett(record, ett.EttOptions(mat_tb0=nominal)).result
@@ -287,6 +285,4 @@ def declared_results(scenario):
 
 def estimate(scenario):
     """Size of the run: the in-memory simulation, or None for a data file (read in chunks)."""
-    from inins.commands.budget import table_estimate
-
     return None if scenario.simulate is None else table_estimate(scenario.simulate, True)

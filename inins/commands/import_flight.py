@@ -150,10 +150,9 @@ def imu_from_log(path, progress=None):
     """The IMU increments of an import-log scenario's log (body axes, SI) as an
     :class:`inins.io.flight_layout.ImuRecord`; time is the end of each sample interval
     on the log's uniform grid ``t0 + (k + 1) dt``."""
-    from inins.commands.import_log import import_settings
     from inins.io.logimport import LogReader
     from inins.scenario.base import load_scenario
-    from inins.scenario.import_log import ImportLogScenario
+    from inins.scenario.import_log import ImportLogScenario, import_settings
 
     log_scenario = load_scenario(ImportLogScenario, path, [], None)[0]
     reader = LogReader(import_settings(log_scenario))

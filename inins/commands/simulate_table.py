@@ -8,13 +8,10 @@ summary numbers and the report.
 import numpy as np
 
 from inins.commands import figures
-from inins.commands._table import table_simulation, truth_attrs
+from inins.commands._table import stream, table_estimate, table_layout, table_simulation
 from inins.core.units import DEG_RTH, DPH, PPM, UG, UG_RTHZ
-from inins.exceptions import InputError
-from inins.io import tabledata
 from inins.results import CommandResult, NullSink, format_table
 from inins.scenario.simulate_table import SimulateTableScenario
-from inins.table import simulate
 
 SCENARIO_MODEL = SimulateTableScenario
 FIGURES = {"simulate-table.png": figures.simulate_table_motion}
@@ -31,8 +28,6 @@ def declared_results(scenario):
 
 def estimate(scenario):
     """Samples, output bytes and memory of the run (streamed: memory is a few chunks)."""
-    from inins.commands.budget import table_estimate
-
     return table_estimate(scenario, in_memory=False)
 
 
@@ -41,24 +36,13 @@ def run(scenario, seed, *, sink=None, progress=None):
     nothing when none is given)."""
     sim = table_simulation(scenario)
     stream(sim, np.random.default_rng(seed), NullSink() if sink is None else sink, progress)
-    lla = sim.trajectory.lla
-    attrs = {
-        "site": {"lat_rad": lla[0], "lon_rad": lla[1], "height_m": lla[2]},
-        "imu": {"t0_s": 0.0, "dt_s": sim.dt, "sample_rate_hz": sim.sample_rate},
-        "table": {
-            "gimbals": list(sim.gimbal_names),
-            "axes": sim.trajectory.axes,
-            "mat_n_base": sim.trajectory.mat_n_base,
-        },
-        "truth": {"truth_decimation": sim.truth_decimation, **truth_attrs(sim)},
-    }
+    attrs, datasets = table_layout(sim)
     results = {
         "samples": sim.n_samples,
         "duration_s": sim.n_samples * sim.dt,
         "sample_rate_hz": sim.sample_rate,
         "steps": len(sim.trajectory.program.steps),
     }
-    datasets = tabledata.encode_steps(simulate.schedule(sim), len(sim.gimbal_names))
     return CommandResult(
         command="simulate-table",
         results=results,
@@ -67,31 +51,6 @@ def run(scenario, seed, *, sink=None, progress=None):
         attrs=attrs,
         report=report(sim),
     )
-
-
-def stream(sim, rng, sink, progress=None):
-    """Stream the simulation's IMU, encoder and truth series into ``sink`` in the
-    table-data layout (pulse counts where the sensor is quantized)."""
-    s = sim.sensor
-    weights = tuple(
-        w if np.any(w > 0) else None for w in (s.gyro_pulse_weight, s.accel_pulse_weight)
-    )
-    n_rows = sim.n_samples // sim.truth_decimation
-    tabledata.declare(
-        sink, len(sim.gimbal_names), weights, truth=True, expected=(sim.n_samples, n_rows)
-    )
-    for chunk in simulate.simulation_chunks(sim, rng, progress):
-        try:
-            tabledata.append_chunk(sink, chunk, weights)
-        except ValueError as exc:
-            if "overflow int32" not in str(exc):
-                raise
-            raise InputError(
-                "the increments per sample exceed 2**31 pulses: the rates (motion, biases) "
-                "are too large for the pulse weights",
-                key="imu.gyro.pulse_weight_arcsec, imu.accel.pulse_weight_ug_s",
-            ) from None
-    return sink
 
 
 def truth_scalars(sensor):

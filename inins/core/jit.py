@@ -32,6 +32,7 @@ import importlib.machinery
 import importlib.util
 import json
 import os
+import re
 import sys
 import sysconfig
 import tempfile
@@ -52,16 +53,16 @@ _PENDING = []
 """Kernels made before numba was loaded; given their dispatchers by :func:`activate`."""
 _AOT = {}
 """Qualified name -> kernel (or dispatcher, once activated) for the library."""
-_MODULES = set()
-"""Names of the modules that define kernels (their source keys the library)."""
 _numba = None
 _library = None
 LIBRARY_ROWS = 1_000_000
 """Rows (the longest first axis among a call's array arguments: samples, for the
 table, sensor and strapdown kernels) a process runs through the kernel library
 before it loads numba: 0.1-0.2 s of work, against numba's 0.5 s start-up."""
-_library_rows = 0
-"""Qualified name -> _Compiled, loaded on first use; {} when there is none."""
+_library_rows = {}
+"""Qualified name -> rows run through the library's copy by this process."""
+_source_digest = None
+"""Hash of the kernel sources (:func:`kernel_sources`), computed once."""
 
 
 def njit(function=None, *, aot=False, **options):
@@ -73,7 +74,6 @@ def njit(function=None, *, aot=False, **options):
     """
 
     def decorate(fn):
-        _MODULES.add(fn.__module__)
         with _LOCK:
             made = Kernel(fn, options) if _numba is None else _numba.njit(**options)(fn)
             if _numba is None:
@@ -89,13 +89,19 @@ def _qualname(fn):
     return f"{fn.__module__}.{fn.__qualname__}"
 
 
-def _within_budget(args):
-    """Count the call's rows; True while the process is within :data:`LIBRARY_ROWS`."""
-    global _library_rows
-    _library_rows += max(
-        (a.shape[0] for a in args if isinstance(a, np.ndarray) and a.ndim), default=0
-    )
-    return _library_rows <= LIBRARY_ROWS
+def _within_budget(qualname, args):
+    """Count the call's rows for kernel ``qualname``; True while that kernel is within
+    :data:`LIBRARY_ROWS` in this process.
+
+    The budget is each kernel's own: a run calls several kernels over the same
+    samples (trajectory, sensor errors, pulses, strapdown), and a budget shared
+    among them would load numba for a run no longer than any one kernel's limit.
+    """
+    rows = max((a.shape[0] for a in args if isinstance(a, np.ndarray) and a.ndim), default=0)
+    with _LOCK:
+        total = _library_rows.get(qualname, 0) + rows
+        _library_rows[qualname] = total
+    return total <= LIBRARY_ROWS
 
 
 class Kernel:
@@ -117,8 +123,9 @@ class Kernel:
 
     def __call__(self, *args):
         if self._dispatcher is None:
-            compiled = _compiled(_qualname(self.py_func))
-            if compiled is not None and compiled.accepts(args) and _within_budget(args):
+            name = _qualname(self.py_func)
+            compiled = _compiled(name)
+            if compiled is not None and compiled.accepts(args) and _within_budget(name, args):
                 return compiled.function(*args)
             activate()
         return self._dispatcher(*args)
@@ -148,6 +155,7 @@ def activate():
             return _numba
         import numba
 
+        _key_numba_cache()
         for kernel in _PENDING:
             kernel._dispatcher = numba.njit(**kernel._options)(kernel.py_func)
         for name, module in list(sys.modules.items()):
@@ -164,6 +172,136 @@ def activate():
     return numba
 
 
+def kernel_sources():
+    """Package-relative paths of every source compiled code can depend on.
+
+    The kernel modules (the modules that use :func:`njit`) and, transitively,
+    every module of ``inins`` they import: the kernels a kernel calls or inlines
+    and the module constants numba freezes into the machine code. Found by reading
+    the sources (``import`` statements), so the set does not depend on which
+    modules a process happens to have imported.
+    """
+    found = set()
+    todo = [
+        path
+        for path in sorted(_PACKAGE.rglob("*.py"))
+        if "__pycache__" not in path.parts and "njit" in path.read_text(encoding="utf-8")
+    ]
+    while todo:
+        path = todo.pop()
+        if path in found:
+            continue
+        found.add(path)
+        todo.extend(_imported_files(path))
+    found.discard(Path(__file__).resolve())  # the machinery: options are in the modules
+    return sorted(p.relative_to(_PACKAGE).as_posix() for p in found)
+
+
+def _module_file(dotted):
+    """Source of module ``dotted`` (``inins....``) in this package, or None."""
+    parts = dotted.split(".")
+    if parts[0] != _PACKAGE.name:
+        return None
+    base = _PACKAGE.joinpath(*parts[1:])
+    for candidate in (base.with_suffix(".py"), base / "__init__.py"):
+        if candidate.is_file():
+            return candidate
+    return None
+
+
+_FROM_IMPORT = re.compile(
+    r"^[ \t]*from[ \t]+(\.*[\w.]*)[ \t]+import[ \t]+(\([^)]*\)|[^\n#]*)", re.M
+)
+_IMPORT = re.compile(r"^[ \t]*import[ \t]+([\w., \t]+)", re.M)
+
+
+def _imported_files(path):
+    """Sources of the ``inins`` modules that the module at ``path`` imports (its
+    ``import`` lines, read as text: a line in a docstring only adds a file)."""
+    text = path.read_text(encoding="utf-8")
+    package = ".".join((_PACKAGE.name, *path.relative_to(_PACKAGE).parent.parts))
+    names = []
+    for line in _IMPORT.finditer(text):
+        names += [part.split()[0] for part in line.group(1).split(",") if part.strip()]
+    for line in _FROM_IMPORT.finditer(text):
+        module = line.group(1)
+        level = len(module) - len(module.lstrip("."))
+        if level:
+            anchor = package.rsplit(".", level - 1)[0] if level > 1 else package
+            module = f"{anchor}.{module[level:]}" if module[level:] else anchor
+        members = line.group(2).strip("() \n").replace("\n", ",").split(",")
+        names.append(module)
+        names += [f"{module}.{m.split()[0]}" for m in members if m.strip()]
+    files = []
+    for name in names:
+        parts = name.split(".")
+        for i in range(2, len(parts) + 1):  # inins.core/__init__ and inins.core.earth
+            found = _module_file(".".join(parts[:i]))
+            if found is not None:
+                files.append(found)
+    return files
+
+
+def source_digest():
+    """One hash of the sources of :func:`kernel_sources` (computed once a process)."""
+    global _source_digest
+    if _source_digest is None:
+        digest = hashlib.sha256()
+        for name, value in _source_key(kernel_sources()).items():
+            digest.update(f"{name}={value}\n".encode())
+        _source_digest = digest.hexdigest()
+    return _source_digest
+
+
+def _key_numba_cache():
+    """Make numba's on-disk cache of an ``inins`` kernel valid only for the sources
+    it was compiled from: all of :func:`kernel_sources`, not the kernel's own file.
+
+    numba stamps a cache entry with the hash of the file that defines the kernel,
+    so a kernel that calls or inlines one from another module would keep running
+    the old callee after an edit of that module (or an upgrade that changes only
+    the callee). A locator placed before numba's own ones takes the cache folder
+    from them and gives the stamp :func:`source_digest` instead.
+    """
+    from numba.core import caching
+
+    if any(getattr(c, "_inins", False) for c in caching.CacheImpl._locator_classes):
+        return
+    standard = list(caching.CacheImpl._locator_classes)
+
+    class PackageSourcesLocator(caching._CacheLocator):
+        _inins = True
+
+        def __init__(self, inner):
+            self._inner = inner
+
+        def ensure_cache_path(self):
+            self._inner.ensure_cache_path()
+
+        def get_cache_path(self):
+            return self._inner.get_cache_path()
+
+        def get_source_stamp(self):
+            return ("inins kernel sources", source_digest())
+
+        def get_disambiguator(self):
+            return self._inner.get_disambiguator()
+
+        @classmethod
+        def from_function(cls, py_func, py_file):
+            try:
+                Path(py_file).resolve().relative_to(_PACKAGE)
+            except ValueError:
+                return None  # not ours: numba's own locators decide
+            for locator_class in standard:
+                inner = locator_class.from_function(py_func, py_file)
+                if inner is not None:
+                    return cls(inner)
+            return None
+
+    caching.CacheImpl._locator_classes = [PackageSourcesLocator, *standard]
+
+
 def library_dir():
     """Directory of the kernel library (module docstring)."""
     if os.environ.get("ININS_KERNEL_DIR"):
@@ -173,9 +311,14 @@ def library_dir():
     return _PACKAGE / "__pycache__"
 
 
-def _paths(directory):
-    suffix = sysconfig.get_config_var("EXT_SUFFIX")
-    return directory / f"{LIBRARY}{suffix}", directory / f"{LIBRARY}{suffix}.json"
+def _manifest_path(directory):
+    return Path(directory) / f"{LIBRARY}.json"
+
+
+def _library_file(directory, manifest):
+    """The extension module a manifest names (in ``directory``)."""
+    name = Path(str(manifest.get("library", ""))).name
+    return Path(directory) / name if name else None
 
 
 def _source_key(files):
@@ -189,32 +332,35 @@ def _source_key(files):
     return key
 
 
-def _module_files():
-    """Sources of the modules that define kernels, relative to the package."""
-    return [
-        Path(sys.modules[name].__file__).resolve().relative_to(_PACKAGE).as_posix()
-        for name in _MODULES
-    ]
-
-
 def _versions():
     return {"numpy": np.__version__, "numba": metadata.version("numba")}
 
 
 def library_status(directory=None):
     """Why the kernel library is (not) used: ``(usable, reason)``."""
-    shared, manifest_path = _paths(Path(directory) if directory else library_dir())
-    if not (shared.is_file() and manifest_path.is_file()):
-        return False, f"no kernel library in {shared.parent}"
+    usable, reason, _ = _status(Path(directory) if directory else library_dir())
+    return usable, reason
+
+
+def _status(directory):
+    """``(usable, reason, manifest)`` of the kernel library in ``directory``."""
+    manifest_path = _manifest_path(directory)
     try:
         manifest = json.loads(manifest_path.read_text())
+    except FileNotFoundError:
+        return False, f"no kernel library in {directory}", None
     except (OSError, ValueError) as exc:
-        return False, f"{manifest_path}: unreadable ({exc})"
+        return False, f"{manifest_path}: unreadable ({exc})", None
+    shared = _library_file(directory, manifest) if isinstance(manifest, dict) else None
+    if shared is None or not shared.is_file():
+        return False, f"no kernel library in {directory}", None
+    if manifest.get("python") != sysconfig.get_config_var("EXT_SUFFIX"):
+        return False, f"built for another Python ({manifest.get('python')})", None
     if manifest.get("versions") != _versions():
-        return False, f"built for {manifest.get('versions')}, installed {_versions()}"
+        return False, f"built for {manifest.get('versions')}, installed {_versions()}", None
     if manifest.get("sources") != _source_key(manifest.get("sources", {})):
-        return False, "a kernel module changed since the library was built"
-    return True, f"{len(manifest['exports'])} kernels in {shared}"
+        return False, "a kernel module changed since the library was built", None
+    return True, f"{len(manifest['exports'])} kernels in {shared}", manifest
 
 
 class _Compiled:
@@ -242,17 +388,17 @@ def _compiled(qualname):
 
 def _load():
     """The kernel library's functions by qualified name, or {} if it is not usable."""
-    usable, _ = library_status()
+    directory = library_dir()
+    usable, _, manifest = _status(directory)
     if not usable:
         return {}
-    shared, manifest_path = _paths(library_dir())
-    manifest = json.loads(manifest_path.read_text())
+    shared = _library_file(directory, manifest)
     loader = importlib.machinery.ExtensionFileLoader(LIBRARY, str(shared))
     spec = importlib.util.spec_from_file_location(LIBRARY, shared, loader=loader)
     try:
         module = importlib.util.module_from_spec(spec)
         loader.exec_module(module)
-    except ImportError:
+    except (ImportError, OSError):  # replaced by a newer build meanwhile: numba serves
         return {}
     return {
         name: _Compiled(getattr(module, entry["export"]), entry["args"])
@@ -315,43 +461,71 @@ def build_library(directory=None):
 
     Each kernel must have been called (compiled) for exactly one argument-type
     signature in this process, the one the library takes: run the modules'
-    ``warm_up()`` first. Written under temporary names and renamed, so a reader
-    never sees half a library.
+    ``warm_up()`` first. One build at a time per folder (a lock file); the
+    extension module gets a new name each build and the manifest naming it is
+    replaced last, so a reader sees the old library or the new one, never half
+    of one; older builds are then removed.
     """
     numba = activate()
     from numba.pycc import CC
 
     directory = Path(directory) if directory else library_dir()
     directory.mkdir(parents=True, exist_ok=True)
-    shared, manifest_path = _paths(directory)
-    exports = {}
-    with tempfile.TemporaryDirectory(dir=directory) as work:
-        cc = CC(LIBRARY)
-        cc.output_dir = work
-        cc.verbose = False
-        for name, dispatcher in sorted(_AOT.items()):
-            signatures = dispatcher.nopython_signatures
-            if len(signatures) != 1:
-                raise RuntimeError(
-                    f"{name}: {len(signatures)} compiled signatures, the library takes one "
-                    "(call the module's warm_up() first)"
-                )
-            (signature,) = signatures
-            export = name.replace(".", "__")
-            cc.export(export, signature)(_forwarder(dispatcher, len(signature.args)))
-            exports[name] = {
-                "export": export,
-                "args": [_describe_type(t) for t in signature.args],
+    suffix = sysconfig.get_config_var("EXT_SUFFIX")
+    with _folder_lock(directory):
+        exports = {}
+        with tempfile.TemporaryDirectory(dir=directory) as work:
+            cc = CC(LIBRARY)
+            cc.output_dir = work
+            cc.verbose = False
+            for name, dispatcher in sorted(_AOT.items()):
+                signatures = dispatcher.nopython_signatures
+                if len(signatures) != 1:
+                    raise RuntimeError(
+                        f"{name}: {len(signatures)} compiled signatures, the library takes "
+                        "one (call the module's warm_up() first)"
+                    )
+                (signature,) = signatures
+                export = name.replace(".", "__")
+                cc.export(export, signature)(_forwarder(dispatcher, len(signature.args)))
+                exports[name] = {
+                    "export": export,
+                    "args": [_describe_type(t) for t in signature.args],
+                }
+            cc.compile()
+            sources = kernel_sources()
+            shared = directory / f"{LIBRARY}-{source_digest()[:12]}-{os.getpid()}{suffix}"
+            manifest = {
+                "library": shared.name,
+                "python": suffix,
+                "versions": {"numpy": np.__version__, "numba": numba.__version__},
+                "sources": _source_key(sources),
+                "exports": exports,
             }
-        cc.compile()
-        built, _ = _paths(Path(work))
-        manifest = {
-            "versions": {"numpy": np.__version__, "numba": numba.__version__},
-            "sources": _source_key(_module_files()),
-            "exports": exports,
-        }
-        staged = Path(work) / manifest_path.name
-        staged.write_text(json.dumps(manifest, indent=1))
-        os.replace(built, shared)
-        os.replace(staged, manifest_path)
+            staged = Path(work) / "manifest.json"
+            staged.write_text(json.dumps(manifest, indent=1))
+            os.replace(Path(work) / f"{LIBRARY}{suffix}", shared)
+            os.replace(staged, _manifest_path(directory))
+        for old in directory.glob(f"{LIBRARY}*{suffix}*"):  # earlier builds and layouts
+            if old != shared:
+                old.unlink(missing_ok=True)
     return shared
+
+
+class _folder_lock:
+    """An exclusive lock on ``directory/.LIBRARY.lock`` (waits for another build)."""
+
+    def __init__(self, directory):
+        self.path = Path(directory) / f".{LIBRARY}.lock"
+        self.handle = None
+
+    def __enter__(self):
+        import fcntl
+
+        self.handle = self.path.open("a")
+        fcntl.flock(self.handle, fcntl.LOCK_EX)
+        return self
+
+    def __exit__(self, *exc):
+        self.handle.close()  # releases the lock
+        return False

@@ -13,7 +13,9 @@ with Applications to Tracking and Navigation*, 2001, §5.4 (consistency).
 """
 
 import numpy as np
-from scipy import linalg, stats
+from scipy import linalg
+
+from inins.core.stats import chi2_ppf
 
 
 def _sym(P):
@@ -173,7 +175,7 @@ def gate(y, S, probability=0.9973):
     """
     y = np.atleast_1d(np.asarray(y, dtype=float))
     value = float(nis(y, np.atleast_2d(S)))
-    return bool(value <= stats.chi2.ppf(probability, y.shape[-1])), value
+    return bool(value <= chi2_ppf(probability, y.shape[-1])), value
 
 
 def consistency_bounds(dim, count, probability=0.95):
@@ -189,4 +191,4 @@ def consistency_bounds(dim, count, probability=0.95):
     """
     dof = dim * count
     tail = 0.5 * (1.0 - probability)
-    return (stats.chi2.ppf(tail, dof) / count, stats.chi2.ppf(1.0 - tail, dof) / count)
+    return (chi2_ppf(tail, dof) / count, chi2_ppf(1.0 - tail, dof) / count)

@@ -25,9 +25,9 @@ from dataclasses import dataclass
 from typing import NamedTuple
 
 import numpy as np
-from scipy import stats
 
 from inins.core import earth
+from inins.core.stats import chi2_ppf
 from inins.core.units import DEG
 from inins.gnss import propagation
 from inins.gnss.measurements import Signal
@@ -272,7 +272,7 @@ def _w_test(h, w, v, ok):
 def _chi2_fail(w, v, ok, false_alarm):
     dof = ok.sum(axis=1) - 4
     chi2 = np.sum(np.where(ok, w * v**2, 0.0), axis=1)
-    limit = stats.chi2.ppf(1.0 - false_alarm, np.maximum(dof, 1))
+    limit = chi2_ppf(1.0 - false_alarm, np.maximum(dof, 1))
     return (dof > 0) & (chi2 > limit)
 
 

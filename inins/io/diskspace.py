@@ -12,8 +12,10 @@ from pathlib import Path
 
 from inins.exceptions import OutputError
 
-WRITE_MARGIN = 8 << 20
-"""Bytes kept free while writing (room for HDF5 to flush its metadata on close)."""
+MIN_MARGIN = 1 << 20
+"""Smallest margin :func:`margin_for` keeps (bytes)."""
+MAX_MARGIN = 64 << 20
+"""Largest margin :func:`margin_for` keeps (bytes)."""
 _FULL = {errno.ENOSPC, errno.EDQUOT}
 
 
@@ -76,25 +78,65 @@ def is_disk_full(exc: BaseException) -> bool:
     return False
 
 
-def disk_full_error(path) -> OutputError:
+def disk_full_error(path, detail: str | None = None) -> OutputError:
     """The one message for a full disk while writing ``path`` (a temporary
-    ``.NAME.partial-PID`` is named by its final name)."""
+    ``.NAME.partial-PID`` is named by its final name); ``detail`` (the figures)
+    goes in parentheses."""
     path = Path(path)
     match = re.match(r"^\.(.+)\.partial-\d+$", path.name)
     if match:
         path = path.with_name(match.group(1))
+    figures = f" ({detail})" if detail else ""
     return OutputError(
-        f"no space left on {device_of(path)} writing {path}; "
+        f"no space left on {device_of(path)} writing {path}{figures}; "
         "earlier results untouched, no partial file left"
     )
 
 
-def check_room(path, need: int) -> None:
-    """Raise :class:`~inins.exceptions.OutputError` if the file system of ``path`` has
-    fewer than ``need`` bytes free (plus :data:`WRITE_MARGIN`)."""
+def margin_for(need: int) -> int:
+    """Bytes to keep free beyond ``need`` bytes of writing: a tenth of it (for an
+    estimate, its own uncertainty; for an HDF5 file, the metadata HDF5 flushes on
+    close, a small fraction of the data), between :data:`MIN_MARGIN` and
+    :data:`MAX_MARGIN`."""
+    return min(MAX_MARGIN, max(MIN_MARGIN, int(need) // 10))
+
+
+def mib(n: int) -> str:
+    """``n`` bytes as text in MiB (``"0.4 MiB"``)."""
+    return f"{n / 2**20:.1f} MiB"
+
+
+def require_room(path, need: int, what: str) -> None:
+    """Raise :class:`~inins.exceptions.OutputError` unless the file system of
+    ``path`` has ``need`` bytes plus :func:`margin_for` ``(need)`` free; the message
+    states ``what`` needs it, the estimate, the margin and the free space."""
     free = free_bytes(path)
-    if free is not None and free < need + WRITE_MARGIN:
-        raise disk_full_error(path)
+    margin = margin_for(need)
+    if free is not None and free < need + margin:
+        raise OutputError(
+            f"not enough free space on {device_of(path)}: {what} needs about {mib(need)} "
+            f"plus a margin of {mib(margin)}, {mib(free)} free; free some space or "
+            "choose another output folder"
+        )
+
+
+def check_room(path, need: int) -> None:
+    """Raise :class:`~inins.exceptions.OutputError` if the file system of ``path`` (a
+    file being written) has fewer than ``need`` more bytes free plus the margin for
+    the file's size once they are written (:func:`margin_for`)."""
+    free = free_bytes(path)
+    if free is None:
+        return
+    try:
+        written = os.stat(path).st_size
+    except OSError:
+        written = 0
+    margin = margin_for(written + need)
+    if free < need + margin:
+        raise disk_full_error(
+            path,
+            f"{mib(free)} free, the next write needs {mib(need)} plus a margin of {mib(margin)}",
+        )
 
 
 class FullDiskWatch:

@@ -33,93 +33,20 @@ import numpy as np
 from inins.exceptions import InputError, OutputError
 from inins.io.atomic import AtomicFile
 from inins.io.diskspace import FullDiskWatch, check_room, disk_full_error, is_disk_full
+from inins.io.h5layout import (  # noqa: F401 (re-exported)
+    CHUNK_BYTES,
+    GZIP_LEVEL,
+    LONG_ROWS,
+    chunk_rows,
+    encode_attrs,
+    storage_options,
+)
+from inins.io.hdf5_sink import H5SeriesSink
 from inins.io.provenance import PROVENANCE_KEYS
-
-LONG_ROWS = 10_000
-"""Datasets with more rows than this are chunked and compressed."""
-CHUNK_BYTES = 1 << 20
-"""Target chunk size in bytes."""
-GZIP_LEVEL = 1
-
 
 _abandoned = []
 """Files HDF5 failed to write (full disk), left open: closing them can crash HDF5. Their
 temporary file is already removed; the space returns when the process ends."""
-
-
-def chunk_rows(row_shape, dtype) -> int:
-    """Rows per chunk for about :data:`CHUNK_BYTES` per chunk (at least 1)."""
-    row_bytes = int(np.prod(row_shape, dtype=np.int64)) * np.dtype(dtype).itemsize
-    return max(1, CHUNK_BYTES // max(row_bytes, 1))
-
-
-def storage_options(row_shape, dtype, n_rows: int | None) -> dict:
-    """``h5py.Group.create_dataset`` keywords for a series of ``n_rows`` rows.
-
-    Parameters
-    ----------
-    row_shape : tuple
-        Shape of one row (``()`` for a scalar series).
-    dtype : numpy dtype
-    n_rows : int or None
-        Number of rows; None if unknown (a stream: chunked and compressed).
-
-    Returns
-    -------
-    dict
-        Empty (contiguous) for short series; else ``chunks``, ``compression``,
-        ``compression_opts`` and ``shuffle``.
-    """
-    if n_rows is not None and n_rows <= LONG_ROWS:
-        return {}
-    rows = chunk_rows(row_shape, dtype)
-    if n_rows is not None:
-        rows = min(rows, n_rows)
-    return {
-        "chunks": (rows, *row_shape),
-        "compression": "gzip",
-        "compression_opts": GZIP_LEVEL,
-        "shuffle": np.dtype(dtype).kind == "f",
-    }
-
-
-def encode_attrs(attrs: dict, prefix: str = "") -> dict:
-    """Attribute values HDF5 can hold, dicts flattened to dotted names."""
-    out = {}
-    for key, value in attrs.items():
-        name = f"{prefix}{key}"
-        if isinstance(value, dict):
-            out.update(encode_attrs(value, prefix=f"{name}."))
-        else:
-            out[name] = _attr_value(value)
-    return out
-
-
-def _attr_value(value):
-    if isinstance(value, str):
-        return str(value)  # an enum.StrEnum member becomes its plain text
-    if isinstance(value, bool | int | float | np.generic):
-        return value
-    if isinstance(value, list | tuple) and all(isinstance(v, str) for v in value):
-        return np.array(list(value), dtype=h5py.string_dtype())
-    if isinstance(value, list | tuple | np.ndarray):
-        try:
-            arr = np.asarray(value)
-        except ValueError:  # ragged
-            arr = np.empty(0, dtype=object)
-        if arr.dtype.kind in "biufc":
-            return arr
-        if arr.dtype.kind == "U":
-            return arr.astype(h5py.string_dtype())
-    return json.dumps(value, default=_json_default)
-
-
-def _json_default(value):
-    if isinstance(value, np.generic):
-        return value.item()
-    if isinstance(value, np.ndarray):
-        return value.tolist()
-    raise TypeError(f"attribute value of type {type(value).__name__} cannot be stored")
 
 
 def _dataset_array(path, data) -> np.ndarray:
@@ -238,8 +165,6 @@ class ResultsWriter:
         See :class:`inins.io.hdf5_sink.H5SeriesSink`. Close it (or leave the
         writer's ``with``) before writing other datasets.
         """
-        from inins.io.hdf5_sink import H5SeriesSink
-
         sink = H5SeriesSink(self.file, threaded=threaded, max_pending=max_pending)
         self._sinks.append(sink)
         return sink

@@ -1,7 +1,7 @@
 """Stream long series into an open HDF5 file (a :class:`~inins.results.SeriesSink`).
 
 Rows appended to a dataset are gathered into whole chunks (about 1 MiB, see
-:func:`inins.io.hdf5.chunk_rows`) and each full chunk is written once, so
+:func:`inins.io.h5layout.chunk_rows`) and each full chunk is written once, so
 gzip runs once per chunk and never re-reads a partial chunk. The dataset grows
 along its leading axis.
 
@@ -17,7 +17,7 @@ array. An exception in the writer thread is raised in the caller at its next
 Before each chunk write the free space is checked (:func:`inins.io.diskspace.check_room`):
 HDF5 reports a failed write late (at flush or close) and may crash on a file whose
 writes failed, so the sink stops with :class:`inins.exceptions.OutputError` while
-:data:`inins.io.diskspace.WRITE_MARGIN` bytes are still free.
+a margin sized to the file (:func:`inins.io.diskspace.margin_for`) is still free.
 """
 
 import queue
@@ -26,7 +26,7 @@ import threading
 import numpy as np
 
 from inins.io.diskspace import check_room
-from inins.io.hdf5 import LONG_ROWS, chunk_rows, encode_attrs, storage_options
+from inins.io.h5layout import LONG_ROWS, chunk_rows, encode_attrs, storage_options
 
 
 class _Stream:

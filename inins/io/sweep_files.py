@@ -13,6 +13,7 @@ the manifest.
     whether it resumes the same sweep.
 """
 
+import contextlib
 import csv
 import io
 import json
@@ -54,6 +55,10 @@ def read_journal(outdir) -> dict:
 class Journal:
     """Append-only record of finished points (a context manager).
 
+    Each record is one ``write`` of a whole line; a write that fails (a full disk)
+    is cut back off the file, so the journal holds whole records only and a rerun
+    resumes from them.
+
     Parameters
     ----------
     outdir : Path
@@ -62,15 +67,15 @@ class Journal:
 
     def __init__(self, outdir):
         self.path = Path(outdir) / JOURNAL
-        self._handle = None
+        self._fd = None
 
     def __enter__(self):
         self._repair()
-        self._handle = self.path.open("a", encoding="utf-8")
+        self._fd = os.open(self.path, os.O_WRONLY | os.O_APPEND | os.O_CREAT, 0o666)
         return self
 
     def __exit__(self, exc_type, exc, tb):
-        self._handle.close()
+        os.close(self._fd)
 
     def _repair(self) -> None:
         """Cut a partial last line (a kill mid-write) so the next record starts clean."""
@@ -82,9 +87,30 @@ class Journal:
                 handle.truncate(data.rfind(b"\n") + 1)
 
     def append(self, record: dict) -> None:
-        """Write one record and flush it to the OS (survives a kill of this process)."""
-        self._handle.write(json.dumps(record, allow_nan=False) + "\n")
-        self._handle.flush()
+        """Write one record to the OS (survives a kill of this process); on a failed
+        write the file is cut back to its last whole record and
+        :class:`~inins.exceptions.OutputError` raised."""
+        from inins.exceptions import OutputError
+        from inins.io.diskspace import device_of, is_disk_full
+
+        data = memoryview((json.dumps(record, allow_nan=False) + "\n").encode("utf-8"))
+        size = os.fstat(self._fd).st_size
+        try:
+            while data:
+                data = data[os.write(self._fd, data) :]
+        except OSError as exc:
+            with contextlib.suppress(OSError):
+                os.ftruncate(self._fd, size)
+            reason = (
+                f"no space left on {device_of(self.path)}"
+                if is_disk_full(exc)
+                else (exc.strerror or str(exc))
+            )
+            raise OutputError(
+                f"{reason} writing the sweep journal: the sweep stopped; the points "
+                "finished so far are kept, run the same command again to resume",
+                source=str(self.path),
+            ) from None
 
 
 def read_manifest(outdir) -> dict | None:

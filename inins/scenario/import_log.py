@@ -411,3 +411,77 @@ class ImportLogScenario(ScenarioModel):
         for i, item in enumerate(self.body_axes):
             mat[i, "xyz".index(item[1])] = 1.0 if item[0] == "+" else -1.0
         return mat if np.all(np.abs(mat).sum(axis=0) == 1) else None
+
+
+def import_settings(scenario):
+    """The import in SI (:class:`inins.io.logimport.LogImport`)."""
+    from inins.core.records import Step, StepKind
+    from inins.io.logimport import CsvFormat, LogImport, ScreeningOptions, Sensor
+
+    g, a, t, log = scenario.gyro, scenario.accel, scenario.table, scenario.log
+    cols = log.columns
+    index = {name: k for k, name in enumerate(t.gimbals)}
+    steps = None
+    if scenario.steps:
+        steps, before = [], None
+        for s in scenario.steps:
+            end = np.array(s.angles_deg) * DEG
+            start = end if s.kind == "hold" or before is None else before
+            axis = index[s.axis] if s.axis is not None else _moved(start, end)
+            kind = StepKind(s.kind)
+            axis = -1 if kind == StepKind.HOLD else axis
+            # sample indices are resolved once the log is read (scenario_steps)
+            steps.append(Step(kind, s.label, axis, s.start_s, s.end_s, 0, 0, start, end))
+            before = end
+    c, chk = log.csv, scenario.check
+    return LogImport(
+        path=log.file,
+        format=log.format,
+        csv=CsvFormat(
+            None if c.delimiter == "whitespace" else c.delimiter, c.comment, c.skip_lines, c.header
+        ),
+        time=None if cols is None else cols.time,
+        gyro_cols=None if cols is None else cols.gyro,
+        accel_cols=None if cols is None else cols.accel,
+        angle_cols=None if cols is None else cols.table_angles,
+        time_scale=TIME_UNITS[log.time_unit],
+        time_marks=log.time_marks,
+        dt=log.sample_interval(),
+        gyro=Sensor(
+            g.quantity,
+            GYRO_UNITS[g.unit][1],
+            g.unit == "count",
+            None if g.pulse_weight_arcsec is None else np.array(g.pulse_weight_arcsec) * ARCSEC,
+        ),
+        accel=Sensor(
+            a.quantity,
+            ACCEL_UNITS[a.unit][1] or G_MULTIPLE[a.unit],
+            a.unit == "count",
+            None if a.pulse_weight_ug_s is None else np.array(a.pulse_weight_ug_s) * 1e-6,
+            per_g=a.unit in ("count", "g", "mg", "ug"),
+        ),
+        g_unit=a.g_mps2,
+        mat_bl=scenario.mat_bl(),
+        site=tuple(
+            None if v is None else v * f
+            for v, f in (
+                (scenario.site.lat_deg, DEG),
+                (scenario.site.lon_deg, DEG),
+                (scenario.site.height_m, 1.0),
+            )
+        ),
+        gimbals=tuple(t.gimbals),
+        base_azimuth=t.base_azimuth_deg * DEG,
+        angle_scale=ANGLE_UNITS[t.angle_unit],
+        hold_tolerance=t.hold_tolerance_deg * DEG,
+        hold_margin=t.hold_margin_s,
+        steps=None if steps is None else tuple(steps),
+        check=ScreeningOptions(
+            chk.block_s, chk.min_hold_s, chk.screen, chk.std_ratio, chk.rate_sigma, chk.guard_s
+        ),
+    )
+
+
+def _moved(start, end):
+    """Index of the gimbal whose angle changes most (-1 without gimbals)."""
+    return int(np.argmax(np.abs(end - start))) if len(end) else -1

@@ -14,17 +14,35 @@ Order of work (:func:`run_sweep`):
 5. at the end, and on an interrupt, the table is rebuilt from the journal and
    written atomically (``sweep.csv``, ``sweep.h5``), with the aggregates
    (``aggregates.csv``, ``sweep.txt``).
+
+Faults:
+
+- one sweep at a time in a folder: the sweep holds an exclusive lock on
+  ``OUTDIR/.sweep.lock`` from start to end; a second sweep into the folder is
+  refused (bad input, exit 2) instead of running every point again; the lock
+  goes with the process, however it ends;
+- disk space: before anything is written the free space must hold the run's
+  journal and table (:data:`RECORD_BYTES` a point until a point has run, then
+  that point's own record and, with ``keep_runs``, its output folder) plus a
+  margin sized to the estimate (:func:`inins.io.diskspace.margin_for`), checked
+  again after the first point; a full disk met anyway stops the sweep with one
+  message, the journal cut back to whole records (resumable);
+- a point that cannot write its outputs (``keep_runs`` on a full or read-only
+  disk) stops the sweep the same way; it is not journaled, so a resume reruns it.
 """
 
 import collections
+import contextlib
+import json
 import math
+import os
 import statistics
 import time
 from dataclasses import dataclass
 from pathlib import Path
 
-from inins.exceptions import InputError
-from inins.io import sweep_files
+from inins.exceptions import InputError, OutputError
+from inins.io import diskspace, sweep_files
 from inins.sweep.aggregate import (
     Aggregates,
     aggregate,
@@ -36,6 +54,14 @@ from inins.sweep.table import SweepTable, build_table, csv_columns, h5_groups, p
 from inins.sweep.worker import STATUS_ERROR, PointTask, is_check_name_error
 
 IN_FLIGHT_PER_WORKER = 2
+RECORD_BYTES = 4096
+"""Journal bytes a point is assumed to take before one has run (a record of a few
+dozen results is 1-3 kB)."""
+TABLE_COPIES = 3
+"""Table bytes per journal byte when the table is rewritten: sweep.csv and sweep.h5
+(each about a record's size a point), and the old pair beside the new until the
+rename."""
+LOCK = ".sweep.lock"
 
 
 @dataclass(frozen=True)
@@ -95,24 +121,124 @@ def run_sweep(
 
     start = time.perf_counter()
     outdir = prepare_outdir(outdir)
+    with _FolderLock(outdir):
+        table, aggs, paths, ran, skipped = _run_locked(
+            plan, outdir, executor, keep_runs, restart, retry_errors, progress
+        )
+    errors = sum(r["status"] == STATUS_ERROR for r in table.records)
+    return SweepOutcome(
+        table, aggs, plan.size, ran, skipped, errors, paths, time.perf_counter() - start
+    )
+
+
+def _run_locked(plan, outdir, executor, keep_runs, restart, retry_errors, progress):
+    finished = {} if restart else sweep_files.read_journal(outdir)
+    todo = [p for p in plan.points() if _needs_run(finished.get(p.key), retry_errors)]
+    room = _Room(outdir, plan.size, len(todo), keep_runs)
+    room.check()
     _claim(outdir, plan, restart)
     finished = sweep_files.read_journal(outdir)
-    todo = [p for p in plan.points() if _needs_run(finished.get(p.key), retry_errors)]
     skipped = plan.size - len(todo)
     tasks = [_task(plan, p, outdir, keep_runs) for p in todo]
     ran = 0
     try:
         if tasks:
             with sweep_files.Journal(outdir) as journal, executor as ex:
-                ran = _dispatch(plan, tasks, ex, journal, finished, skipped, progress)
-    finally:
-        finished = sweep_files.read_journal(outdir)
-        outcome = write_results(plan, outdir, finished)
-    table, aggs, paths = outcome
-    errors = sum(r["status"] == STATUS_ERROR for r in table.records)
-    return SweepOutcome(
-        table, aggs, plan.size, ran, skipped, errors, paths, time.perf_counter() - start
-    )
+                ran = _dispatch(plan, tasks, ex, journal, finished, skipped, progress, room)
+    except OutputError:
+        # the disk is full (or the folder unwritable): the journal keeps the finished
+        # points; write the table if it fits, else leave the one message
+        with contextlib.suppress(OutputError):
+            write_results(plan, outdir, sweep_files.read_journal(outdir))
+        raise
+    except BaseException:
+        write_results(plan, outdir, sweep_files.read_journal(outdir))
+        raise
+    table, aggs, paths = write_results(plan, outdir, sweep_files.read_journal(outdir))
+    return table, aggs, paths, ran, skipped
+
+
+class _FolderLock:
+    """Exclusive, non-blocking ``flock`` on ``OUTDIR/.sweep.lock`` for one sweep."""
+
+    def __init__(self, outdir):
+        self.path = Path(outdir) / LOCK
+        self.fd = None
+
+    def __enter__(self):
+        import fcntl
+
+        self.fd = os.open(self.path, os.O_RDWR | os.O_CREAT, 0o666)
+        try:
+            fcntl.flock(self.fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except OSError:
+            holder = os.pread(self.fd, 64, 0).decode("ascii", "replace").strip() or "?"
+            os.close(self.fd)
+            raise InputError(
+                f"another sweep (process {holder}) is running in this folder; wait for it "
+                "to finish (a rerun then resumes) or choose another -o",
+                source=str(self.path.parent),
+            ) from None
+        os.ftruncate(self.fd, 0)
+        os.pwrite(self.fd, f"{os.getpid()}\n".encode(), 0)
+        return self
+
+    def __exit__(self, *exc):
+        os.close(self.fd)  # releases the lock; the file stays (unlinking it would race)
+        return False
+
+
+class _Room:
+    """Free space for the rest of the sweep: journal records, the table, and the
+    points' outputs with ``keep_runs`` (module docstring)."""
+
+    def __init__(self, outdir, total, todo, keep_runs):
+        self.outdir, self.total, self.todo, self.keep_runs = outdir, total, todo, keep_runs
+        self.record_bytes, self.run_bytes, self.measured = RECORD_BYTES, 0, False
+
+    def check(self, left=None):
+        left = self.todo if left is None else left
+        if not left:
+            return
+        need = left * (self.record_bytes + self.run_bytes)
+        need += TABLE_COPIES * self.total * self.record_bytes
+        per_point = diskspace.mib(self.record_bytes + self.run_bytes)
+        basis = "measured on the first point" if self.measured else "estimated"
+        diskspace.require_room(
+            self.outdir,
+            need,
+            f"the sweep ({left} points to run at {per_point} each, {basis}, and the "
+            f"table of {self.total} points)",
+        )
+
+    def measure(self, record, left):
+        """Size the rest of the run on the first record of this run, and check again."""
+        if self.measured:
+            return
+        self.measured = True
+        self.record_bytes = len(json.dumps(record, allow_nan=False)) + 1
+        if self.keep_runs:
+            run_dir = Path(self.outdir) / "runs"
+            sizes = (
+                [
+                    sum(f.stat().st_size for f in d.rglob("*") if f.is_file())
+                    for d in run_dir.iterdir()
+                    if d.is_dir()
+                ]
+                if run_dir.is_dir()
+                else []
+            )
+            self.run_bytes = max(sizes, default=0)
+        self.check(left)
+
+
+def _stop_on_output_error(record) -> None:
+    """A point that could not write its outputs: every later one would fail alike."""
+    if record["status"] == STATUS_ERROR and record.get("error_type") == "OutputError":
+        raise OutputError(
+            f"point {record['index']}: {record['error']}; the sweep stopped, the points "
+            "finished so far are kept, run the same command again to resume"
+        )
 
 
 def _needs_run(record, retry_errors) -> bool:
@@ -155,15 +281,17 @@ def _claim(outdir, plan, restart) -> None:
     sweep_files.write_manifest(outdir, manifest)
 
 
-def _dispatch(plan, tasks, ex, journal, finished, skipped, progress) -> int:
+def _dispatch(plan, tasks, ex, journal, finished, skipped, progress, room) -> int:
     """Run ``tasks`` on ``ex``; journal every record; return how many ran."""
     total, done = plan.size, skipped
     errors = sum(r["status"] == STATUS_ERROR for r in finished.values())
     queue = list(reversed(tasks))
     if not finished:  # the probe: bad checks or aggregate names stop everything
         record = _run_alone(ex, queue.pop())
+        _stop_on_output_error(record)
         _probe(plan, record)
         journal.append(record)
+        room.measure(record, len(queue))
         done, errors = done + 1, errors + (record["status"] == STATUS_ERROR)
         if progress:
             progress(done, total, errors)
@@ -183,7 +311,9 @@ def _dispatch(plan, tasks, ex, journal, finished, skipped, progress) -> int:
                 pending.add(retry)
                 continue
             for record in records:
+                _stop_on_output_error(record)
                 journal.append(record)
+                room.measure(record, len(queue) + len(pending))
                 if math.isfinite(record["run_s"]):
                     recent.append(record["run_s"])
                 ran, done = ran + 1, done + 1

@@ -10,8 +10,9 @@ scheduler costs a few milliseconds a task.
 
 Local
     A :class:`concurrent.futures.ProcessPoolExecutor` of ``workers`` processes
-    (``forkserver`` start, so the parent's threads are not forked). Each worker
-    imports the command module once and ignores SIGINT: Ctrl-C goes to the parent,
+    (``forkserver`` start, so the parent's threads are not forked; one BLAS
+    thread each). Each worker imports the command module once and ignores SIGINT:
+    Ctrl-C goes to the parent,
     which stops handing out points. A worker that dies (killed, out of memory)
     breaks the pool: the pool is rebuilt and the points in flight are resubmitted,
     each at most :data:`MAX_ATTEMPTS` times.
@@ -30,6 +31,10 @@ from inins.exceptions import InputError
 from inins.sweep.worker import STATUS_ERROR, PointTask, run_points, warm_up
 
 MAX_ATTEMPTS = 3
+BLAS_THREADS = ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS")
+"""One BLAS thread a worker (unless the user set them): the workers are the
+parallelism, and two workers each starting a BLAS thread per core would fight for
+the cores over every small matrix product."""
 
 
 def default_workers() -> int:
@@ -56,6 +61,35 @@ def lost_record(task: PointTask, message: str) -> dict:
         "run_s": float("nan"),
         "cpu_s": float("nan"),
     }
+
+
+def start_server(command: str | None = None):
+    """Start the process the local workers are forked from (``forkserver``), and
+    return the multiprocessing context.
+
+    The server imports numpy, the runner and ``command``'s module (scenario
+    model, writers) once, while the caller goes on (loading the sweep, checking
+    the folder): every worker then starts with them imported, in a few
+    milliseconds. Idempotent; a later call's ``command`` is imported by the
+    workers themselves.
+    """
+    import multiprocessing
+    from multiprocessing import forkserver
+
+    preload = ["numpy", "inins.commands.execute"]
+    if command is not None:
+        from inins.commands import find_command
+
+        try:
+            preload.append(find_command(command).module_name)
+        except InputError:
+            pass  # the sweep file's own error is reported where it is loaded
+    ctx = multiprocessing.get_context("forkserver")
+    ctx.set_forkserver_preload(preload)
+    for name in BLAS_THREADS:  # read by the server process as it starts
+        os.environ.setdefault(name, "1")
+    forkserver.ensure_running()
+    return ctx
 
 
 class LocalExecutor:
@@ -91,12 +125,12 @@ class LocalExecutor:
             self.pool = None
 
     def _start(self):
-        import multiprocessing
-
-        ctx = multiprocessing.get_context("forkserver")
-        ctx.set_forkserver_preload(["numpy", "numba", "inins.commands.execute"])
+        ctx = start_server(self.command)
         self.pool = cf.ProcessPoolExecutor(
-            self.workers, mp_context=ctx, initializer=warm_up, initargs=(self.command,)
+            self.workers,
+            mp_context=ctx,
+            initializer=warm_up,
+            initargs=(self.command, True, os.getpid(), False),
         )
 
     def __exit__(self, exc_type, exc, tb):

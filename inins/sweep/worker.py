@@ -41,12 +41,24 @@ class PointTask:
     outdir: str | None = None
 
 
-def warm_up(command: str | None = None, ignore_sigint: bool = True) -> None:
+def warm_up(
+    command: str | None = None,
+    ignore_sigint: bool = True,
+    parent: int | None = None,
+    load_numba: bool = True,
+) -> None:
     """Worker initialiser: leave Ctrl-C to the parent, load numba, import the command.
 
-    A worker lives for many points, so it loads numba's kernels once (compiled for
-    this CPU, and releasing the GIL, which a Dask worker's threads need) rather than
-    the kernel library made for single short runs (:mod:`inins.core.jit`).
+    ``parent``: the pid of the sweep process; the worker ends itself when that
+    process is gone (:func:`exit_with_parent`), so a sweep killed outright
+    (``kill -9``) leaves no worker behind.
+
+    ``load_numba``: a Dask worker loads numba's kernels at once (compiled for this
+    CPU, and releasing the GIL, which its threads need). A local worker process
+    (one thread) starts on the kernel library, as a single short run does, and
+    loads numba when a kernel's share of the library runs out
+    (:data:`inins.core.jit.LIBRARY_ROWS`): a sweep of short points then never pays
+    numba's start-up (0.5-1 s a worker), a sweep of long ones pays it once a worker.
     """
     import signal
 
@@ -54,11 +66,63 @@ def warm_up(command: str | None = None, ignore_sigint: bool = True) -> None:
 
     if ignore_sigint:
         signal.signal(signal.SIGINT, signal.SIG_IGN)
-    jit.activate()
+    if parent is not None:
+        exit_with_parent(parent)
+    if load_numba:
+        jit.activate()
     if command is not None:
         from inins.commands import find_command, load_command
 
         load_command(find_command(command))
+
+
+def exit_with_parent(parent: int, every_s: float = 0.25) -> None:
+    """End this process (``os._exit``) soon after process ``parent`` ends.
+
+    A pool worker is a child of the start method's server process, not of the sweep:
+    on Linux the kernel sends it SIGKILL when that server exits (``PR_SET_PDEATHSIG``;
+    the server exits when the sweep does), and a daemon thread checks every
+    ``every_s`` that the sweep process still runs (not a zombie) and that this
+    process was not handed to another parent.
+    """
+    import os
+    import signal
+    import threading
+
+    try:
+        import ctypes
+
+        libc = ctypes.CDLL(None, use_errno=True)
+        libc.prctl(1, signal.SIGKILL, 0, 0, 0)  # PR_SET_PDEATHSIG
+    except (OSError, AttributeError):  # not Linux: the thread alone
+        pass
+    first_parent = os.getppid()
+
+    def watch():
+        while _alive(parent) and os.getppid() == first_parent:
+            time.sleep(every_s)
+        os._exit(1)
+
+    threading.Thread(target=watch, name="inins-parent-watch", daemon=True).start()
+
+
+def _alive(pid: int) -> bool:
+    """True while process ``pid`` exists and is not a zombie."""
+    import os
+
+    try:
+        with open(f"/proc/{pid}/stat", "rb") as f:
+            return f.read().rsplit(b")", 1)[1].split()[0] != b"Z"
+    except FileNotFoundError:
+        return False
+    except OSError:  # no /proc: ask the kernel
+        try:
+            os.kill(pid, 0)
+        except ProcessLookupError:
+            return False
+        except PermissionError:
+            return True
+        return True
 
 
 def run_point(task: PointTask) -> dict:

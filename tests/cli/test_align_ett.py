@@ -8,7 +8,7 @@ import pytest
 from typer.testing import CliRunner
 
 from inins.cli import app
-from inins.commands.align_ett import read_ett_result
+from inins.commands._table import read_ett_result
 from inins.core import rotation
 from inins.core.units import ARCSEC
 from inins.exceptions import InputError

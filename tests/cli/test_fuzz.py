@@ -20,7 +20,6 @@ import os
 from pathlib import Path
 
 import h5py
-import numpy as np
 import pytest
 import yaml
 from hypothesis import HealthCheck, given, settings
@@ -260,5 +259,7 @@ def test_the_table_files_are_valid(table_files, tmp_path):
         if name == "ett":
             text += "positions: {vertical_label: vertical, level_label: level}\n"
         (folder / "s.yaml").write_text(text)
-        assert _exit_code(command, folder / "s.yaml", folder / "out") in (0, 1)
-        assert np.isfinite(len(list((folder / "out").iterdir())))
+        assert _exit_code(command, folder / "s.yaml", folder / "out") == 0  # no checks given
+        made = {p.name for p in (folder / "out").iterdir()}
+        assert {f"{command}.h5", f"{command}.txt", "summary.json"} <= made, made
+        assert not [n for n in made if ".partial-" in n]

@@ -9,6 +9,7 @@ import json
 import os
 import subprocess
 import sys
+import sysconfig
 from pathlib import Path
 
 import h5py
@@ -71,12 +72,17 @@ def test_importing_every_module_loads_no_numba():
 
 
 def _manifest(directory, **changes):
-    shared, manifest_path = jit._paths(Path(directory))
-    shared.write_bytes(b"")
+    (Path(directory) / "library.so").write_bytes(b"")
     sources = jit._source_key(["core/pulses.py"])
-    manifest = {"versions": jit._versions(), "sources": sources, "exports": {}}
+    manifest = {
+        "library": "library.so",
+        "python": sysconfig.get_config_var("EXT_SUFFIX"),
+        "versions": jit._versions(),
+        "sources": sources,
+        "exports": {},
+    }
     manifest.update(changes)
-    manifest_path.write_text(json.dumps(manifest))
+    jit._manifest_path(directory).write_text(json.dumps(manifest))
 
 
 def test_a_library_is_used_only_while_it_matches_the_sources_and_versions(tmp_path):
@@ -99,7 +105,7 @@ def test_a_library_is_used_only_while_it_matches_the_sources_and_versions(tmp_pa
 RUN = """
 import json, runpy, sys
 import numpy as np
-sys.argv = ["inins", "simulate-table", "-o", sys.argv[1], "--set", "imu.sample_rate_hz=20"]
+sys.argv = ["inins", "simulate-table", "-o", sys.argv[1]]  # the default: 319 400 samples
 try:
     runpy.run_module("inins", run_name="__main__")
 except SystemExit as exc:
@@ -207,3 +213,60 @@ def test_a_run_through_the_library_is_the_run_through_numba_without_numba(tmp_pa
     assert len(aot) > 10
     for name, value in aot.items():
         assert np.array_equal(value, numba_run[name]), name
+
+
+CALLEE = "from inins.core import jit\n\n\n@jit.njit\ndef offset(x):\n    return x + {}\n"
+CALLER = (
+    "from inins.core import _probe_callee, jit\n\n\n"
+    "@jit.njit(cache=True)\ndef twice(x):\n    return 2.0 * _probe_callee.offset(x)\n"
+)
+PROBE = (
+    "import json\nfrom inins.core import jit, _probe_caller\njit.activate()\n"
+    "value = _probe_caller.twice(1.0)\n"
+    "print(json.dumps([value, sum(_probe_caller.twice.stats.cache_hits.values())]))\n"
+)
+
+
+def test_an_edit_of_a_callee_in_another_module_recompiles_the_cached_caller(tmp_path):
+    """numba stamps a cached kernel with its own file only: the caller would keep the
+    old callee. Keyed on every kernel source, the edit recompiles it (issue: stale
+    kernels); an edit outside the kernel sources keeps the cache."""
+    import shutil
+
+    package = tmp_path / "inins"
+    shutil.copytree(PACKAGE, package, ignore=shutil.ignore_patterns("__pycache__"))
+    callee = package / "core" / "_probe_callee.py"
+    callee.write_text(CALLEE.format("1.0"))
+    (package / "core" / "_probe_caller.py").write_text(CALLER)
+    env = {**os.environ, "PYTHONPATH": str(tmp_path), "ININS_KERNEL_DIR": str(tmp_path / "no")}
+    env.pop("NUMBA_CACHE_DIR", None)
+
+    def probe():
+        done = subprocess.run(
+            [sys.executable, "-c", PROBE],
+            capture_output=True,
+            text=True,
+            check=False,
+            cwd=tmp_path,
+            env=env,
+        )
+        assert done.returncode == 0, done.stderr
+        return json.loads(done.stdout)
+
+    assert probe() == [4.0, 0]  # compiled and cached
+    assert probe() == [4.0, 1]  # loaded from the cache
+    command = package / "commands" / "warmup.py"  # not a kernel source
+    command.write_text(command.read_text() + "\n# edited\n")
+    assert probe() == [4.0, 1]
+    callee.write_text(CALLEE.format("2.0"))  # the callee only: the caller's file is unchanged
+    assert probe() == [6.0, 0]
+    assert probe() == [6.0, 1]
+
+
+def test_kernel_sources_are_the_kernel_modules_and_what_they_import():
+    sources = jit.kernel_sources()
+    # kernels calling across modules: step -> ekf.kernels, strapdown -> earth (inlined)
+    for name in ("ekf/step.py", "ekf/kernels.py", "core/strapdown.py", "core/earth.py"):
+        assert name in sources
+    assert "core/units.py" in sources  # constants numba freezes into a kernel
+    assert not any(s.startswith(("commands/", "cli/", "io/", "scenario/")) for s in sources)

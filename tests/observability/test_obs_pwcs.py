@@ -255,3 +255,16 @@ def test_state_scales_change_the_weights_not_the_answer():
     # the pitch part itself (measured weights 0.118 and 0.099; in SI 5.9e-6 and 0.10)
     i, k = si.names.index("bg_z"), si.names.index("phi_E")
     assert si.null_weight[i] < 1e-5 and scaled.null_weight[i] > scaled.null_weight[k] > 0.05
+
+
+@pytest.mark.parametrize("duration", [60.0, 300.0, 3000.0])
+@pytest.mark.parametrize("heading", [0.0, 40 * DEG])
+def test_one_segment_gramian_rank_equals_the_observability_rank(duration, heading):
+    """DD phase of one baseline in level flight: the observability matrix gives rank 5
+    (dv and ba are not seen, nor the tilt about the baseline with its gyro-bias pair);
+    the Gramian of the same segment must agree at g t up to 3e4, where the rounding of
+    e^(F t) used to pass the rank tolerance (Gramian rank 6 at 300 s and beyond)."""
+    seg = _level_flight(heading, duration)
+    res = pwcs.analyse(ALIGN12, [seg], [BASELINE_Y])
+    assert res.rank == 5
+    assert pwcs.gramian_rank(ALIGN12, [seg], [BASELINE_Y]) == 5

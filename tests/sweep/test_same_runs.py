@@ -90,7 +90,8 @@ def test_seeds_and_noise_change_the_estimates(local_sweep):
 
 @pytest.mark.slow
 def test_dask_cluster_on_loopback_gives_the_same_table(local_sweep, tmp_path):
-    distributed = pytest.importorskip("distributed")
+    import distributed  # the cluster extra is part of dev: these tests run in make test
+
     from inins.sweep.executors import DaskExecutor
 
     path, _, local = local_sweep
@@ -118,7 +119,6 @@ def test_dask_cluster_on_loopback_gives_the_same_table(local_sweep, tmp_path):
 
 
 def test_unreachable_scheduler_is_bad_input():
-    pytest.importorskip("distributed")
     from inins.exceptions import InputError
     from inins.sweep.executors import DaskExecutor
 
