@@ -15,6 +15,7 @@ import datetime
 import numpy as np
 
 from inins.calibration import discrete, imu_model, systemlevel, tablefree
+from inins.commands._calibrate_imu_units import PREFIX, lab
 from inins.commands._table import load_record, table_simulation
 from inins.core import earth
 from inins.core.records import MemoryRecord
@@ -24,24 +25,6 @@ from inins.results import CommandResult, Series, format_table
 from inins.scenario.calibrate_imu import CalibrateImuScenario, CompensationFile
 
 SCENARIO_MODEL = CalibrateImuScenario
-PREFIX = {"discrete": "discrete", "table-free": "table_free", "system-level": "system"}
-
-# term group -> (lab unit suffix, SI per lab unit)
-LAB = {
-    "accel_bias": ("ug", UG),
-    "gyro_bias": ("dph", DPH),
-    "accel_scale": ("ppm", PPM),
-    "gyro_scale": ("ppm", PPM),
-    "accel_misalignment": ("arcsec", ARCSEC),
-    "gyro_misalignment": ("arcsec", ARCSEC),
-    "gyro_g_sensitivity": ("dph_per_g", DPH / G0),
-    "mount": ("arcsec", ARCSEC),
-}
-
-
-def lab(name):
-    """``(unit suffix, SI per unit)`` of a term."""
-    return LAB[imu_model.GROUP_OF[name]]
 
 
 def requested_terms(scenario):

@@ -127,7 +127,7 @@ def certificate(result, path, data=None):
 
 def certificate_html(result, provenance=None):
     """HTML text of the certificate."""
-    from inins.commands.calibrate_imu import PREFIX, lab
+    from inins.commands._calibrate_imu_units import PREFIX, lab
 
     buf = io.BytesIO()
     _draw(result, buf)
