@@ -783,7 +783,7 @@ def declared_results(scenario):
 
 def estimate(scenario):
     """Size of the run: the in-memory simulation, or None for a file (read once)."""
-    from inins.commands.budget import table_estimate
+    from inins.commands._table import table_estimate
 
     if scenario.simulate is None or scenario.plan.only:
         return None
