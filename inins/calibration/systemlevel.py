@@ -89,26 +89,27 @@ def _input_sums(mat_mid, dtheta, dv, dt, m, a_mat):
     k = mat_mid.shape[0] // m
     tau = (m - np.arange(m) - 0.5) * dt
     a2 = a_mat @ a_mat
-    powers = (np.ones(m), tau, tau**2 / 2.0, tau**3 / 6.0)
-    mats = (np.eye(6), a_mat, a2, a2 @ a_mat)
-    out = np.zeros((k, 6, 21))
+    weights = np.stack([np.ones(m), tau, tau**2 / 2.0, tau**3 / 6.0])  # (4, m)
+    mats = np.stack([np.eye(6), a_mat, a2, a2 @ a_mat])  # (4, 6, 6)
     c = mat_mid[: k * m].reshape(k, m, 3, 3)
+    # weighted sums over the samples of each step, one batched matrix product each
+    c_sum = (c.reshape(k, m, 9).transpose(0, 2, 1) @ weights.T).reshape(k, 3, 3, 4)
+    b = np.zeros((4, k, 6, 21))
     for sensor, u, rows, sign in ((0, dv, slice(0, 3), 1.0), (1, dtheta, slice(3, 6), -1.0)):
         u = u[: k * m].reshape(k, m, 3)
+        prod = c[..., :, :, None] * u[:, :, None, None, :]  # C[a, i] u_l: (k, m, 3, 3, 3)
+        cu = (prod.reshape(k, m, 27).transpose(0, 2, 1) @ weights.T).reshape(k, 3, 3, 3, 4)
+        cu = np.moveaxis(cu, -1, 0)  # (4, k, a, i, l)
         pairs = _PAIRS_A if sensor == 0 else _PAIRS_G
-        for w, mat in zip(powers, mats, strict=True):
-            b = np.zeros((k, 6, 21))
-            col_bias = 3 * sensor  # ba 0-2, bg 3-5
-            col_scale = 6 + 3 * sensor  # sa 6-8, sg 9-11
-            col_mis = 12 if sensor == 0 else 15  # ma 12-14, mg 15-20
-            b[:, rows, col_bias : col_bias + 3] = sign * dt * np.einsum("j,kjab->kab", w, c)
-            cu = np.einsum("j,kjai,kjl->kail", w, c, u)  # C[:, i] u_l summed
-            for i in range(3):
-                b[:, rows, col_scale + i] = sign * cu[:, :, i, i]
-            for p, (i, l) in enumerate(pairs):
-                b[:, rows, col_mis + p] = sign * cu[:, :, i, l]
-            out += mat @ b
-    return out
+        col_bias = 3 * sensor  # ba 0-2, bg 3-5
+        col_scale = 6 + 3 * sensor  # sa 6-8, sg 9-11
+        col_mis = 12 if sensor == 0 else 15  # ma 12-14, mg 15-20
+        b[:, :, rows, col_bias : col_bias + 3] = sign * dt * np.moveaxis(c_sum, -1, 0)
+        for i in range(3):
+            b[:, :, rows, col_scale + i] = sign * cu[:, :, :, i, i]
+        for p, (i, l) in enumerate(pairs):
+            b[:, :, rows, col_mis + p] = sign * cu[:, :, :, i, l]
+    return np.einsum("pxy,pkyz->kxz", mats, b)
 
 
 def _kalman(gamma, e_mat, qd, vel, r, p0):
