@@ -16,13 +16,14 @@ import numpy as np
 
 from inins.calibration import discrete, imu_model, systemlevel, tablefree
 from inins.commands._calibrate_imu_units import PREFIX, lab
+from inins.commands._compensation import compensation_terms
 from inins.commands._table import load_record, table_simulation
 from inins.core import earth
 from inins.core.records import MemoryRecord
 from inins.core.units import ARCSEC, DEG, DEG_RTH, DPH, G0, PPM, UG, UG_RTHZ, UG_S
 from inins.exceptions import InputError
 from inins.results import CommandResult, Series, format_table
-from inins.scenario.calibrate_imu import CalibrateImuScenario, CompensationFile
+from inins.scenario.calibrate_imu import CalibrateImuScenario
 
 SCENARIO_MODEL = CalibrateImuScenario
 
@@ -112,40 +113,9 @@ def _estimate_noise(record, ivs):
 
 def load_compensation(scenario):
     """The compensation file's terms, or None; bad input if it is of another unit."""
-    from inins.io.rawlog import read_compensation
-
     if scenario.compensation is None:
         return None
-    comp = read_compensation(scenario.compensation, CompensationFile)
-    if comp.unit.serial != scenario.unit.serial or comp.unit.name != scenario.unit.name:
-        raise InputError(
-            f"made for unit {comp.unit.name} serial {comp.unit.serial}, not "
-            f"{scenario.unit.name} serial {scenario.unit.serial} (unit.name, unit.serial)",
-            source=str(scenario.compensation),
-            key="unit",
-        )
-    return terms_from_compensation(comp)
-
-
-def terms_from_compensation(comp):
-    """:class:`ImuTerms` (SI) of a validated :class:`CompensationFile`."""
-    c = comp.imu
-    values = {}
-    for i, a in enumerate("xyz"):
-        values[f"bg_{a}"] = c.gyro_bias_dph[i] * DPH
-        values[f"sg_{a}"] = c.gyro_scale_ppm[i] * PPM
-        values[f"ba_{a}"] = c.accel_bias_ug[i] * UG
-        values[f"sa_{a}"] = c.accel_scale_ppm[i] * PPM
-    for k, v in c.gyro_misalignment_arcsec.items():
-        values[f"mg_{k}"] = v * ARCSEC
-    for k, v in c.accel_misalignment_arcsec.items():
-        values[f"ma_{k}"] = v * ARCSEC
-    if c.gyro_g_sensitivity_dph_per_g is not None:
-        mat = np.asarray(c.gyro_g_sensitivity_dph_per_g, float)
-        if mat.shape != (3, 3):
-            raise InputError("needs 3 rows of 3", key="imu.gyro_g_sensitivity_dph_per_g")
-        values.update(zip(imu_model.G_SENS_TERMS, mat.ravel() * DPH / G0, strict=True))
-    return imu_model.ImuTerms(values)
+    return compensation_terms(scenario.compensation, scenario.unit.name, scenario.unit.serial)
 
 
 def compensation_payload(terms, scenario, method):
