@@ -604,40 +604,82 @@ def plan_intervals(setup, settle, encoder_sigma=0.0):
 def _plan_only(scenario, names):
     if scenario.simulate is None:
         raise InputError("plan.only needs the motion program: a simulate: section", key="plan")
-    ivs, sim = plan_intervals(scenario.simulate, scenario.settle_s, _encoder_sigma(scenario))
-    noise = noise_figures(scenario, sim.sensor)
-    planned = discrete.plan(ivs, names, noise)
-    results = {}
-    for n, s, ok in zip(planned.names, planned.sigma, planned.separable, strict=True):
-        unit, scale = lab(n)
-        results[f"plan_{n}_sigma_{unit}"] = float(s / scale) if ok else None
-    results["plan_inseparable"] = len(planned.inseparable)
-    rows = [
-        [n, "yes" if ok else "NO", (s / lab(n)[1]) if ok else float("nan"), lab(n)[0]]
-        for n, s, ok in zip(planned.names, planned.sigma, planned.separable, strict=True)
-    ]
-    text = [
-        f"planner: {len(ivs)} intervals ({sum(iv.kind == 'hold' for iv in ivs)} holds, "
-        f"{sum(iv.kind == 'spin' for iv in ivs)} spins) from the motion program alone",
-        format_table(rows, ["term", "separable", "predicted 1-sigma", "unit"], fmt=".4g"),
-    ]
-    if planned.combinations:
-        text.append("inseparable combinations (the data fix nothing along them):")
-        text += ["  " + combination_text(combo) for combo in planned.combinations]
-    warnings = ()
-    if planned.inseparable and not scenario.plan.allow_combinations:
-        _refuse(planned, scenario)
+    results, text, datasets, attrs = {}, [], {}, {}
+    if "discrete" in scenario.methods:
+        ivs, sim = plan_intervals(scenario.simulate, scenario.settle_s, _encoder_sigma(scenario))
+        noise = noise_figures(scenario, sim.sensor)
+        planned = discrete.plan(ivs, names, noise)
+        for n, s, ok in zip(planned.names, planned.sigma, planned.separable, strict=True):
+            unit, scale = lab(n)
+            results[f"plan_{n}_sigma_{unit}"] = float(s / scale) if ok else None
+        results["plan_inseparable"] = len(planned.inseparable)
+        rows = [
+            [n, "yes" if ok else "NO", (s / lab(n)[1]) if ok else float("nan"), lab(n)[0]]
+            for n, s, ok in zip(planned.names, planned.sigma, planned.separable, strict=True)
+        ]
+        text += [
+            f"planner, discrete: {len(ivs)} intervals "
+            f"({sum(iv.kind == 'hold' for iv in ivs)} holds, "
+            f"{sum(iv.kind == 'spin' for iv in ivs)} spins) from the motion program alone",
+            format_table(rows, ["term", "separable", "predicted 1-sigma", "unit"], fmt=".4g"),
+        ]
+        if planned.combinations:
+            text.append("inseparable combinations (the data fix nothing along them):")
+            text += ["  " + combination_text(combo) for combo in planned.combinations]
+        if planned.inseparable and not scenario.plan.allow_combinations:
+            _refuse(planned, scenario)
+        datasets["plan/sigma"] = Series(planned.sigma, "SI", "b", "predicted 1-sigma per term")
+        datasets["plan/information"] = Series(planned.information, "SI", "", "information")
+        attrs["plan"] = {"names": list(planned.names), "inseparable": list(planned.inseparable)}
+    if "system-level" in scenario.methods:
+        names_s, sigma = plan_system_level(scenario)
+        rows = []
+        for n, s in zip(names_s, sigma, strict=True):
+            unit, scale = lab(n)
+            results[f"plan_system_{n}_sigma_{unit}"] = float(s / scale)
+            rows.append([n, s / scale, unit])
+        text += [
+            "planner, system-level: the filter's covariance along the motion program "
+            "(an ideal unit's increments, the scenario's noise)",
+            format_table(rows, ["term", "predicted 1-sigma", "unit"], fmt=".4g"),
+        ]
+        datasets["plan_system/sigma"] = Series(sigma, "SI", "b", "predicted 1-sigma per term")
+    if not text:
+        raise InputError("the planner covers the discrete and system-level methods", key="plan")
     return CommandResult(
-        "calibrate-imu",
-        results,
-        datasets={
-            "plan/sigma": Series(planned.sigma, "SI", "b", "predicted 1-sigma per term"),
-            "plan/information": Series(planned.information, "SI", "", "information matrix"),
-        },
-        attrs={"plan": {"names": list(planned.names), "inseparable": list(planned.inseparable)}},
-        report="\n".join(text),
-        warnings=warnings,
+        "calibrate-imu", results, datasets=datasets, attrs=attrs, report="\n".join(text)
     )
+
+
+def plan_system_level(scenario):
+    """Predicted 1-sigma of the system-level terms from the motion program alone: the
+    filter's covariance over the increments of an ideal unit on the same program (the
+    covariance of a linear filter depends on the trajectory, not on the errors)."""
+    from dataclasses import replace
+
+    from inins.commands._table import memory_record
+    from inins.core import imu
+    from inins.table import simulate
+
+    sim = table_simulation(scenario.simulate)
+    noise = noise_figures(scenario, sim.sensor)
+    ideal = replace(sim, sensor=imu.SensorErrors.none(), encoder_noise=0.0)
+    record = memory_record(ideal, simulate.simulation_chunks(ideal, np.random.default_rng(0)))
+    step = max(1, round(scenario.system_level.step_s / record.dt))
+    first = record.steps[0]
+    fit = systemlevel.calibrate(
+        record.dtheta,
+        record.dv,
+        record.dt,
+        np.asarray(record.lla, float),
+        first.stop_index - first.start_index,
+        step,
+        float(np.mean(noise.arw)) or 1e-12,
+        float(np.mean(noise.vrw)) or 1e-12,
+        scenario.system_level.velocity_noise_mps,
+        passes=1,
+    )
+    return fit.names, fit.sigma
 
 
 # ----------------------------------------------------------------------------- report
@@ -748,6 +790,7 @@ def declared_results(scenario):
             )
         ]
     results += [f"plan_{n}_sigma_{lab(n)[0]}" for n in names] + ["plan_inseparable"]
+    results += [f"plan_system_{n}_sigma_{lab(n)[0]}" for n in imu_model.SENSOR_TERMS]
     return tuple(results), tuple(truth)
 
 
