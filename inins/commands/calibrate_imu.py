@@ -228,6 +228,7 @@ def run(scenario, seed, *, sink=None, progress=None):
             planned = discrete.plan(ivs, names, noise)
             _refuse(planned, scenario)
             fit = discrete.calibrate(ivs, discrete.measured_means(record, ivs), names, noise)
+            _check_mounting(fit, scenario)
             methods["discrete"] = _from_discrete(fit, ivs, geometry, "discrete")
             warnings += _flag_intervals(fit, ivs)
         if "table-free" in scenario.methods:
@@ -281,7 +282,14 @@ def _truth(scenario, sensor):
 
 
 def _geometry(scenario, record):
-    mat_tb = np.eye(3) if scenario.simulate is None else scenario.simulate.mount.nominal()
+    if scenario.simulate is not None:
+        mat_tb = scenario.simulate.mount.nominal()
+    elif scenario.imu_axes is not None:
+        from inins.scenario.simulate_table import DIRECTIONS
+
+        mat_tb = np.array([DIRECTIONS[v] for v in scenario.imu_axes]).T
+    else:
+        mat_tb = np.eye(3)
     return discrete.Geometry(
         np.asarray(record.axes, float), np.asarray(record.mat_n_base, float), mat_tb, record.lla
     )
@@ -329,6 +337,25 @@ def _refuse(planned, scenario):
                 f"predicted 1-sigma above {limit:g} ppm for {', '.join(worse)}",
                 key="plan.max_sigma_ppm",
             )
+
+
+MAX_MOUNT = 1.0 * DEG
+"""Largest mounting rotation from the nominal IMU axes the small-angle model takes."""
+
+
+def _check_mounting(fit, scenario):
+    """Bad input when the fit does not converge to a small mounting rotation: the
+    nominal IMU axes on the table (imu_axes, or mount.imu_axes) are wrong."""
+    terms = dict(zip(fit.names, fit.values, strict=True))
+    mount = np.array([terms.get(n, 0.0) for n in imu_model.MOUNT_TERMS])
+    if not np.all(np.isfinite(fit.values)) or np.linalg.norm(mount) > MAX_MOUNT:
+        key = "simulate.mount.imu_axes" if scenario.simulate is not None else "imu_axes"
+        raise InputError(
+            "the measured gravity and rates do not fit the nominal IMU axes on the table "
+            f"(mounting rotation {np.degrees(np.linalg.norm(mount)):.3g} deg, chi-square "
+            f"{fit.chi2:.3g} on {fit.dof} degrees of freedom): check the IMU axes",
+            key=key,
+        )
 
 
 def _flag_intervals(fit, ivs):

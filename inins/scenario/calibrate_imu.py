@@ -3,6 +3,7 @@ or without one, the schedule checked by the planner, and the compensation file."
 
 from typing import Literal
 
+import numpy as np
 from pydantic import Field, model_validator
 
 from inins.scenario.base import (
@@ -13,7 +14,7 @@ from inins.scenario.base import (
     input_file_problem,
     loaded_from_file,
 )
-from inins.scenario.simulate_table import TableSetup
+from inins.scenario.simulate_table import DIRECTIONS, Direction, TableSetup
 from inins.scenario.types import NonNegFloat, NonNegVec3, PositiveFloat, Vec3
 from inins.scenario.validation import KeyPathError
 
@@ -181,6 +182,14 @@ class CalibrateImuScenario(ScenarioModel):
         None, description="a simulate-table scenario run in memory instead of reading data"
     )
     log: RawLog | None = Field(None, description="a raw-count log without a table (table-free)")
+    imu_axes: list[Direction] | None = Field(
+        None,
+        min_length=3,
+        max_length=3,
+        description="nominal table directions of the IMU x, y, z axes for a data file "
+        "(the reference of the discrete method); default forward, right, down; a "
+        "simulate: section gives its mount.imu_axes",
+    )
     estimate: list[Group] = Field(
         [*SENSOR_GROUPS, "mount"],
         min_length=1,
@@ -218,6 +227,10 @@ class CalibrateImuScenario(ScenarioModel):
                 raise KeyPathError(
                     ("methods",), f"a raw log without a table allows only table-free, not {bad}"
                 )
+        if self.imu_axes is not None:
+            mat = np.array([DIRECTIONS[v] for v in self.imu_axes]).T
+            if not np.allclose(mat.T @ mat, np.eye(3)) or np.linalg.det(mat) < 0:
+                raise KeyPathError(("imu_axes",), "the three directions must be right-handed")
         if len(set(self.methods)) != len(self.methods):
             raise KeyPathError(("methods",), "each method may appear once")
         return self

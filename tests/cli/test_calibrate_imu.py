@@ -227,3 +227,25 @@ def test_static_log_planner_says_what_it_can_and_cannot_give(tmp_path):
     )
     assert result.exit_code == 2
     assert "cannot separate" in result.output and "sg_x" in result.output
+
+
+def test_data_file_with_the_wrong_imu_axes_is_refused(tmp_path):
+    # the schedule written by simulate-table, read back as a data file: the nominal IMU
+    # axes are the scenario's to give; wrong ones are bad input, right ones calibrate
+    sim = yaml.safe_load(DEFAULT.read_text())["simulate"]
+    sim["imu"]["sample_rate_hz"] = 20
+    (tmp_path / "sim.yaml").write_text(yaml.safe_dump(sim))
+    out = CliRunner().invoke(
+        app, ["simulate-table", str(tmp_path / "sim.yaml"), "-o", str(tmp_path)]
+    )
+    assert out.exit_code == 0, out.output
+    scen = tmp_path / "cal.yaml"
+    scen.write_text("data: simulate-table.h5\nimu_axes: [right, forward, up]\n")
+    result = run(scen, "-o", tmp_path / "bad")
+    assert result.exit_code == 2
+    assert "imu_axes" in result.output and "check the IMU axes" in result.output
+    scen.write_text("data: simulate-table.h5\nimu_axes: [forward, right, down]\n")
+    result = run(scen, "-o", tmp_path / "good")
+    assert result.exit_code == 0, result.output
+    res = json.loads((tmp_path / "good" / "summary.json").read_text())["results"]
+    assert abs(res["discrete_sg_z_ppm"] - 8.0) < 4 * res["discrete_sg_z_sigma_ppm"]
