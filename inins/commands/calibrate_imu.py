@@ -199,6 +199,7 @@ def run(scenario, seed, *, sink=None, progress=None):
         time, acc, gyro, gravity = _raw_log(scenario)
         fit = _table_free(time, acc, gyro, gravity, scenario, comp)
         methods["table-free"] = _from_tablefree(fit, "table-free")
+        warnings += _tablefree_warnings(fit)
     else:
         record, sensor = load_record(scenario.data, scenario.simulate, seed, progress)
         if comp is not None:
@@ -239,6 +240,7 @@ def run(scenario, seed, *, sink=None, progress=None):
             )
             fit = _table_free(time, dv / record.dt, dtheta / record.dt, gravity, scenario, None)
             methods["table-free"] = _from_tablefree(fit, "table-free")
+            warnings += _tablefree_warnings(fit)
         if "system-level" in scenario.methods:
             methods["system-level"] = _system_level(scenario, record, sensor)
     results, truth, datasets, attrs = {}, {}, {}, {"": {"unit_name": scenario.unit.name}}
@@ -386,6 +388,21 @@ def _raw_log(scenario):
         n0 = max(1, round(scenario.table_free.detector.init_interval_s / dt))
         scale = gravity / float(np.linalg.norm(acc[:n0].mean(axis=0)))
     return time, acc * scale, gyro, gravity
+
+
+def _tablefree_warnings(fit):
+    """What a lab must know of a table-free run: flagged intervals, a gyro fit that did
+    not settle (1-sigma of a scale factor or misalignment above 1 %)."""
+    out = [f"table-free: {iv.flag} (interval {k})" for k, iv in enumerate(fit.intervals) if iv.flag]
+    gyro = [n for n, s in zip(fit.names, fit.sigma, strict=True) if n[:2] in ("sg", "mg")]
+    loose = [n for n in gyro if fit.sigma[fit.names.index(n)] > 0.01]
+    if loose:
+        out.append(
+            "table-free: the gyro fit did not settle (1-sigma above 1 % for "
+            f"{', '.join(loose)}): the method needs rotations of less than a turn between "
+            "static positions, and its detector does not see turns about the vertical"
+        )
+    return out
 
 
 def _table_free(time, acc, gyro, gravity, scenario, comp):
