@@ -690,6 +690,12 @@ def _plan_only(scenario, names):
         datasets["plan_system/sigma"] = Series(sigma, "SI", "b", "predicted 1-sigma per term")
     if not text:
         raise InputError("the planner covers the discrete and system-level methods", key="plan")
+    attrs[""] = {
+        "unit_name": scenario.unit.name,
+        "methods": [],
+        "plan_only": True,
+        "certificate": _certificate_info(scenario),
+    }
     return CommandResult(
         "calibrate-imu", results, datasets=datasets, attrs=attrs, report="\n".join(text)
     )

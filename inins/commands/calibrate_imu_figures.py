@@ -78,7 +78,29 @@ def _panels(result):
     return out
 
 
+def _draw_plan(result, fileobj):
+    """Planned 1-sigma of every term (plan only: nothing measured yet)."""
+    plt = _pyplot()
+    keys = [k for k, v in result.results.items() if k.startswith("plan_") and "_sigma_" in k]
+    fig, ax = plt.subplots(figsize=(8, 3.5), layout="constrained")
+    labels, values = [], []
+    for k in keys:
+        v = result.results[k]
+        labels.append(k.removeprefix("plan_").split("_sigma_")[0])
+        values.append(np.nan if v is None else v)
+    ax.bar(range(len(values)), values, color="tab:blue")
+    ax.set_xticks(range(len(values)), labels, rotation=90, fontsize=7)
+    ax.set_yscale("log")
+    ax.set_ylabel("predicted 1-sigma (lab unit of each term)")
+    ax.set_title("planned 1-sigma (missing bar: not separable)", fontsize=10)
+    fig.savefig(fileobj, format="png", dpi=90)
+    plt.close(fig)
+
+
 def _draw(result, fileobj):
+    if result.attrs[""].get("plan_only"):
+        _draw_plan(result, fileobj)
+        return
     plt = _pyplot()
     panels = _panels(result)
     n = max(1, len(panels))
@@ -104,6 +126,10 @@ def residuals(result, path):
 
 def compensation_file(result, path):
     """The compensation file of the first method (the YAML in the results file)."""
+    if not result.attrs[""]["methods"]:
+        with open(path, "w", encoding="utf-8") as fh:
+            fh.write("# calibrate-imu plan only: nothing estimated, no compensation\n")
+        return
     first = result.attrs[""]["methods"][0]
     pre = {"table-free": "table_free", "system-level": "system"}.get(first, first)
     with open(path, "w", encoding="utf-8") as fh:
@@ -188,8 +214,18 @@ def certificate_html(result, provenance=None):
         parts.append("</table>")
         if a.get("combinations"):
             parts.append("<p>Inseparable combinations: " + e("; ".join(a["combinations"])) + "</p>")
+    if result.attrs[""].get("plan_only"):
+        parts.append("<h2>Calibration plan (nothing measured)</h2><table>")
+        parts.append("<tr><th>term</th><th>predicted 1&sigma;</th></tr>")
+        for k, v in result.results.items():
+            if k.startswith("plan_") and "_sigma_" in k:
+                shown = "not separable" if v is None else f"{v:.4g}"
+                parts.append(f"<tr><td class='n'>{e(k)}</td><td>{shown}</td></tr>")
+        parts.append("</table>")
     parts += [
-        "<h2>Residuals before and after calibration</h2>",
+        "<h2>Residuals before and after calibration</h2>"
+        if not result.attrs[""].get("plan_only")
+        else "<h2>Planned uncertainty</h2>",
         f"<img alt='residual figures' src='data:image/png;base64,{png}'>",
         "<h2>Provenance</h2><table>",
     ]

@@ -206,8 +206,10 @@ def test_certificate_renders_in_headless_chromium(default_run, tmp_path):
 def test_static_log_planner_says_what_it_can_and_cannot_give(tmp_path):
     # the schedule of the real RLG log: one position, attitude from the unit itself
     scen = CONFIGS / "calibrate-imu" / "rlg-static-plan.yaml"
-    result = run(scen, "-o", tmp_path)
+    result = run(scen, "-o", tmp_path, "--plot")
     assert result.exit_code == 0, result.output
+    assert "Calibration plan" in (tmp_path / "calibrate-imu-certificate.html").read_text()
+    assert "nothing estimated" in (tmp_path / "calibrate-imu-compensation.yaml").read_text()
     res = json.loads((tmp_path / "summary.json").read_text())["results"]
     assert res["plan_ba_z_sigma_ug"] > 0  # the vertical accelerometer bias: separable
     for name in ("ba_x_sigma_ug", "ba_y_sigma_ug", "bg_x_sigma_dph", "mount_z_sigma_arcsec"):
