@@ -193,8 +193,9 @@ class CalibrateImuScenario(ScenarioModel):
     estimate: list[Group] = Field(
         [*SENSOR_GROUPS, "mount"],
         min_length=1,
-        description="term groups to estimate; the others are held at zero. mount: the "
-        "small rotation of the triad from its nominal mounting on the table",
+        description="term groups the discrete method estimates; the others are held at "
+        "zero. mount: the small rotation of the triad from its nominal mounting on the "
+        "table. The table-free and system-level methods always estimate the 21 sensor terms",
     )
     settle_s: NonNegFloat = Field(2.0, description="time skipped at the start of each hold (s)")
     noise: Noise = Field(default_factory=Noise)
