@@ -237,7 +237,13 @@ def calibrate(time, acc, gyro, gravity, detector=Detector(), use=None):
     found, threshold = detect_static(time, acc, detector)
     kept = [i for i, iv in enumerate(found) if not iv.flag]
     if use is not None:
-        kept = [kept[i] for i in use if 0 <= i < len(kept)]
+        bad = [i for i in use if not 0 <= i < len(kept)]
+        if bad:
+            raise ValueError(
+                f"use_positions {bad}: only {len(kept)} static intervals were found "
+                f"(indices 0-{len(kept) - 1})"
+            )
+        kept = [kept[i] for i in use]
     if len(kept) < 9:
         raise ValueError(
             f"{len(kept)} static intervals usable; the 9 accelerometer terms need >= 9 "

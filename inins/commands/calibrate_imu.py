@@ -421,7 +421,8 @@ def _table_free(time, acc, gyro, gravity, scenario, comp):
     try:
         return tablefree.calibrate(time, acc, gyro, gravity, det, scenario.table_free.use_positions)
     except ValueError as exc:
-        raise InputError(str(exc), key="table_free.detector") from None
+        key = "table_free.use_positions" if "use_positions" in str(exc) else "table_free.detector"
+        raise InputError(str(exc), key=key) from None
 
 
 def _system_level(scenario, record, sensor):

@@ -251,3 +251,15 @@ def test_data_file_with_the_wrong_imu_axes_is_refused(tmp_path):
     assert result.exit_code == 0, result.output
     res = json.loads((tmp_path / "good" / "summary.json").read_text())["results"]
     assert abs(res["discrete_sg_z_ppm"] - 8.0) < 4 * res["discrete_sg_z_sigma_ppm"]
+
+
+def test_positions_not_found_are_bad_input(tmp_path):
+    result = run(
+        CONFIGS / "calibrate-imu" / "xsens-real.yaml",
+        "-o",
+        tmp_path,
+        "--set",
+        "table_free.use_positions=[0, 40]",
+    )
+    assert result.exit_code == 2
+    assert "table_free.use_positions" in result.output and "38 static intervals" in result.output
