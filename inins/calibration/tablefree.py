@@ -205,10 +205,62 @@ class TableFreeFit:
         return imu_model.ImuTerms(dict(zip(self.names, self.values, strict=True)))
 
 
-def _cov(jac, res, n_par):
-    dof = max(res.size - n_par, 1)
-    s2 = float(res @ res) / dof
-    return s2 * np.linalg.pinv(jac.T @ jac)
+def _jacobian(fun, x, h=1e-6):
+    """Central differences of ``fun`` at ``x``, shape (m, n)."""
+    cols = []
+    for k in range(x.size):
+        e = np.zeros(x.size)
+        e[k] = h
+        cols.append((fun(x + e) - fun(x - e)) / (2 * h))
+    return np.stack(cols, axis=-1)
+
+
+def _noise_cov(acc_res, gyro_res, x_a, x_g, sig_a, sig_g, sig_b):
+    """Covariances of the accelerometer terms, the gyro matrix terms and the gyro bias
+    from the sensor noise (module docstring of :func:`plan`).
+
+    ``gyro_res(p, db)`` is the gyro residual with the rates offset by ``db``: the bias
+    taken from the initial interval (1-sigma ``sig_b`` per axis) is held in the fit, so
+    its error passes into the matrix terms, ``cov_p = N^-1 + K S_b K^T`` with
+    ``K = N^-1 J_p^T J_b``.
+
+    Returns
+    -------
+    cov_a (9, 9), cov_g (9, 9), cross (9, 3) gyro matrix - bias, chi2_a, chi2_g (the
+    whitened residual sums) and their degrees of freedom.
+    """
+    ja = _jacobian(acc_res, x_a) / sig_a[:, None]
+    cov_a = np.linalg.pinv(ja.T @ ja)
+    jp = _jacobian(lambda p: gyro_res(p, np.zeros(3)), x_g) / sig_g[:, None]
+    jb = _jacobian(lambda b: gyro_res(x_g, b), np.zeros(3)) / sig_g[:, None]
+    n_inv = np.linalg.pinv(jp.T @ jp)
+    k = n_inv @ jp.T @ jb
+    s_b = np.diag(sig_b**2)
+    cov_g = n_inv + k @ s_b @ k.T
+    chi2_a = float(np.sum((acc_res(x_a) / sig_a) ** 2))
+    chi2_g = float(np.sum((gyro_res(x_g, np.zeros(3)) / sig_g) ** 2))
+    return cov_a, cov_g, -k @ s_b, chi2_a, chi2_g
+
+
+def _white_density(x, dts, ivs):
+    """White-noise density per axis (unit sqrt(s)) from the scatter within the static
+    intervals: the robust spread of successive differences (1.4826 MAD / sqrt(2)),
+    which a slow turn inside an interval (about the vertical, unseen by the detector)
+    does not inflate, times ``sqrt(dt)``; median over the intervals."""
+    per = []
+    for iv in ivs:
+        d = np.diff(x[iv.start : iv.stop], axis=0)
+        mad = np.median(np.abs(d - np.median(d, axis=0)), axis=0)
+        per.append(1.4826 * mad / np.sqrt(2.0) * np.sqrt(np.median(dts)))
+    return np.median(np.array(per), axis=0)
+
+
+def _sigmas(means, dur, gap, gravity, vrw, arw):
+    """1-sigma of the gravity-norm and gravity-direction residuals from white noise."""
+    sig_a = np.mean(vrw) / np.sqrt(dur)
+    ends = np.mean(vrw) / gravity * np.sqrt(1.0 / dur[:-1] + 1.0 / dur[1:])
+    sig_g = np.repeat(np.hypot(ends, np.mean(arw) * np.sqrt(gap)), 3)
+    return sig_a, sig_g
 
 
 def calibrate(time, acc, gyro, gravity, detector=Detector(), use=None):
@@ -258,7 +310,6 @@ def calibrate(time, acc, gyro, gravity, detector=Detector(), use=None):
         return np.linalg.norm(f, axis=1) - gravity
 
     sol_a = least_squares(acc_res, np.zeros(9), x_scale=np.full(9, 1e-3), method="trf")
-    cov_a = _cov(sol_a.jac, sol_a.fun, 9)
     ba, mat_a = _accel_params(sol_a.x)
 
     init = found[0]
@@ -266,7 +317,6 @@ def calibrate(time, acc, gyro, gravity, detector=Detector(), use=None):
         raise ValueError("the record does not start at rest: no initial static interval")
     n_init = min(init.stop, init.start + round(detector.init / np.median(np.diff(time))))
     bg = gyro[init.start : n_init].mean(axis=0)
-    bg_cov = np.diag(gyro[init.start : n_init].var(axis=0) / max(n_init - init.start, 1))
 
     f_cal = np.linalg.solve(mat_a, (means - ba).T).T
     u = f_cal / np.linalg.norm(f_cal, axis=1, keepdims=True)
@@ -278,6 +328,14 @@ def calibrate(time, acc, gyro, gravity, detector=Detector(), use=None):
     rates = np.ascontiguousarray(gyro - bg)
     rot = np.empty((starts.size, 3, 3))
 
+    def gyro_res_b(p, db):
+        inv = np.linalg.inv(_gyro_matrix(p))
+        _integrate(
+            np.ascontiguousarray(rates - db), dts, np.ascontiguousarray(inv), starts, stops, rot
+        )
+        pred = np.einsum("kji,kj->ki", rot, u[:-1])
+        return (u[1:] - pred).ravel()
+
     def gyro_res(p):
         inv = np.linalg.inv(_gyro_matrix(p))
         _integrate(rates, dts, np.ascontiguousarray(inv), starts, stops, rot)
@@ -286,12 +344,28 @@ def calibrate(time, acc, gyro, gravity, detector=Detector(), use=None):
 
     before = gyro_res(np.zeros(9)).reshape(-1, 3)
     sol_g = least_squares(gyro_res, np.zeros(9), x_scale=np.full(9, 1e-3), method="trf")
-    cov_g = _cov(sol_g.jac, sol_g.fun, 9)
+
+    # 1-sigma from the white noise found within the static intervals, inflated by the
+    # misfit where the residuals exceed it (sqrt of chi-square per degree of freedom)
+    vrw = _white_density(acc, dts, ivs)
+    arw = _white_density(gyro, dts, ivs)
+    dur = np.array([(iv.stop - iv.start) * np.median(dts) for iv in ivs])
+    gap = (stops - starts) * np.median(dts)
+    sig_a, sig_g = _sigmas(means, dur, gap, gravity, vrw, arw)
+    sig_b = arw / np.sqrt((n_init - init.start) * np.median(dts))
+    cov_a, cov_g, cross, chi2_a, chi2_g = _noise_cov(
+        acc_res, gyro_res_b, sol_a.x, sol_g.x, sig_a, sig_g, sig_b
+    )
+    cov_a *= max(1.0, chi2_a / max(sig_a.size - 9, 1))
+    inflate_g = max(1.0, chi2_g / max(sig_g.size - 9, 1))
+    cov_g *= inflate_g
+    cross *= np.sqrt(inflate_g)
 
     names = ACCEL_NAMES + BIAS_NAMES + GYRO_NAMES
     values = np.concatenate([sol_a.x, bg, sol_g.x])
     cov = np.zeros((21, 21))
-    cov[:9, :9], cov[9:12, 9:12], cov[12:, 12:] = cov_a, bg_cov, cov_g
+    cov[:9, :9], cov[9:12, 9:12], cov[12:, 12:] = cov_a, np.diag(sig_b**2), cov_g
+    cov[12:, 9:12], cov[9:12, 12:] = cross, cross.T
     order = [names.index(n) for n in imu_model.SENSOR_TERMS]
     names = tuple(names[i] for i in order)
     values, cov = values[order], cov[np.ix_(order, order)]
@@ -308,3 +382,76 @@ def calibrate(time, acc, gyro, gravity, detector=Detector(), use=None):
         sol_g.fun.reshape(-1, 3),
         threshold,
     )
+
+
+@dataclass(frozen=True)
+class TableFreePlan:
+    """Predicted 1-sigma of the table-free terms (:func:`plan`).
+
+    Attributes
+    ----------
+    names : tuple of str
+        The 9 accelerometer terms and the 9 gyro-matrix terms.
+    sigma : ndarray, shape (18,)
+        ``inf`` where not separable.
+    separable : ndarray of bool
+    positions : int
+        Static intervals the detector finds.
+    """
+
+    names: tuple
+    sigma: np.ndarray
+    separable: np.ndarray
+    positions: int
+
+
+def plan(time, acc, gyro, gravity, vrw, arw, detector=Detector()):
+    """Table-free planner: the terms' 1-sigma from the sensor white noise along a motion
+    (the increments of an ideal unit on the motion program), before any data.
+
+    The accelerometer residuals ``||a_k|| - g`` have the noise ``vrw / sqrt(T_k)``; the
+    gravity-direction residuals that of both ends (``vrw / (g sqrt(T))``) and of the
+    angle random walk over the motion between them (``arw sqrt(T_gap)``); the gyro bias
+    of the initial interval, held in the fit, adds its own error to the gyro terms.
+    Jacobians at the nominal unit (central differences of the method's residuals).
+    """
+    found, _ = detect_static(time, acc, detector)
+    ivs = [iv for iv in found if not iv.flag]
+    dts = np.empty(time.size)
+    dts[1:] = np.diff(time)
+    dts[0] = dts[1]
+    means = np.array([acc[iv.start : iv.stop].mean(axis=0) for iv in ivs])
+    dur = np.array([(iv.stop - iv.start) * np.median(dts) for iv in ivs])
+
+    def acc_res(p):
+        ba, mat = _accel_params(p)
+        return np.linalg.norm(np.linalg.solve(mat, (means - ba).T).T, axis=1) - gravity
+
+    u = means / np.linalg.norm(means, axis=1, keepdims=True)
+    starts = np.array([ivs[k].stop for k in range(len(ivs) - 1)], dtype=np.int64)
+    stops = np.array([ivs[k + 1].start for k in range(len(ivs) - 1)], dtype=np.int64)
+    rot = np.empty((starts.size, 3, 3))
+
+    def gyro_res_b(p, db):
+        inv = np.ascontiguousarray(np.linalg.inv(_gyro_matrix(p)))
+        _integrate(np.ascontiguousarray(gyro - db), dts, inv, starts, stops, rot)
+        return (u[1:] - np.einsum("kji,kj->ki", rot, u[:-1])).ravel()
+
+    gap = (stops - starts) * np.median(dts)
+    sig_a, sig_g = _sigmas(means, dur, gap, gravity, vrw, arw)
+    n_init = min(ivs[0].stop - ivs[0].start, round(detector.init / np.median(dts)))
+    sig_b = np.broadcast_to(np.mean(arw) / np.sqrt(n_init * np.median(dts)), (3,))
+    cov_a, cov_g, _, _, _ = _noise_cov(
+        acc_res, gyro_res_b, np.zeros(9), np.zeros(9), sig_a, sig_g, sig_b
+    )
+    s_a, ok_a = _separable_sigma_cov(cov_a, ivs, 9)
+    s_g, ok_g = _separable_sigma_cov(cov_g, ivs, 9)
+    return TableFreePlan(ACCEL_NAMES + GYRO_NAMES, np.r_[s_a, s_g], np.r_[ok_a, ok_g], len(ivs))
+
+
+def _separable_sigma_cov(cov, ivs, n_par):
+    """1-sigma from a covariance; all inf with fewer positions than terms."""
+    if len(ivs) < n_par:
+        return np.full(n_par, np.inf), np.zeros(n_par, bool)
+    sigma = np.sqrt(np.clip(np.diag(cov), 0.0, None))
+    return sigma, np.isfinite(sigma)

@@ -689,8 +689,21 @@ def _plan_only(scenario, names):
             format_table(rows, ["term", "predicted 1-sigma", "unit"], fmt=".4g"),
         ]
         datasets["plan_system/sigma"] = Series(sigma, "SI", "b", "predicted 1-sigma per term")
+    if "table-free" in scenario.methods:
+        planned_tf = plan_table_free(scenario)
+        rows = []
+        for n, s_, ok in zip(planned_tf.names, planned_tf.sigma, planned_tf.separable, strict=True):
+            unit, scale = lab(n)
+            results[f"plan_table_free_{n}_sigma_{unit}"] = float(s_ / scale) if ok else None
+            rows.append([n, s_ / scale if ok else float("nan"), unit])
+        text += [
+            f"planner, table-free: {planned_tf.positions} static positions found in the "
+            "motion program (an ideal unit's increments, the scenario's noise; the gyro "
+            "bias is the initial interval's mean, the Earth rate is outside the model)",
+            format_table(rows, ["term", "predicted 1-sigma", "unit"], fmt=".4g"),
+        ]
     if not text:
-        raise InputError("the planner covers the discrete and system-level methods", key="plan")
+        raise InputError("the planner needs a method to plan", key="plan")
     attrs[""] = {
         "unit_name": scenario.unit.name,
         "methods": [],
@@ -699,6 +712,33 @@ def _plan_only(scenario, names):
     }
     return CommandResult(
         "calibrate-imu", results, datasets=datasets, attrs=attrs, report="\n".join(text)
+    )
+
+
+def plan_table_free(scenario):
+    """Predicted 1-sigma of the table-free terms from the motion program alone."""
+    from dataclasses import replace
+
+    from inins.commands._table import memory_record
+    from inins.core import imu
+    from inins.table import simulate
+
+    sim = table_simulation(scenario.simulate)
+    noise = noise_figures(scenario, sim.sensor)
+    ideal = replace(sim, sensor=imu.SensorErrors.none(), encoder_noise=0.0)
+    rec = memory_record(ideal, simulate.simulation_chunks(ideal, np.random.default_rng(0)))
+    time = rec.t0 + rec.dt * (np.arange(rec.n_samples) + 1)
+    gravity = scenario.table_free.gravity_mps2 or float(earth.gravity(rec.lla[0], rec.lla[2]))
+    d = scenario.table_free.detector
+    det = tablefree.Detector(
+        d.window_s,
+        d.init_interval_s,
+        d.threshold_factor,
+        d.min_interval_s,
+        d.max_tilt_change_deg * DEG,
+    )
+    return tablefree.plan(
+        time, rec.dv / rec.dt, rec.dtheta / rec.dt, gravity, noise.vrw, noise.arw, det
     )
 
 
@@ -842,6 +882,7 @@ def declared_results(scenario):
         ]
     results += [f"plan_{n}_sigma_{lab(n)[0]}" for n in names] + ["plan_inseparable"]
     results += [f"plan_system_{n}_sigma_{lab(n)[0]}" for n in imu_model.SENSOR_TERMS]
+    results += [f"plan_table_free_{n}_sigma_{lab(n)[0]}" for n in imu_model.SENSOR_TERMS]
     return tuple(results), tuple(truth)
 
 

@@ -1,6 +1,8 @@
 """Table-free multi-position calibration (Tedaldi et al. 2014): simulated truth through
 simulate-table, and the Xsens log of the imu_tk test data (real)."""
 
+import os
+
 import numpy as np
 import pytest
 from helpers import CONFIGS, SHARED_DATA, shipped
@@ -139,3 +141,36 @@ def test_xsens_gravity_norm_residual_and_stability(xsens):
     for n in tablefree.ACCEL_NAMES + tablefree.GYRO_NAMES:
         k = fit.names.index(n)
         assert diff[k] <= 3.0 * half.sigma[k], (n, diff[k], half.sigma[k])
+
+
+@pytest.mark.skipif(
+    not os.environ.get("ININS_LONG"),
+    reason="50-seed Monte Carlo of the table-free method (about 20 s): ININS_LONG=1",
+)
+def test_monte_carlo_sigma_and_planner():
+    # noise only: the Earth rate (the model's limit, tested above) removed from the data
+    from dataclasses import replace
+
+    from inins.core import imu
+
+    s = shipped(CalibrateImuScenario, "calibrate-imu/table-free-mems.yaml").simulate
+    sim = table_simulation(s)
+    truth = imu_model.terms_from_sensor(sim.sensor)
+    ideal = replace(sim, sensor=imu.SensorErrors.none())
+    rec = memory_record(ideal, simulate.simulation_chunks(ideal, np.random.default_rng(0)))
+    t, acc, gyro, g = _inputs(ideal, rec, False)
+    planned = tablefree.plan(t, acc, gyro, g, sim.sensor.accel_vrw, sim.sensor.gyro_arw, DETECTOR)
+    z, errs = [], []
+    for seed in range(50):
+        rec = memory_record(sim, simulate.simulation_chunks(sim, np.random.default_rng(seed)))
+        fit = tablefree.calibrate(*_inputs(sim, rec, True), DETECTOR)
+        err = fit.values - truth.vector(fit.names)
+        z.append(err / fit.sigma)
+        errs.append([err[fit.names.index(n)] for n in planned.names])
+    z, errs = np.array(z), np.array(errs)
+    assert np.mean(np.abs(z) < 3.0) >= 0.99
+    assert 0.8 <= np.sqrt(np.mean(z**2)) <= 1.25
+    ratio = np.sqrt(np.mean(errs**2, axis=0)) / planned.sigma
+    print("MC table-free:", np.mean(np.abs(z) < 3.0), np.sqrt(np.mean(z**2)), ratio.round(2))
+    for part in (slice(0, 9), slice(9, 18)):  # accelerometer, gyro matrix: pooled
+        assert abs(np.sqrt(np.mean(ratio[part] ** 2)) - 1.0) < 0.2
