@@ -54,6 +54,10 @@ TARGETS = (  # (figure path, relation, target, what)
     ("bench_sweep.overhead.overhead_ms", "<", 20.0, "sweep overhead per point, ms"),
     ("bench_sweep.throughput.speedup_2_workers", ">=", 1.8, "sweep 2 workers / 1 worker"),
     ("bench_sweep.throughput.dask_over_local", ">=", 0.8, "sweep Dask loopback / local"),
+    ("bench_ekf.hour_filter_alone_s", "<", 0.15, "EKF2-FB filter alone one hour, s"),
+    ("bench_ekf.hour_truth_scoring_s", "<", 0.1, "EKF truth scoring one hour, s"),
+    ("bench_ekf.simulation_4h_over_1h_cpu", "<=", 4.2, "run-ekf simulation 4 h / 1 h"),
+    ("bench_ekf.process_run_ekf_1h_warm_s", "<", 1.5, "run-ekf 1-h flight whole process, s"),
     ("commands.calibrate_imu_1h_1khz.warm_s", "<", 2.0, "calibrate-imu 24-pos + rates 1 h, s"),
     ("commands.calibrate_imu_xsens.warm_s", "<", 1.0, "calibrate-imu table-free Xsens, s"),
 )

@@ -11,15 +11,26 @@ A child process then streams a 4-hour flight through the filter (simulation
 and filter chunk by chunk) and reports its peak RSS (target < 1 GB, flat in
 flight length: the 1-hour child figure is given beside it).
 
+Issue 23 figures: the simulation of one hour of epochs (truth trajectory, IMU
+stream, receiver; 1 h and 4 h for linearity), the filter alone, the scoring
+against truth after the run, and the whole process ``inins run-ekf`` on the
+one-hour scenario ``benchmarks/scenarios/run-ekf-1h.yaml`` (EKF2-FB, 200 Hz,
+ABPO constellation), warm (the second of two runs).
+
 Run alone: ``python -m benchmarks.bench_ekf`` (``--rss-hours H`` runs one
-streamed flight of H hours and prints its peak RSS).
+streamed flight of H hours and prints its peak RSS). ``--before REPO --before-python
+PY`` also measures the same figures on another checkout of inins (e.g. the main
+branch with its own environment) and prints them side by side.
 """
 
 import argparse
 import json
+import os
 import resource
+import statistics
 import subprocess
 import sys
+import tempfile
 import time
 from pathlib import Path
 
@@ -43,6 +54,9 @@ from inins.ekf.sources import Receiver, simulated_epochs
 from inins.gnss import constellation, gpstime
 
 ROOT = Path(__file__).resolve().parent.parent
+sys.path.insert(
+    0, str(ROOT)
+) if __name__ == "__main__" and "benchmarks" not in sys.modules else None
 
 DT = 0.005
 ERRORS = imu.SensorErrors(
@@ -89,7 +103,7 @@ def _plan(hours):
     return plan
 
 
-def _setup(hours):
+def _setup(hours, truth=False):
     plan = _plan(hours)
     base = flight_trajectory(plan)
     truth = Dithered(base, DITHER)
@@ -113,8 +127,8 @@ def _setup(hours):
     stream = simulated_epochs(
         truth, base, ERRORS, DT, duration, eph, week, sow0, RECEIVER, seed=5, nodes=2
     )
-    # the filter's own cost: no truth comparison per epoch
-    stream = (EpochInput(e.dtheta, e.dv, e.pps_index, e.gnss) for e in stream)
+    if not truth:  # the filter's own cost: no truth comparison
+        stream = (EpochInput(e.dtheta, e.dv, e.pps_index, e.gnss) for e in stream)
     return config, initial, stream
 
 
@@ -128,6 +142,76 @@ def _streamed(hours):
     code = [sys.executable, "-m", "benchmarks.bench_ekf", "--rss-hours", str(hours)]
     out = subprocess.run(code, check=True, capture_output=True, text=True, cwd=ROOT)
     return json.loads(out.stdout.strip().splitlines()[-1])
+
+
+def _simulation_s(hours):
+    """Wall and CPU time (s) of producing every epoch of a flight of ``hours`` (no filter),
+    and the number of epochs."""
+    _, _, stream = _setup(hours, truth=True)
+    wall, cpu = time.perf_counter(), time.process_time()
+    count = sum(1 for _ in stream)
+    return time.perf_counter() - wall, time.process_time() - cpu, count
+
+
+def _children_cpu():
+    usage = resource.getrusage(resource.RUSAGE_CHILDREN)
+    return usage.ru_utime + usage.ru_stime
+
+
+def _process_s(scenario, python=sys.executable, cwd=ROOT, repeat=2):
+    """Whole-process wall and CPU time (s) of ``inins run-ekf scenario``: medians of the
+    warm runs (the first of ``repeat + 1`` loads the JIT cache and is dropped)."""
+    walls, cpus = [], []
+    with tempfile.TemporaryDirectory() as out:
+        for i in range(repeat + 1):
+            wall, cpu = time.perf_counter(), _children_cpu()
+            subprocess.run(
+                [python, "-m", "inins", "run-ekf", str(scenario), "-o", f"{out}/{i}"],
+                check=True,
+                capture_output=True,
+                cwd=cwd,
+            )
+            walls.append(time.perf_counter() - wall)
+            cpus.append(_children_cpu() - cpu)
+    return statistics.median(walls[1:]), statistics.median(cpus[1:])
+
+
+def _best(func, repeat=3):
+    """Least wall and least CPU time (s) of ``repeat`` calls of ``func``."""
+    walls, cpus = [], []
+    for _ in range(repeat):
+        wall, cpu = time.perf_counter(), time.process_time()
+        func()
+        walls.append(time.perf_counter() - wall)
+        cpus.append(time.process_time() - cpu)
+    return min(walls), min(cpus)
+
+
+def figures(quick=False):
+    """The issue-23 figures of this checkout (flat dict, wall and CPU seconds: on a shared
+    machine the CPU figures are the comparable ones); ``quick``: no 4-h simulation."""
+    config, initial, stream = _setup(1.0, truth=True)
+    epochs = list(stream)
+    bare = [EpochInput(e.dtheta, e.dv, e.pps_index, e.gnss) for e in epochs]
+    run_filter(config, initial, 0.0, bare[:5])  # JIT warm-up
+    alone = _best(lambda: run_filter(config, initial, 0.0, bare))
+    scored = _best(lambda: run_filter(config, initial, 0.0, epochs, ERRORS))
+    sim_1h = _simulation_s(1.0)
+    out = {"hour_epochs": sim_1h[2]}
+    for name, (wall, cpu) in (
+        ("hour_filter_alone", alone),
+        ("hour_truth_scoring", (scored[0] - alone[0], scored[1] - alone[1])),
+        ("hour_simulation", sim_1h[:2]),
+    ):
+        out[f"{name}_s"], out[f"{name}_cpu_s"] = wall, cpu
+    if not quick:
+        sim_4h = _simulation_s(4.0)
+        out["four_hour_simulation_s"], out["four_hour_simulation_cpu_s"] = sim_4h[:2]
+        out["simulation_4h_over_1h_cpu"] = sim_4h[1] / sim_1h[1]
+    scenario = ROOT / "benchmarks/scenarios/run-ekf-1h.yaml"
+    wall, cpu = _process_s(scenario, cwd=Path.cwd())
+    out["process_run_ekf_1h_warm_s"], out["process_run_ekf_1h_warm_cpu_s"] = wall, cpu
+    return out
 
 
 def run(quick=False):
@@ -163,6 +247,7 @@ def run(quick=False):
             if four is None
             else {"stream_4h_peak_rss_mb": four["peak_rss_mb"], "stream_4h_wall_s": four["wall_s"]}
         ),
+        **figures(quick),
     }
 
 
@@ -179,15 +264,39 @@ def _rss_child(hours):
     print(json.dumps(figures))
 
 
+def _before(repo, python, quick):
+    """:func:`figures` of another checkout: this file's code run by its interpreter on its
+    package (``PYTHONPATH=repo``)."""
+    code = [python, str(Path(__file__).resolve()), "--figures"] + (["--quick"] if quick else [])
+    env = dict(os.environ, PYTHONPATH=str(repo))
+    out = subprocess.run(code, check=True, capture_output=True, text=True, cwd=repo, env=env)
+    return json.loads(out.stdout.strip().splitlines()[-1])
+
+
 def _main():
     parser = argparse.ArgumentParser(prog="python -m benchmarks.bench_ekf")
     parser.add_argument("--rss-hours", type=float, help="stream one flight, print peak RSS")
+    parser.add_argument("--figures", action="store_true", help="print the issue-23 figures")
+    parser.add_argument("--quick", action="store_true", help="no 4-h runs")
+    parser.add_argument("--before", type=Path, help="another checkout of inins to compare")
+    parser.add_argument("--before-python", default=sys.executable, help="its interpreter")
     args = parser.parse_args()
     if args.rss_hours:
         _rss_child(args.rss_hours)
         return
-    for key, value in run().items():
-        print(f"{key:28s} {value:.6g}")
+    if args.figures:
+        print(json.dumps(figures(args.quick)))
+        return
+    after = figures(args.quick) if args.before else run(args.quick)
+    if args.before is None:
+        for key, value in after.items():
+            print(f"{key:32s} {value:.6g}")
+        return
+    before = _before(args.before, args.before_python, args.quick)
+    print(f"{'figure':32s} {'before':>12s} {'after':>12s}")
+    for key, value in after.items():
+        old = before.get(key, float("nan"))
+        print(f"{key:32s} {old:12.4g} {value:12.4g}")
 
 
 if __name__ == "__main__":

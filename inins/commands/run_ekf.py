@@ -16,17 +16,15 @@ from dataclasses import replace
 import numpy as np
 
 from inins.commands import figures
-from inins.core import earth, rotation, strapdown
-from inins.core.units import ARCSEC, DEG, DEG_RTH, DPH, UG, UG_RTHZ
+from inins.core import rotation, strapdown
+from inins.core.units import ARCSEC, DEG, DPH
 from inins.ekf import flight as fl
-from inins.ekf import sources
-from inins.ekf.config import Coupling, FilterConfig, InitialSigma, Model
+from inins.ekf import recorded, sources
+from inins.ekf.config import Coupling, FilterConfig, InitialSigma, Model, clock_psd
 from inins.ekf.filter import run_filter
 from inins.exceptions import InputError
-from inins.gnss import constellation, ephemeris, gpstime, measurements, spp
-from inins.gnss.orbit import C
+from inins.gnss import constellation, ephemeris, gpstime, measurements
 from inins.io.flight_layout import read_flight
-from inins.io.psins_tc import read_psins_tc
 from inins.io.resources import configs_root
 from inins.io.rinex_nav import read_nav
 from inins.results import CommandResult, Series, format_table
@@ -39,7 +37,6 @@ FIGURES = {
     "run-ekf-misalignment.png": figures.run_ekf_misalignment,
     "run-ekf-fb-corrections.png": figures.run_ekf_corrections,
 }
-_KIND = {"wait": fl.LegKind.WAIT, "takeoff": fl.LegKind.TAKEOFF, "straight": fl.LegKind.STRAIGHT}
 
 
 def run(scenario, seed, *, sink=None, progress=None):
@@ -69,89 +66,27 @@ def run(scenario, seed, *, sink=None, progress=None):
 
 
 def filter_config(f, dt, lever, dither_window):
-    """:class:`FilterConfig` in SI from the scenario's filter section."""
-    n, s = f.noise, f.initial_sigma
-    h0, hm2 = n.clock_h0_s, n.clock_hm2_per_s
+    """:class:`FilterConfig` from the scenario's filter section (its SI keywords,
+    :meth:`inins.scenario.run_ekf.FilterSettings.to_si`)."""
+    si = f.to_si()
+    bias_psd, drift_psd = clock_psd(si.pop("clock_h0"), si.pop("clock_h_2"))
     return FilterConfig(
-        Model(f.model),
-        Coupling(f.coupling),
+        Model(si.pop("model")),
+        Coupling(si.pop("coupling")),
         dt,
         lever_arm=np.asarray(lever, float),
-        arw=np.full(3, n.arw_deg_rth * DEG_RTH),
-        vrw=np.full(3, n.vrw_ug_rthz * UG_RTHZ),
-        gyro_bias_rw=np.full(3, n.gyro_bias_walk_dph * DPH / 60.0),  # per sqrt(3600 s)
-        accel_bias_rw=np.full(3, n.accel_bias_walk_ug * UG / 60.0),
-        clock_bias_psd=C**2 * h0 / 2.0,
-        clock_drift_psd=C**2 * 2.0 * math.pi**2 * hm2,
-        initial_sigma=InitialSigma(
-            position=s.position_m,
-            velocity=s.velocity_mps,
-            tilt=s.tilt_deg * DEG,
-            heading=s.heading_deg * DEG,
-            accel_bias=s.accel_bias_ug * UG,
-            gyro_bias=s.gyro_bias_dph * DPH,
-            accel_misalignment=s.accel_misalignment_arcsec * ARCSEC,
-            gyro_misalignment=s.gyro_misalignment_arcsec * ARCSEC,
-            clock_bias=s.clock_bias_m,
-            clock_drift=s.clock_drift_mps,
-        ),
-        gate_probability=f.gate_probability,
+        initial_sigma=InitialSigma(**si.pop("initial_sigma")),
+        clock_bias_psd=bias_psd,
+        clock_drift_psd=drift_psd,
         dither_window=dither_window,
-        outages=tuple(f.outages_s),
-        use_range_rate=f.use_range_rate,
-        pps_storage=f.pps_storage,
+        **si,
     )
 
 
 def flight_plan(flight):
-    """:class:`inins.ekf.flight.FlightPlan` of the scenario (validated there, keys named)."""
-    legs = []
-    for leg in flight.legs:
-        speed = math.nan if leg.speed_mps is None else leg.speed_mps
-        if leg.kind in ("climb", "descend"):
-            rate = leg.climb_rate_mps if leg.kind == "climb" else -leg.climb_rate_mps
-            legs.append(fl.Leg(fl.LegKind.CLIMB, leg.duration_s, speed, climb_rate=rate))
-        elif leg.kind == "turn":
-            sign = 1.0 if leg.direction == "right" else -1.0
-            legs.append(
-                fl.Leg(
-                    fl.LegKind.TURN,
-                    leg.duration_s,
-                    speed,
-                    bank=leg.bank_deg * DEG,
-                    angle=sign * leg.angle_deg * DEG,
-                    turn_rate=math.nan if leg.turn_rate_dps is None else leg.turn_rate_dps * DEG,
-                )
-            )
-        else:
-            legs.append(fl.Leg(_KIND[leg.kind], leg.duration_s, speed))
-    lla = flight.site.lla()
-    plan = fl.FlightPlan(
-        lla[0], lla[1], lla[2], flight.heading_deg * DEG, tuple(legs), aoa=flight.aoa_deg * DEG
-    )
-    try:
-        _ = plan.duration
-    except InputError as exc:
-        raise InputError(str(exc.args[0]), key=_leg_key(exc.key)) from None
-    return plan
-
-
-_LEG_FIELDS = {
-    "duration": "duration_s",
-    "speed": "speed_mps",
-    "climb_rate": "climb_rate_mps",
-    "bank": "bank_deg",
-    "angle": "angle_deg",
-    "turn_rate": "turn_rate_dps",
-}
-
-
-def _leg_key(key):
-    """``legs.2.bank`` (flight-plan key) -> ``flight.legs[2].bank_deg`` (scenario key)."""
-    parts = (key or "").split(".")
-    if len(parts) == 3 and parts[0] == "legs":
-        return f"flight.legs[{parts[1]}].{_LEG_FIELDS.get(parts[2], parts[2])}"
-    return f"flight.{key}"
+    """The scenario's :class:`inins.core.flight.FlightPlan` (kept for callers: the
+    conversion is :meth:`inins.scenario.run_ekf.Flight.plan`)."""
+    return flight.plan()
 
 
 def _ephemeris(c, duration):
@@ -175,7 +110,7 @@ def _reporting(stream, total, progress):
 
 def _simulated(scenario, seed, progress=None):
     fs, gs = scenario.flight, scenario.gnss
-    plan = flight_plan(fs)
+    plan = fs.plan()
     _check_imu(fs.imu)
     dt = 1.0 / fs.imu.sample_rate_hz
     errors = fs.imu.to_si()
@@ -187,17 +122,9 @@ def _simulated(scenario, seed, progress=None):
     config = _checked(lambda: filter_config(scenario.filter, dt, gs.lever_arm_m, window), "gnss")
     eph, week, sow0 = _ephemeris(gs.constellation, plan.duration)
     rx = sources.Receiver(
-        gs.lever_arm_m,
-        gs.mask_deg * DEG,
-        gs.pseudorange_sigma_m,
-        gs.range_rate_sigma_mps,
-        gs.clock_h0_s,
-        gs.clock_hm2_per_s,
-        gs.clock_bias_m,
-        gs.clock_drift_mps,
-        gs.latency_s,
-        scenario.filter.pseudorange_sigma_m,
-        scenario.filter.range_rate_sigma_mps,
+        **gs.receiver_si(),
+        filter_sigma_pr=scenario.filter.pseudorange_sigma_m,
+        filter_sigma_rr=scenario.filter.range_rate_sigma_mps,
     )
     mat0, vel0, lla0 = truth.state([0.0])
     mat_base, _, _ = base.state([0.0])
@@ -251,65 +178,57 @@ def _check_imu(imu):
 
 def _read(data):
     if data.file.suffix.lower() == ".mat":
+        from inins.io.psins_tc import read_psins_tc  # scipy.io: 0.3 s, only for a .mat
+
         return read_psins_tc(data.file)
     return read_flight(data.file)
 
 
 def _recorded(scenario):
-    d = scenario.data
+    d, f = scenario.data, scenario.filter
     rec = _read(d)
     if rec.imu is None or len(rec.imu.time) < 2:
         raise InputError("the recording has no IMU data", source=str(d.file), key="imu/time")
     imu = rec.imu
     dt = float(np.median(np.diff(imu.time)))
     sources.check_imu_time(imu.time, dt, str(d.file))
-    obs = measurements.from_record(rec.gnss)
-    t = obs.time - rec.imu_t0_sow
-    inside = np.flatnonzero((t > imu.time[0] - 1.0) & (t < imu.time[-1] + 1.0))
-    if inside.size == 0:
-        raise InputError("no GNSS epoch during the IMU record", source=str(d.file), key="gnss")
-    epochs = measurements.attach_satellites(
-        obs.take_epochs(inside), ephemeris.from_columns(rec.ephemeris), source=str(d.file)
+    start = recorded.prepare(
+        imu.time,
+        imu.dtheta,
+        imu.dv,
+        dt,
+        measurements.from_record(rec.gnss),
+        rec.ephemeris,
+        rec.imu_t0_sow,
+        mask=d.mask_deg * DEG,
+        klobuchar=None if rec.iono_alpha is None else (rec.iono_alpha, rec.iono_beta),
+        static_window=d.static_window_s,
+        motion_speed=d.motion_speed_mps,
+        lever_arm=np.asarray(d.lever_arm_m, float),
+        source=str(d.file),
     )
-    t = epochs.obs.time - rec.imu_t0_sow
-    mask = d.mask_deg * DEG
-    klob = None if rec.iono_alpha is None else (rec.iono_alpha, rec.iono_beta)
-    fix = spp.solve(epochs, spp.SppOptions(mask_rad=mask, klobuchar=klob))
-    fixed = np.flatnonzero(np.isfinite(fix.pos[:, 0]))
-    if fixed.size == 0:
-        raise InputError("no SPP fix in the record", source=str(d.file), key="data.mask_deg")
-    lla0 = earth.llh_from_ecef(fix.pos[fixed[0]])
-    vel_n = np.einsum("ji,nj->ni", earth.mat_en(lla0[0], lla0[1]), fix.vel)
-    init = sources.velocity_heading(
-        imu.time, imu.dtheta, imu.dv, dt, lla0, d.static_window_s, t, vel_n, d.motion_speed_mps
-    )
-    window = 1 if scenario.filter.dither_window == "auto" else scenario.filter.dither_window
-    config = _checked(lambda: filter_config(scenario.filter, dt, d.lever_arm_m, window), "data")
-    f = scenario.filter
-    gnss_list, _ = sources.filter_epochs(
-        epochs,
-        t,
-        t + d.latency_s,
+    window = 1 if f.dither_window == "auto" else f.dither_window
+    config = _checked(lambda: filter_config(f, dt, d.lever_arm_m, window), "data")
+    stream = recorded.epoch_stream(
+        start,
+        imu.time,
+        imu.dtheta,
+        imu.dv,
+        d.latency_s,
         f.pseudorange_sigma_m,
         f.range_rate_sigma_mps,
-        mask,
-        fix.pos[fixed[0]],
-        klob,
     )
-    t_start = float(imu.time[0] - dt)
-    # the IMU sits the lever arm behind the antenna's first fix
-    lever_e = earth.mat_en(lla0[0], lla0[1]) @ init.mat_nb @ np.asarray(d.lever_arm_m, float)
-    lla_imu = earth.llh_from_ecef(fix.pos[fixed[0]] - lever_e)
-    initial = strapdown.NavState.from_attitude(init.mat_nb, np.zeros(3), lla_imu)
-    stream = sources.recorded_epochs(imu.time, imu.dtheta, imu.dv, t_start, gnss_list)
-    result = _checked(lambda: run_filter(config, initial, t_start, stream), "data.mask_deg")
-    idx = np.clip(np.searchsorted(t, result.time), 0, len(t) - 1)
+    result = _checked(
+        lambda: run_filter(config, start.initial, start.t_start, stream), "data.mask_deg"
+    )
+    t = start.time
+    idx = np.clip(np.searchsorted(t, result.gnss_time), 0, len(t) - 1)
     info = {
         "errors": None,
         "forward": np.asarray(d.forward_axis_b, float) / np.linalg.norm(d.forward_axis_b),
-        "spp_pos": fix.pos[idx],
-        "spp_vel_n": vel_n[idx],
-        "heading_init": init,
+        "spp_pos": start.fix_pos[idx],
+        "spp_vel_n": start.fix_vel_n[idx],
+        "heading_init": start.heading,
         "lever": np.asarray(d.lever_arm_m, float),
     }
     return result, info
@@ -387,11 +306,8 @@ def _results(result, s, info):
     out["fb_heading_correction_deg"] = float(result.cumulative[-1, i] / DEG)
     out["phi_d_est_final_deg"] = float(result.state[-1, i] / DEG)
     if info.get("spp_pos") is not None:
-        lla = result.lla
-        mat_nb = rotation.mat_from_quat(result.quat_nb)
-        lever_n = mat_nb @ info["lever"]  # the antenna, compared with the SPP fix
-        r = earth.ecef_from_llh(lla[:, 0], lla[:, 1], lla[:, 2])
-        r = r + np.einsum("nij,nj->ni", earth.mat_en(lla[:, 0], lla[:, 1]), lever_n)
+        # the antenna, compared with the SPP fix
+        r = recorded.antenna_positions(result.lla, result.quat_nb, info["lever"])
         ok = np.isfinite(info["spp_pos"][:, 0])
         dp = np.linalg.norm(r[ok] - info["spp_pos"][ok], axis=1)
         dv = np.linalg.norm(result.vel_n[ok] - info["spp_vel_n"][ok], axis=1)

@@ -578,3 +578,73 @@ def warm_up():
     """
     state = NavState.from_attitude(np.eye(3), np.zeros(3), np.array([0.6, 2.2, 0.0]))
     integrate(state, np.zeros((2, 3)), np.zeros((2, 3)), 0.01)
+
+
+class FreeInertial:
+    """Free-inertial navigation carried through consecutive chunks, every sample kept.
+
+    The recursion of :func:`integrate` (free mode, coning and sculling on, no
+    decimation) without its per-call objects, for a filter that integrates one short
+    chunk per measurement epoch: ``run`` on consecutive chunks gives bit for bit the
+    series of one :func:`integrate` call (``tests/ekf/test_step.py``). The current
+    state is the arrays ``quat``, ``vel``, ``lla`` (a feedback may correct them in place).
+
+    Parameters
+    ----------
+    state : NavState
+        State at the start of the first chunk.
+    """
+
+    def __init__(self, state):
+        self.quat = state.quat_nb.copy()
+        self.vel = state.vel_n.copy()
+        self.lla = state.lla.copy()
+        self.prev = np.concatenate([state.dtheta_prev, state.dv_prev])
+        self.count = state.count
+        self._home = np.zeros(8)  # Earth terms of the fixed-position modes; unused here
+
+    def run(self, dtheta, dv, dt):
+        """Integrate a chunk of ``n`` samples.
+
+        Returns
+        -------
+        start : tuple of ndarray
+            ``(quat, vel, lla)`` before the chunk (copies).
+        series : tuple of ndarray
+            ``(quat (n, 4), vel (n, 3), lla (n, 3))`` after each sample.
+        """
+        n = dtheta.shape[0]
+        index = np.empty(n, np.int64)
+        series = (np.empty((n, 4)), np.empty((n, 3)), np.empty((n, 3)))
+        start = (self.quat.copy(), self.vel.copy(), self.lla.copy())
+        mode, coning, sculling, decimation = _FREE, True, True, 1
+        _navigate(
+            self.quat,
+            self.vel,
+            self.lla,
+            self.prev,
+            self.count,
+            np.ascontiguousarray(dtheta),
+            np.ascontiguousarray(dv),
+            float(dt),
+            mode,
+            coning,
+            sculling,
+            decimation,
+            self._home,
+            index,
+            *series,
+        )
+        self.count += n
+        return start, series
+
+    def state(self):
+        """The current state as a :class:`NavState`."""
+        return NavState(
+            self.quat.copy(),
+            self.vel.copy(),
+            self.lla.copy(),
+            self.prev[:3].copy(),
+            self.prev[3:].copy(),
+            self.count,
+        )

@@ -9,6 +9,14 @@ import numpy as np
 from inins.core.error_model import EKF17, EKF26
 from inins.ekf.measurements import GnssEpoch
 from inins.exceptions import InputError
+from inins.gnss.orbit import C
+
+
+def clock_psd(h0, h_2):
+    """Receiver clock white-noise densities of a TCXO with Allan coefficients ``h0`` (s)
+    and ``h_-2`` (1/s): bias ``c^2 h0 / 2`` (m^2/s) and drift ``c^2 2 pi^2 h_-2``
+    (m^2/s^3), the two-state clock model of spec §6a."""
+    return C**2 * h0 / 2.0, C**2 * 2.0 * math.pi**2 * h_2
 
 
 class Model(Enum):
@@ -152,13 +160,16 @@ class FilterConfig:
 @dataclass(frozen=True, eq=False)
 class TruthEpoch:
     """Truth at a 1PPS epoch (simulation only): IMU ``mat_nb`` (3, 3), ``vel_n`` (3) m/s,
-    ``lla`` (3) rad, rad, m, receiver clock bias (m) and drift (m/s)."""
+    ``lla`` (3) rad, rad, m, receiver clock bias (m) and drift (m/s); ``at_arrival``
+    the IMU ``(mat_nb, vel_n, lla)`` at the data arrival, which scores the naive
+    pairing (optional: None where the source gives none)."""
 
     mat_nb: np.ndarray
     vel_n: np.ndarray
     lla: np.ndarray
     clock_bias: float
     clock_drift: float
+    at_arrival: tuple | None = None
 
 
 @dataclass(frozen=True, eq=False)

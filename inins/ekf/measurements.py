@@ -15,11 +15,11 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from inins.core import earth
 from inins.exceptions import InputError
+from inins.gnss.orbit import C as C_LIGHT
+from inins.gnss.simulate import antenna_states
 
-C_LIGHT = 299792458.0
-"""Speed of light (m/s)."""
+__all__ = ["C_LIGHT", "GnssEpoch", "antenna", "predict"]
 
 
 def _array(name, value, shape):
@@ -106,13 +106,18 @@ class GnssEpoch:
 def antenna(lla, vel_n, mat_nb, omega_eb_b, lever_b):
     """Antenna ECEF position (m) and velocity (m/s), each (3,), from the IMU state.
 
-    ``r_ant = r_imu + mat_en mat_nb l_b``, ``v_ant = mat_en (v_n + mat_nb (omega_eb_b x l_b))``.
+    ``r_ant = r_imu + mat_en mat_nb l_b``, ``v_ant = mat_en (v_n + mat_nb (omega_eb_b x l_b))``
+    (:func:`inins.gnss.simulate.antenna_states` for one state; the filter's compiled
+    form is :func:`inins.ekf.step.update`, tested equal).
     """
-    mat_en = earth.mat_en(lla[0], lla[1])
-    lever_n = mat_nb @ lever_b
-    r = earth.ecef_from_llh(lla[0], lla[1], lla[2]) + mat_en @ lever_n
-    v = mat_en @ (vel_n + mat_nb @ np.cross(omega_eb_b, lever_b))
-    return r, v
+    r, v = antenna_states(
+        np.asarray(lla, float)[None],
+        np.asarray(vel_n, float)[None],
+        np.asarray(mat_nb, float)[None],
+        np.asarray(omega_eb_b, float)[None],
+        np.asarray(lever_b, float),
+    )
+    return r[0], v[0]
 
 
 def predict(epoch, r_ant, v_ant, clock_bias, clock_drift):

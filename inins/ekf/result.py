@@ -1,6 +1,6 @@
 """Typed outcome of a filter run: epoch-rate series and the scalar summary (003 §2.3, §3.3)."""
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -69,7 +69,8 @@ class EkfResult:
         ``"ekf1"``/``"ekf2"``, ``"ff"``/``"fb"``.
     layout : StateLayout
     time : ndarray, shape (m,)
-        1PPS epoch (s).
+        Time the logged state refers to (s): the 1PPS epoch, or with the naive
+        pairing (``pps_storage`` false) the data arrival.
     quat_nb, vel_n, lla : ndarray, shapes (m, 4), (m, 3), (m, 3)
         Corrected navigation solution at the epoch (after its update).
     state, sigma : ndarray, shape (m, n)
@@ -94,7 +95,11 @@ class EkfResult:
     innovations : Innovations
     flight_time, wall_time : float
         Data span and the filter's own wall time (s): producing the epochs (a
-        simulation generator, a file reader) is not counted.
+        simulation generator, a file reader) is not counted, nor is the scoring
+        against truth (after the run).
+    gnss_time : ndarray, shape (m,)
+        The measurement epoch (1PPS) of each entry (s); equals ``time`` with 1PPS
+        storage.
     """
 
     model: str
@@ -119,52 +124,47 @@ class EkfResult:
     innovations: Innovations
     flight_time: float
     wall_time: float
+    gnss_time: np.ndarray | None = None
 
     @classmethod
-    def from_logs(cls, config, log, flight_time, wall_time):
-        """Stack the per-epoch lists the run collected."""
+    def from_log(cls, config, log, flight_time, wall_time):
+        """Stack what the run recorded (an :class:`inins.ekf.filter.EpochLog`); no truth
+        errors yet (:meth:`with_truth`)."""
         n = len(config.layout)
 
-        def stack(key, shape, dtype=float):
-            values = log[key]
+        def stack(values, shape, dtype=float):
             return np.array(values, dtype=dtype).reshape((len(values), *shape))
 
-        def cat(key, dtype):
-            parts = log["i_" + key]
-            return np.concatenate(parts).astype(dtype) if parts else np.zeros(0, dtype)
-
-        innovations = Innovations(
-            cat("epoch", np.int64),
-            cat("prn", np.int64),
-            cat("kind", np.int8),
-            cat("value", float),
-            cat("variance", float),
-            cat("accepted", bool),
-        )
         return cls(
             config.model.value,
             config.coupling.value,
             config.layout,
-            stack("time", ()),
-            stack("quat", (4,)),
-            stack("vel", (3,)),
-            stack("lla", (3,)),
-            stack("state", (n,)),
-            stack("sigma", (n,)),
-            stack("cum", (n,)),
-            stack("err", (9,)),
-            stack("heading_err", ()),
-            stack("nees", ()),
-            stack("n_sats", (), np.int64),
-            stack("n_used", (), np.int64),
-            stack("n_rejected", (), np.int64),
-            stack("coasted", (), bool),
-            stack("nis", ()),
-            stack("update_s", ()),
-            innovations,
+            stack(log.time, ()),
+            stack(log.quat, (4,)),
+            stack(log.vel, (3,)),
+            stack(log.lla, (3,)),
+            stack(log.state, (n,)),
+            stack(log.sigma, (n,)),
+            stack(log.cumulative, (n,)),
+            np.zeros((0, 9)),
+            np.zeros(0),
+            np.zeros(0),
+            stack(log.n_sats, (), np.int64),
+            stack(log.n_used, (), np.int64),
+            stack(log.n_rejected, (), np.int64),
+            stack(log.coasted, (), bool),
+            stack(log.nis, ()),
+            stack(log.update_s, ()),
+            log.innovations(),
             float(flight_time),
             float(wall_time),
+            stack(log.gnss_time, ()),
         )
+
+    def with_truth(self, nav_error, heading_error, nees):
+        """A copy with the errors against truth: ``nav_error`` (m, 9), ``heading_error``
+        (m,), ``nees`` (m,) or (0,)."""
+        return replace(self, nav_error=nav_error, heading_error=heading_error, nees=nees)
 
     def euler(self):
         """Roll, pitch, heading (rad), shape (m, 3)."""

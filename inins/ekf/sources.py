@@ -20,7 +20,6 @@ import numpy as np
 
 from inins.core import earth, rotation, strapdown
 from inins.ekf.config import EpochInput, TruthEpoch
-from inins.ekf.filter import _Strapdown
 from inins.ekf.flight import imu_stream
 from inins.ekf.measurements import GnssEpoch
 from inins.exceptions import InputError
@@ -174,6 +173,7 @@ def simulated_epochs(truth, base, errors, dt, duration, eph, week, sow0, rx, see
                 gnss, t, t + rx.latency, rx.filter_sigma_pr, rx.filter_sigma_rr, rx.mask, last
             )
         mat, vel, lla = truth.state(t)
+        late = truth.state(t + rx.latency)
         for j, epoch in enumerate(gnss_list):
             k = lo + j
             dtheta, dv = next(chunks)
@@ -182,7 +182,14 @@ def simulated_epochs(truth, base, errors, dt, duration, eph, week, sow0, rx, see
                 dv,
                 round(t[j] / dt) - int(edges[k]),
                 epoch,
-                TruthEpoch(mat[j], vel[j], lla[j], clock[k], drift[k]),
+                TruthEpoch(
+                    mat[j],
+                    vel[j],
+                    lla[j],
+                    clock[k],
+                    drift[k],
+                    at_arrival=(late[0][j], late[1][j], late[2][j]),
+                ),
             )
 
 
@@ -268,7 +275,7 @@ def _mean_force(imu_time, dv, dt, window):
 
 def _free_run(mat_nb, lla, imu_time, dtheta, dv, dt, lo, hi):
     """Free-inertial run of samples ``lo:hi`` from rest; (quat, vel) after each sample."""
-    nav = _Strapdown(strapdown.NavState.from_attitude(mat_nb, np.zeros(3), lla))
+    nav = strapdown.FreeInertial(strapdown.NavState.from_attitude(mat_nb, np.zeros(3), lla))
     _, (quat, vel, _) = nav.run(dtheta[lo:hi], dv[lo:hi], dt)
     return quat, vel
 

@@ -1,8 +1,10 @@
 """One filter epoch in compiled code: propagation, update at the 1PPS state, FB feedback.
 
-:func:`inins.ekf.filter.run_filter` calls :func:`epoch` and (FB) :func:`feedback` once
-per GPS epoch with preallocated arrays, so that an epoch costs tens of
-microseconds besides the strapdown. The equations are those of
+:func:`inins.ekf.filter.run_filter` calls, once per GPS epoch and with preallocated
+arrays, :func:`compensate` (FB), :func:`mean_rates_at` / :func:`mean_rates`,
+:func:`propagate` (once, or once per sub-interval when the rates change fast),
+:func:`update`, :func:`correct` and (FB) :func:`feedback`, so that an epoch costs
+tens of microseconds besides the strapdown. The equations are those of
 :mod:`inins.ekf.filter` (module docstring) and :mod:`inins.ekf.kernels`; the
 navigation helpers here are the scalar forms of :func:`inins.core.earth.mat_en`,
 :func:`~inins.core.earth.ecef_from_llh`, :func:`inins.core.rotation.mat_from_quat`
@@ -102,7 +104,13 @@ def update(
     lever_b,
     sat_pos,
     sat_vel,
-    meas,
+    pseudorange,
+    sat_clock,
+    delay,
+    range_rate,
+    sat_clock_drift,
+    sigma_pr,
+    sigma_rr,
     threshold,
     use_rr,
     init_clock,
@@ -110,13 +118,15 @@ def update(
     y,
     s,
 ):
-    """Measurement update at the PPS state.
+    """Measurement update at the PPS state (``k`` satellites, ``n`` states).
 
-    ``meas`` (6, k): pseudorange (m), satellite clock (m), delay (m), range rate
-    (m/s), satellite clock drift (m/s), and per-row variances are built from
-    ``meas`` rows 6-7 (sigma_pr, sigma_rr) of an (8, k) array. Rows are
-    pseudorange, range rate per satellite (range rates skipped unless ``use_rr``).
-    Returns the number of accepted rows; ``acc``, ``y``, ``s`` per used row.
+    Per satellite (k,): pseudorange (m), satellite clock (m), delay (m), range rate
+    (m/s), satellite clock drift (m/s), pseudorange and range-rate 1-sigma (m, m/s).
+    ``sat_pos``, ``sat_vel`` (k, 3) ECEF; ``x`` (n,), ``P`` (n, n) updated in place.
+    The rows are pseudorange, range rate per satellite (range rates skipped unless
+    ``use_rr``): ``acc``, ``y``, ``s`` hold, per row used (2 k or k), the gate's
+    verdict, the innovation and its variance. ``init_clock``: the clock states are
+    first set to the median residuals. Returns the number of accepted rows.
     """
     n, k = x.shape[0], sat_pos.shape[0]
     cq, cv, cl = np.empty(4), np.empty(3), np.empty(3)
@@ -142,10 +152,10 @@ def update(
     z = np.empty(2 * k)
     r = np.empty(2 * k)
     for i in range(k):
-        z[2 * i] = meas[0, i] + meas[1, i] - meas[2, i]
-        z[2 * i + 1] = meas[3, i] + meas[4, i]
-        r[2 * i] = meas[5, i] ** 2
-        r[2 * i + 1] = meas[6, i] ** 2
+        z[2 * i] = pseudorange[i] + sat_clock[i] - delay[i]
+        z[2 * i + 1] = range_rate[i] + sat_clock_drift[i]
+        r[2 * i] = sigma_pr[i] ** 2
+        r[2 * i + 1] = sigma_rr[i] ** 2
     if init_clock:  # receiver clock from the first epoch's residuals
         x[kernels.CLK] = np.median(z[0::2] - zhat[0::2])
         x[kernels.CLK + 1] = np.median(z[1::2] - zhat[1::2])
@@ -175,6 +185,27 @@ def mean_rates(dtheta, dv, centre, window, dt, out):
             out[0, i] += dtheta[k, i]
             out[1, i] += dv[k, i]
     out /= (hi - lo) * dt
+
+
+@jit.njit(cache=True)
+def mean_rates_at(dtheta, dv, centres, window, dt, out):
+    """:func:`mean_rates` at each of ``centres`` (j,) into ``out`` (j, 2, 3)."""
+    for j in range(centres.shape[0]):
+        mean_rates(dtheta, dv, centres[j], window, dt, out[j])
+
+
+@jit.njit(cache=True)
+def rates_change(rates, limits):
+    """True if a row of ``rates`` (j, 2, 3) differs from the last one by more than
+    ``limits[0]`` in ``omega_b`` (rad/s) or ``limits[1]`` in ``f_b`` (m/s^2), any axis."""
+    last = rates.shape[0] - 1
+    for j in range(last):
+        for i in range(3):
+            if abs(rates[j, 0, i] - rates[last, 0, i]) > limits[0]:
+                return True
+            if abs(rates[j, 1, i] - rates[last, 1, i]) > limits[1]:
+                return True
+    return False
 
 
 @jit.njit(cache=True)

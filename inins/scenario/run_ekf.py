@@ -8,10 +8,14 @@ time, or a Walker constellation) with a TCXO clock, lever arm and latency.
 Recorded: an import-flight output (``.h5``) or the PSINS tc ``.mat`` file directly.
 """
 
+import math
 from typing import Literal
 
 from pydantic import Field, model_validator
 
+from inins.core import flight as core_flight
+from inins.core.units import ARCSEC, DEG, DEG_RTH, DPH, UG, UG_RTHZ
+from inins.exceptions import InputError
 from inins.scenario.base import ScenarioModel, ScenarioPath
 from inins.scenario.base import ScenarioSection as Section
 from inins.scenario.common import Imu, Site
@@ -64,6 +68,59 @@ class Flight(Section):
     imu: Imu = Field(default_factory=lambda: Imu(sample_rate_hz=200.0))
     dither: Dither = Field(default_factory=Dither)
 
+    def plan(self):
+        """The flight plan in SI (:class:`inins.core.flight.FlightPlan`), validated there;
+        an impossible leg names its scenario key (``flight.legs[2].bank_deg``)."""
+        kinds = core_flight.LegKind
+        legs = []
+        for leg in self.legs:
+            speed = math.nan if leg.speed_mps is None else leg.speed_mps
+            if leg.kind in ("climb", "descend"):
+                rate = leg.climb_rate_mps if leg.kind == "climb" else -leg.climb_rate_mps
+                legs.append(core_flight.Leg(kinds.CLIMB, leg.duration_s, speed, climb_rate=rate))
+            elif leg.kind == "turn":
+                sign = 1.0 if leg.direction == "right" else -1.0
+                rate = math.nan if leg.turn_rate_dps is None else leg.turn_rate_dps * DEG
+                legs.append(
+                    core_flight.Leg(
+                        kinds.TURN,
+                        leg.duration_s,
+                        speed,
+                        bank=leg.bank_deg * DEG,
+                        angle=sign * leg.angle_deg * DEG,
+                        turn_rate=rate,
+                    )
+                )
+            else:
+                legs.append(core_flight.Leg(kinds(leg.kind), leg.duration_s, speed))
+        lla = self.site.lla()
+        plan = core_flight.FlightPlan(
+            lla[0], lla[1], lla[2], self.heading_deg * DEG, tuple(legs), aoa=self.aoa_deg * DEG
+        )
+        try:
+            _ = plan.duration
+        except InputError as exc:
+            raise InputError(str(exc.args[0]), key=_leg_key(exc.key)) from None
+        return plan
+
+
+_LEG_FIELDS = {
+    "duration": "duration_s",
+    "speed": "speed_mps",
+    "climb_rate": "climb_rate_mps",
+    "bank": "bank_deg",
+    "angle": "angle_deg",
+    "turn_rate": "turn_rate_dps",
+}
+
+
+def _leg_key(key):
+    """``legs.2.bank`` (flight-plan key) -> ``flight.legs[2].bank_deg`` (scenario key)."""
+    parts = (key or "").split(".")
+    if len(parts) == 3 and parts[0] == "legs":
+        return f"flight.legs[{parts[1]}].{_LEG_FIELDS.get(parts[2], parts[2])}"
+    return f"flight.{key}"
+
 
 class Constellation(Section):
     """Where the satellites come from."""
@@ -104,6 +161,21 @@ class Gnss(Section):
     latency_s: NonNegFloat = Field(
         0.15, le=0.9, description="data arrival after the 1PPS epoch (s)"
     )
+
+    def receiver_si(self):
+        """The simulated receiver in SI: keywords of :class:`inins.ekf.sources.Receiver`
+        but the filter's sigmas (which the ``filter:`` section gives)."""
+        return {
+            "lever_arm": tuple(self.lever_arm_m),
+            "mask": self.mask_deg * DEG,
+            "sigma_pr": self.pseudorange_sigma_m,
+            "sigma_rr": self.range_rate_sigma_mps,
+            "h0": self.clock_h0_s,
+            "h_2": self.clock_hm2_per_s,
+            "clock_bias": self.clock_bias_m,
+            "clock_drift": self.clock_drift_mps,
+            "latency": self.latency_s,
+        }
 
 
 class Data(Section):
@@ -208,6 +280,40 @@ class FilterSettings(Section):
     turning_from_s: NonNegFloat = Field(
         0.0, description="start of the window of the heading-error RMS (s)"
     )
+
+    def to_si(self):
+        """Keyword arguments in SI of :class:`inins.ekf.config.FilterConfig` (model and
+        coupling as their names, ``initial_sigma`` as the keywords of
+        :class:`~inins.ekf.config.InitialSigma`, the clock model as Allan ``clock_h0``
+        (s) and ``clock_h_2`` (1/s)); the IMU interval, lever arm and dither window
+        come from the flight or the recording."""
+        n, s = self.noise, self.initial_sigma
+        return {
+            "model": self.model,
+            "coupling": self.coupling,
+            "arw": (n.arw_deg_rth * DEG_RTH,) * 3,
+            "vrw": (n.vrw_ug_rthz * UG_RTHZ,) * 3,
+            "gyro_bias_rw": (n.gyro_bias_walk_dph * DPH / 60.0,) * 3,  # per sqrt(3600 s)
+            "accel_bias_rw": (n.accel_bias_walk_ug * UG / 60.0,) * 3,
+            "clock_h0": n.clock_h0_s,
+            "clock_h_2": n.clock_hm2_per_s,
+            "initial_sigma": {
+                "position": s.position_m,
+                "velocity": s.velocity_mps,
+                "tilt": s.tilt_deg * DEG,
+                "heading": s.heading_deg * DEG,
+                "accel_bias": s.accel_bias_ug * UG,
+                "gyro_bias": s.gyro_bias_dph * DPH,
+                "accel_misalignment": s.accel_misalignment_arcsec * ARCSEC,
+                "gyro_misalignment": s.gyro_misalignment_arcsec * ARCSEC,
+                "clock_bias": s.clock_bias_m,
+                "clock_drift": s.clock_drift_mps,
+            },
+            "gate_probability": self.gate_probability,
+            "outages": tuple(self.outages_s),
+            "use_range_rate": self.use_range_rate,
+            "pps_storage": self.pps_storage,
+        }
 
     @model_validator(mode="after")
     def _outages(self):

@@ -129,11 +129,18 @@ def epoch_stream(truth, base, errors, dt, duration, rx, seed, *, nodes=3, on_gns
         epoch = gnss_epoch(t, r_ant, v_ant, rx, rng, sat_clock)
         if on_gnss is not None:
             epoch = on_gnss(k, epoch)
-        mat, vel, lla = truth.state([t])
+        mat, vel, lla = truth.state([t, t + rx.latency])
         yield EpochInput(
             dtheta,
             dv,
             round(t / dt) - int(edges[k]),
             epoch,
-            TruthEpoch(mat[0], vel[0], lla[0], rx.clock_bias + rx.clock_drift * t, rx.clock_drift),
+            TruthEpoch(
+                mat[0],
+                vel[0],
+                lla[0],
+                rx.clock_bias + rx.clock_drift * t,
+                rx.clock_drift,
+                at_arrival=(mat[1], vel[1], lla[1]),
+            ),
         )

@@ -5,7 +5,7 @@ import numpy as np
 from inins.core import earth, error_model, rotation, strapdown
 from inins.core.units import DEG
 from inins.ekf import step
-from inins.ekf.filter import _Strapdown, correct
+from inins.ekf.filter import correct
 
 
 def test_strapdown_chunks_equal_integrate():
@@ -16,7 +16,7 @@ def test_strapdown_chunks_equal_integrate():
     dtheta = 1e-4 * rng.normal(size=(1000, 3))
     dv = np.array([0.0, 0.0, -9.8 * 0.005]) + 1e-3 * rng.normal(size=(1000, 3))
     end, series = strapdown.integrate(state, dtheta, dv, 0.005)
-    nav = _Strapdown(state)
+    nav = strapdown.FreeInertial(state)
     for lo, hi in ((0, 130), (130, 130), (130, 777), (777, 1000)):
         _, (quat, vel, lla) = nav.run(dtheta[lo:hi], dv[lo:hi], 0.005)
         if hi > lo:
