@@ -424,7 +424,9 @@ def calibrate(ivs, measured, names, noise, *, max_iter=10):
         use = np.isfinite(sig)
         jac = jacobian(x, names, ivs)[use] / sig[use][:, None]
         res = (measured - predict(x, names, ivs))[use] / sig[use]
-        step, *_ = np.linalg.lstsq(jac * scale, res, rcond=1e-10)
+        # singular values below 1e-5 of the largest: the directions the plan calls
+        # inseparable (eigenvalues of the information below 1e-10), left unchanged
+        step, *_ = np.linalg.lstsq(jac * scale, res, rcond=1e-5)
         step = step * scale
         x = x + step
         if np.all(np.abs(step) <= 1e-9 * scale):  # 1e-12 rad, 1e-12 of a scale factor
