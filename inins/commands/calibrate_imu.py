@@ -93,14 +93,18 @@ def noise_figures(scenario, sensor, record=None, ivs=None):
 def _estimate_noise(record, ivs):
     """ARW and VRW from the scatter of 1-s block means within the holds (rad/sqrt(s),
     m/s/sqrt(s))."""
-    if record is None or not ivs:
+    if record is None:
         raise InputError("no noise figures given and no data to estimate them", key="noise")
+    if ivs is None:  # the holds of the schedule
+        spans = [(s.start_index, s.stop_index) for s in record.steps if str(s.kind) == "hold"]
+    else:
+        spans = [(iv.start, iv.stop) for iv in ivs if iv.kind == "hold"]
     block = max(1, round(1.0 / record.dt))
     parts = ([], [])
-    for iv in ivs:
-        if iv.kind != "hold" or iv.stop - iv.start < 4 * block:
+    for start, stop in spans:
+        if stop - start < 4 * block:
             continue
-        dtheta, dv = record.imu(iv.start, iv.stop)
+        dtheta, dv = record.imu(start, stop)
         m = (dtheta.shape[0] // block) * block
         for k, x in enumerate((dtheta, dv)):
             means = x[:m].reshape(-1, block, 3).sum(axis=1) / (block * record.dt)

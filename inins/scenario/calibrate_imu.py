@@ -135,7 +135,9 @@ class TableFree(ScenarioSection):
     """The table-free multi-position method (Tedaldi, Pretto, Menegatti, ICRA 2014)."""
 
     gravity_mps2: PositiveFloat | None = Field(
-        None, description="local gravity (m/s^2); default: normal gravity at the site"
+        None,
+        description="local gravity (m/s^2); default: normal gravity at the table's site, "
+        "9.80665 for a raw log",
     )
     detector: StaticDetector = Field(default_factory=StaticDetector)
     use_positions: list[int] | None = Field(
