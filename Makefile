@@ -40,7 +40,7 @@ test: lint kernels
 # FUZZ_EXAMPLES per test (make test runs 250 of each, derandomized).
 FUZZ_EXAMPLES ?= 5000
 fuzz: $(STAMP)
-	ININS_FUZZ_EXAMPLES=$(FUZZ_EXAMPLES) $(BIN)/python -m pytest tests/cli/test_fuzz.py -q
+	ININS_FUZZ_EXAMPLES=$(FUZZ_EXAMPLES) $(BIN)/python -m pytest tests/cli/test_fuzz.py tests/cli/test_fuzz_flight.py -q
 
 bench: kernels
 	$(BIN)/python -m benchmarks

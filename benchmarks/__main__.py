@@ -23,6 +23,8 @@ from pathlib import Path
 HERE = Path(__file__).parent
 ROOT = HERE.parent
 SLOW_MODULES = ("bench_compile",)
+FIXED_COST = "bench_fixed_cost"
+"""Whole-process figures of the default commands (``--quick``: 3 runs, no first run)."""
 """Left out by ``--quick``."""
 QUICK_AWARE = ("bench_ekf", "bench_sweep", "bench_imu")
 """Modules whose ``run(quick=True)`` drops their long parts (the 4-h EKF stream, the
@@ -54,6 +56,14 @@ TARGETS = (  # (figure path, relation, target, what)
     ("bench_sweep.overhead.overhead_ms", "<", 20.0, "sweep overhead per point, ms"),
     ("bench_sweep.throughput.speedup_2_workers", ">=", 1.8, "sweep 2 workers / 1 worker"),
     ("bench_sweep.throughput.dask_over_local", ">=", 0.8, "sweep Dask loopback / local"),
+    ("bench_strapdown.free_over_pyins_kernel", ">=", 5.0, "strapdown / pyins' numba kernel"),
+    ("bench_sweep.overhead.local_start_s", "<", 0.5, "sweep start-up (2 points), s"),
+    ("bench_fixed_cost.simulate_table_s", "<", 0.4, "default simulate-table whole process, s"),
+    ("bench_fixed_cost.observability_s", "<", 0.6, "default observability whole process, s"),
+    ("bench_fixed_cost.run_ekf_s", "<", 1.5, "default run-ekf whole process, s"),
+    ("bench_fixed_cost.first_simulate_table_s", "<", 5.0, "first simulate-table after install, s"),
+    ("bench_fixed_cost.first_observability_s", "<", 5.0, "first observability after install, s"),
+    ("bench_fixed_cost.first_run_ekf_s", "<", 5.0, "first run-ekf after install, s"),
     ("bench_ekf.hour_filter_alone_s", "<", 0.15, "EKF2-FB filter alone one hour, s"),
     ("bench_ekf.hour_truth_scoring_s", "<", 0.1, "EKF truth scoring one hour, s"),
     ("bench_ekf.simulation_4h_over_1h_cpu", "<=", 4.2, "run-ekf simulation 4 h / 1 h"),
@@ -247,6 +257,9 @@ def main():
     args = parser.parse_args()
     modules = MODULES if args.quick else MODULES + SLOW_MODULES
     figures = {name: _module(name, args.quick) for name in modules}
+    from benchmarks import bench_fixed_cost
+
+    figures[FIXED_COST] = bench_fixed_cost.run(3 if args.quick else 5, not args.quick)
     figures["inins_help"] = _help_startup(3 if args.quick else 7)
     with tempfile.TemporaryDirectory() as outdir:
         figures["commands"] = _table_commands(outdir, not args.quick)

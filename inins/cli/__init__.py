@@ -13,6 +13,7 @@ codes. Keep this package cheap to import: ``inins --help`` must not load numpy,
 scipy, numba, h5py or pydantic.
 """
 
+import io
 import sys
 from typing import Annotated
 
@@ -98,7 +99,9 @@ app = make_app()
 
 
 def main() -> None:
-    """Console-script entry point: SIGTERM is handled like Ctrl-C (no partial files)."""
+    """Console-script entry point: SIGTERM and SIGHUP are handled like Ctrl-C (no partial
+    files); a closed standard output (``inins check configs | head -1``) is not an error:
+    the run goes on silently and ends with its own exit code."""
     import gc
     import os
     import signal
@@ -109,8 +112,10 @@ def main() -> None:
     def _terminate(signum, frame):
         raise KeyboardInterrupt
 
-    if hasattr(signal, "SIGTERM"):
-        signal.signal(signal.SIGTERM, _terminate)
+    for name in ("SIGTERM", "SIGHUP"):
+        if hasattr(signal, name):
+            signal.signal(getattr(signal, name), _terminate)
+    quiet_closed_stdout()
     try:
         app(prog_name="inins")
     except SystemExit as exc:
@@ -121,6 +126,41 @@ def main() -> None:
         # would walk every object the imports made (about 0.1 s, a fifth of a short
         # run); frozen objects are left to the operating system instead.
         gc.freeze()
+
+
+class _QuietPipe(io.FileIO):
+    """Standard output that, once its reader has gone (EPIPE), sends the rest of the
+    output to the null device instead of raising in the middle of a run."""
+
+    def write(self, data):
+        try:
+            return super().write(data)
+        except BrokenPipeError:
+            import os
+
+            null = os.open(os.devnull, os.O_WRONLY)
+            os.dup2(null, self.fileno())
+            os.close(null)
+            return len(data)
+
+
+def quiet_closed_stdout() -> None:
+    """Replace ``sys.stdout`` by a text stream over :class:`_QuietPipe` (same encoding and
+    buffering); nothing changes for a terminal except the closed-pipe case."""
+    stdout = sys.stdout
+    try:
+        fd = stdout.fileno()
+    except (AttributeError, OSError, ValueError):
+        return  # not a real file (captured by a test runner)
+    stdout.flush()
+    tty = stdout.isatty()
+    raw = _QuietPipe(fd, "w", closefd=False)
+    sys.stdout = io.TextIOWrapper(
+        io.BufferedWriter(raw),
+        encoding=stdout.encoding,
+        errors=stdout.errors,
+        line_buffering=tty,
+    )
 
 
 def _exit_past_failed_hdf5(code) -> None:

@@ -23,6 +23,21 @@ from inins.exceptions import InputError
 EXIT_OK, EXIT_CHECK_FAILED, EXIT_BAD_INPUT, EXIT_INTERNAL, EXIT_UNAVAILABLE = 0, 1, 2, 3, 4
 EXIT_INTERRUPTED = 130
 DEFAULT_OUTDIR = Path("out")
+"""Parent of every command's default output folder: ``out/<command>``."""
+OUTDIR_HELP = "Output directory (created if missing); default out/{name}."
+
+
+def output_folder(outdir, name) -> Path:
+    """The output folder given with ``-o`` (a string), or the default ``out/<name>``;
+    an empty ``-o ''`` is bad input (it would mean the current directory)."""
+    if outdir is None:
+        return DEFAULT_OUTDIR / name
+    if not str(outdir).strip():
+        raise InputError(
+            "an empty output folder was given; name one (-o . for the current folder)",
+            key="--outdir",
+        )
+    return Path(outdir)
 
 
 def make_command(spec):
@@ -38,8 +53,15 @@ def make_command(spec):
             ),
         ] = None,
         outdir: Annotated[
-            Path, typer.Option("--outdir", "-o", help="Output directory (created if missing).")
-        ] = DEFAULT_OUTDIR,
+            str | None,
+            typer.Option(
+                "--outdir",
+                "-o",
+                metavar="OUTDIR",
+                show_default=False,
+                help=OUTDIR_HELP.format(name=spec.name),
+            ),
+        ] = None,
         overrides: Annotated[
             list[str] | None,
             typer.Option(
@@ -93,7 +115,9 @@ def run_command(
     return guarded(
         f"inins {spec.name}",
         debug,
-        lambda: _run(spec, scenario, Path(outdir), list(overrides), seed, plot, force),
+        lambda: _run(
+            spec, scenario, output_folder(outdir, spec.name), list(overrides), seed, plot, force
+        ),
     )
 
 
@@ -148,16 +172,20 @@ def echo_err(message: str) -> None:
 
 
 def _run(spec, scenario, outdir, overrides, seed, plot=False, force=False) -> int:
-    from inins.cli._display import COMPILE_NOTICE, ProgressBar, kernels_compiled, print_outcome
+    from inins.cli._display import ProgressBar, print_outcome
     from inins.commands.execute import execute
+    from inins.commands.warmup import CompileNotice
+    from inins.core import jit
 
-    if not kernels_compiled():
-        echo_err(f"inins {spec.name}: {COMPILE_NOTICE}")
     start = time.perf_counter()
-    with ProgressBar(spec.name) as bar:
-        done = execute(
-            spec, scenario, overrides, seed, outdir, figures=plot, progress=bar, force=force
-        )
+    notice = jit.on_compile(CompileNotice(f"inins {spec.name}", echo_err))
+    try:
+        with ProgressBar(spec.name) as bar:
+            done = execute(
+                spec, scenario, overrides, seed, outdir, figures=plot, progress=bar, force=force
+            )
+    finally:
+        jit.remove_compile_listener(notice)
     print_outcome(done.summary, done.paths, time.perf_counter() - start)
     if done.interrupted is not None:
         echo_err(

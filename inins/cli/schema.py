@@ -12,7 +12,7 @@ from inins.commands import COMMANDS, find_command, load_command
 
 def make_schema_command(commands=COMMANDS):
     """The ``schema`` command over a registry (tests pass their own)."""
-    names = ", ".join(spec.name for spec in commands)
+    names = ", ".join([*(spec.name for spec in commands), "sweep (the sweep file)"])
 
     def schema(
         command: Annotated[
@@ -34,7 +34,11 @@ def make_schema_command(commands=COMMANDS):
 
 
 def schema_dict(command: str, commands=COMMANDS) -> dict:
-    """JSON Schema of ``command``'s scenario model."""
+    """JSON Schema of ``command``'s scenario model (``sweep``: of the sweep file)."""
+    if command == "sweep":
+        from inins.scenario.sweep import SweepScenario
+
+        return SweepScenario.model_json_schema()
     module = load_command(find_command(command, commands))
     return module.SCENARIO_MODEL.model_json_schema()
 
@@ -137,19 +141,79 @@ def _meaning(prop, section=None) -> str:
     return " ".join(str(text).split())
 
 
-def schema_table(command: str, commands=COMMANDS) -> str:
-    """The readable table of ``command``'s scenario keys."""
+def schema_table(command: str, commands=COMMANDS, width: int | None = None) -> str:
+    """The readable table of ``command``'s scenario keys; with ``width`` (characters)
+    the type and meaning columns wrap so that no line is longer (where the other
+    columns leave room)."""
     from inins.results import format_table
 
+    header = ["key", "type", "unit", "default", "meaning"]
     rows = schema_rows(schema_dict(command, commands))
-    return format_table(rows, ["key", "type", "unit", "default", "meaning"], fmt="")
+    if width is None:
+        return format_table(rows, header, fmt="")
+    return _wrapped_table(rows, header, width)
+
+
+def _wrapped_table(rows, header, width) -> str:
+    """Columns of ``rows`` padded to their width, the type column wrapped at 28 and the
+    last column at what the line leaves (at least 24), continuation lines indented."""
+    import textwrap
+
+    cells = [[str(c) for c in row] for row in rows]
+    wrap = {1: 28}
+    fixed = [max(len(header[j]), *(len(r[j]) for r in cells)) for j in range(len(header) - 1)]
+    fixed[1] = min(fixed[1], wrap[1])
+    room = width - sum(fixed) - 2 * (len(fixed))
+    if room < 30:  # too narrow for a meaning column: the meaning under each key
+        return _stacked_table(cells, width)
+    out = []
+    for row in [header, ["-" * w for w in fixed] + ["-" * min(room, 40)], *cells]:
+        columns = [
+            textwrap.wrap(row[j], wrap[j]) or [""] if j in wrap else [row[j]]
+            for j in range(len(fixed))
+        ]
+        columns.append(textwrap.wrap(row[-1], room) or [""])
+        for k in range(max(map(len, columns))):
+            parts = [
+                (c[k] if k < len(c) else "").ljust(w) for c, w in zip(columns, fixed, strict=False)
+            ]
+            last = columns[-1][k] if k < len(columns[-1]) else ""
+            out.append(("  ".join(parts) + "  " + last).rstrip())
+    return "\n".join(out)
+
+
+def _stacked_table(cells, width) -> str:
+    """One entry per key: ``key  type  [unit]  default: ...`` then the meaning indented,
+    every line wrapped to ``width``."""
+    import textwrap
+
+    out = []
+    for key, kind, unit, default, meaning in cells:
+        head = "  ".join(p for p in (key, kind, f"[{unit}]" if unit else "") if p)
+        if default:
+            head += f"  (default {default})" if default != "required" else "  (required)"
+        out += textwrap.wrap(head, width, subsequent_indent="      ") or [key]
+        out += textwrap.wrap(meaning, width, initial_indent="    ", subsequent_indent="    ")
+    return "\n".join(out)
+
+
+def terminal_width() -> int | None:
+    """Columns of the terminal (or ``COLUMNS``); None when the output is not a terminal."""
+    import os
+    import shutil
+    import sys
+
+    if "COLUMNS" in os.environ or sys.stdout.isatty():
+        return shutil.get_terminal_size().columns
+    return None
 
 
 def _print_schema(command, commands, as_json=False) -> int:
     if as_json:
         typer.echo(schema_text(command, commands))
     else:
-        table = schema_table(command, commands)
-        typer.echo(f"scenario keys of inins {command} (--json for the JSON Schema)\n")
+        table = schema_table(command, commands, terminal_width())
+        what = "the sweep file" if command == "sweep" else f"inins {command}"
+        typer.echo(f"scenario keys of {what} (--json for the JSON Schema)\n")
         typer.echo(table)
     return 0

@@ -6,9 +6,19 @@ from typing import Annotated
 
 import typer
 
-from inins.cli._runner import EXIT_CHECK_FAILED, EXIT_INTERRUPTED, EXIT_OK, echo_err, guarded
+from inins.cli._runner import (
+    EXIT_CHECK_FAILED,
+    EXIT_INTERRUPTED,
+    EXIT_OK,
+    OUTDIR_HELP,
+    echo_err,
+    guarded,
+    output_folder,
+)
 
 MAX_LISTED = 10
+MAX_DEFAULT_FIGURES = 8
+"""``--plot`` without ``aggregate.results`` draws at most this many varying results."""
 
 _HELP = (
     "Run a command over a grid of scenario keys, zipped axes and Monte Carlo seeds "
@@ -24,8 +34,15 @@ _HELP = (
 def sweep(
     sweep_file: Annotated[Path, typer.Argument(metavar="SWEEP.yaml", help="The sweep file.")],
     outdir: Annotated[
-        Path, typer.Option("--outdir", "-o", help="Sweep folder (created if missing).")
-    ] = Path("out"),
+        str | None,
+        typer.Option(
+            "--outdir",
+            "-o",
+            metavar="OUTDIR",
+            show_default=False,
+            help=OUTDIR_HELP.format(name="sweep"),
+        ),
+    ] = None,
     workers: Annotated[
         int | None,
         typer.Option(
@@ -52,15 +69,44 @@ def sweep(
     max_points: Annotated[
         int, typer.Option("--max-points", min=1, help="Refuse a sweep with more points.")
     ] = 100_000,
-    plot: Annotated[
+    overrides: Annotated[
         list[str] | None,
         typer.Option(
-            "--plot", metavar="RESULT", help="Draw RESULT against the swept keys (repeatable)."
+            "--set",
+            metavar="KEY.PATH=VALUE",
+            show_default=False,
+            help="Override a scenario key of every point (repeatable), after the file's set:.",
+        ),
+    ] = None,
+    seed: Annotated[
+        int | None,
+        typer.Option(
+            "--seed",
+            metavar="N",
+            show_default=False,
+            help="Random seed of every point (a sweep without seeds:).",
+        ),
+    ] = None,
+    plot: Annotated[
+        bool,
+        typer.Option(
+            "--plot",
+            help="Also write PNG figures: each result of aggregate.results (default: the "
+            f"first {MAX_DEFAULT_FIGURES} results that vary) against the swept keys "
+            "(needs the plot extra: matplotlib).",
+        ),
+    ] = False,
+    plot_result: Annotated[
+        list[str] | None,
+        typer.Option(
+            "--plot-result",
+            metavar="RESULT",
+            help="Draw RESULT against the swept keys (repeatable): a line or a heat map.",
         ),
     ] = None,
     against: Annotated[
         list[str] | None,
-        typer.Option("--against", metavar="KEY", help="Swept key(s) for --plot (one or two)."),
+        typer.Option("--against", metavar="KEY", help="Swept key(s) for the figures (one or two)."),
     ] = None,
     debug: Annotated[bool, typer.Option("--debug", help="Show the traceback of an error.")] = False,
 ) -> None:
@@ -71,15 +117,16 @@ def sweep(
             debug,
             lambda: _sweep(
                 sweep_file,
-                outdir,
+                output_folder(outdir, "sweep"),
                 workers,
                 scheduler,
                 keep_runs,
                 restart,
                 retry_errors,
                 max_points,
-                plot or [],
-                against or [],
+                _Figures(plot, plot_result or [], against or []),
+                overrides or [],
+                seed,
             ),
         )
     )
@@ -88,7 +135,49 @@ def sweep(
 sweep.__doc__ = _HELP
 
 
-def _sweep(path, outdir, workers, scheduler, keep_runs, restart, retry, max_points, plot, against):
+class _Figures:
+    """What ``--plot``, ``--plot-result`` and ``--against`` ask for."""
+
+    def __init__(self, shipped, named, against):
+        self.shipped, self.named, self.against = shipped, list(named), list(against)
+
+    def __bool__(self):
+        return bool(self.shipped or self.named)
+
+    def results(self, plan, table):
+        """The results to draw: the named ones, and with ``--plot`` aggregate.results
+        (or the first results that vary between points)."""
+        import numpy as np
+
+        chosen = list(self.named)
+        if self.shipped:
+            listed = plan.aggregate.results
+            if not listed:
+                listed = []
+                for name in table.result_names:
+                    y = np.asarray(table.result(name), float)
+                    y = y[np.isfinite(y)]
+                    if y.size > 1 and np.ptp(y) > 0:
+                        listed.append(name)
+                listed = listed[:MAX_DEFAULT_FIGURES]
+            chosen += [name for name in listed if name not in chosen]
+        return chosen
+
+
+def _sweep(
+    path,
+    outdir,
+    workers,
+    scheduler,
+    keep_runs,
+    restart,
+    retry,
+    max_points,
+    figures,
+    overrides=(),
+    seed=None,
+):
+    from inins.commands.execute import check_owner
     from inins.sweep.engine import run_sweep
     from inins.sweep.executors import DaskExecutor, LocalExecutor, default_workers
     from inins.sweep.plan import load_sweep
@@ -98,8 +187,9 @@ def _sweep(path, outdir, workers, scheduler, keep_runs, restart, retry, max_poin
         from inins.sweep.executors import start_server
 
         start_server(_command_of(path))
-    plan = load_sweep(path, max_points)
-    keys = check_plot_request(plan, plot, against) if plot else ()
+    plan = load_sweep(path, max_points, overrides, seed)
+    check_owner(outdir, "sweep")
+    keys = check_plot_request(plan, figures.named, figures.against) if figures else ()
     if scheduler:
         executor = DaskExecutor(scheduler, plan.command)
     else:
@@ -114,7 +204,7 @@ def _sweep(path, outdir, workers, scheduler, keep_runs, restart, retry, max_poin
         )
         return EXIT_INTERRUPTED
     paths = list(outcome.paths)
-    for result in plot:
+    for result in figures.results(plan, outcome.table) if figures else ():
         png = Path(outdir) / f"plot-{result}.png"
         plot_result(outcome.table, result, keys, png)
         paths.append(png)

@@ -28,16 +28,22 @@ class Estimate:
         Peak memory of the arrays the run holds at once.
     keys : str
         The scenario keys that set the size (named in a refusal).
+    max_samples : int
+        The command's stated limit of ``samples`` (None: :data:`MAX_SAMPLES`).
+    what : str
+        What ``samples`` counts (IMU samples, covariance steps, segments).
     """
 
     samples: int
     output_bytes: int
     memory_bytes: int
     keys: str
+    max_samples: int | None = None
+    what: str = "samples"
 
     def describe(self) -> str:
         """``3.2e+14 samples, output up to 15 PB, memory 4.5 EB``."""
-        samples = f"{self.samples:.3g} samples, " if self.samples else ""
+        samples = f"{self.samples:.3g} {self.what}, " if self.samples else ""
         return (
             f"{samples}output up to {human_bytes(self.output_bytes)}, "
             f"memory about {human_bytes(self.memory_bytes)}"
@@ -71,9 +77,10 @@ def check_budget(estimate: Estimate | None, outdir=None, force: bool = False) ->
 
     said = f"this run would need {estimate.describe()}"
     hint = "; pass --force to run anyway"
-    if estimate.samples > MAX_SAMPLES:
+    limit = MAX_SAMPLES if estimate.max_samples is None else estimate.max_samples
+    if estimate.samples > limit:
         raise InputError(
-            f"{said}: more than the limit of {MAX_SAMPLES:.3g} samples per run{hint}",
+            f"{said}: more than the limit of {limit:.3g} {estimate.what} per run{hint}",
             key=estimate.keys,
         )
     memory = available_memory()

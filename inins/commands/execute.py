@@ -117,7 +117,8 @@ def execute(
         check_budget(size, None, force)
         result = run_located(module, loaded, seed_used, NullSink(), progress)
         return Execution(summarize(spec.name, loaded, seed_used, result, module), (), result)
-    outdir = prepare_outdir(outdir)
+    check_budget(size, None, force)  # samples and memory: before a folder is made
+    outdir = prepare_outdir(outdir, spec.name)
     check_budget(size, outdir, force)
     return write_outputs(spec.name, module, loaded, seed_used, outdir, makers, progress)
 
@@ -147,14 +148,17 @@ def check_path(path, what) -> None:
         ) from None
 
 
-def prepare_outdir(outdir) -> Path:
+def prepare_outdir(outdir, command=None) -> Path:
     """Create the output folder, make sure files can be created in it, and remove
-    temporary files left there by runs that were killed; bad input if impossible."""
+    temporary files left there by runs that were killed; bad input if impossible, or
+    if the folder holds the results of another command (``command``: this run's)."""
     from inins.exceptions import OutputError
     from inins.io.atomic import remove_stale_partials
 
     check_path(outdir, "--outdir")
     outdir = Path(outdir)
+    if command is not None:
+        check_owner(outdir, command)
     try:
         outdir.mkdir(parents=True, exist_ok=True)
     except OSError as exc:
@@ -171,6 +175,48 @@ def prepare_outdir(outdir) -> Path:
         ) from None
     remove_stale_partials(outdir)
     return outdir
+
+
+def folder_owner(outdir) -> tuple[str, str] | None:
+    """``(command, evidence)`` of the results already in ``outdir`` (a file named after a
+    command, or summary.json's command; ``sweep`` for a sweep folder), or None."""
+    from inins.commands import COMMANDS
+
+    outdir = Path(outdir)
+    if not outdir.is_dir():
+        return None
+    for name in ("journal.jsonl", "sweep.csv", "sweep.h5"):
+        if (outdir / name).exists():
+            return "sweep", name
+    summary = outdir / "summary.json"
+    if summary.is_file():
+        import json
+
+        try:
+            command = json.loads(summary.read_text(encoding="utf-8")).get("command")
+        except (OSError, ValueError, AttributeError):
+            command = None
+        if isinstance(command, str) and command:
+            return command, "summary.json"
+    for spec in COMMANDS:
+        if (outdir / f"{spec.name}.h5").exists():
+            return spec.name, f"{spec.name}.h5"
+    return None
+
+
+def check_owner(outdir, command) -> None:
+    """Refuse an output folder holding another command's results: a folder is one
+    command's (the file contract: CMD.h5, CMD.txt, summary.json belong together)."""
+    from inins.exceptions import OutputError
+
+    owner = folder_owner(outdir)
+    if owner is not None and owner[0] != command:
+        other, evidence = owner
+        raise OutputError(
+            f"holds the results of inins {other} ({evidence}); they are not mixed with "
+            f"{command}'s: write to another folder, e.g. -o {Path(outdir) / command}",
+            source=str(outdir),
+        )
 
 
 def figure_makers(spec, module):
@@ -222,7 +268,9 @@ def write_outputs(command, module, loaded, seed, outdir, makers=None, progress=N
         if isinstance(exc, PermissionError | IsADirectoryError):
             raise InputError(f"cannot write ({exc.strerror})", source=str(current[0])) from None
         raise
-    paths = tuple(outdir / n for n in names)
+    for name in set(names) - set(group.files):  # a figure skipped: no stale one beside
+        (outdir / name).unlink(missing_ok=True)
+    paths = tuple(outdir / n for n in names if n in group.files)
     return Execution(summary, paths, result, group.interrupted)
 
 
@@ -243,10 +291,15 @@ def _write_all(command, module, loaded, seed, group, makers, progress, current):
         h5.write_result(result)
         summary = summarize(command, loaded, seed, result, module)
         h5.set_attrs("", {"summary_json": summary_text(summary)})
+    notes = []
     for name, make in makers.items():
         current[0] = group[name].path
-        _draw(make, result, group[name].tmp, group[f"{command}.h5"].tmp)
-    report = build_report(prov, result.report, result.warnings, summary["checks"])
+        reason = _draw(make, result, group[name].tmp, group[f"{command}.h5"].tmp)
+        if reason is not None:  # not drawn: no file, and the report says why
+            group[name].discard()
+            del group.files[name]
+            notes.append(f"figure {name} not drawn: {reason}")
+    report = build_report(prov, result.report, (*result.warnings, *notes), summary["checks"])
     current[0] = group[f"{command}.txt"].path
     group[f"{command}.txt"].tmp.write_text(report, encoding="utf-8")
     current[0] = group["summary.json"].path
@@ -291,15 +344,22 @@ def _key_path(key: str) -> tuple:
     )
 
 
-def _draw(make, result, path, data) -> None:
+def _draw(make, result, path, data) -> str | None:
     """Call a figure function with the results file if it takes one (see
-    :mod:`inins.commands.figures`)."""
+    :mod:`inins.commands.figures`); the reason if it declined to draw (nothing to
+    show: :class:`~inins.commands.figures.Skipped`), else None."""
     import inspect
 
-    if len(inspect.signature(make).parameters) >= 3:
-        make(result, path, data)
-    else:
-        make(result, path)
+    from inins.commands.figures import Skipped
+
+    try:
+        if len(inspect.signature(make).parameters) >= 3:
+            make(result, path, data)
+        else:
+            make(result, path)
+    except Skipped as exc:
+        return str(exc)
+    return None
 
 
 def _phase(progress, name) -> None:

@@ -113,38 +113,126 @@ def calibrate_bias_pitch(result, path):
     _epoch_figure(result, "pitch", path)
 
 
+_OBS_PANELS = (  # (title, state groups): at most ~8 curves per axis
+    ("position", ("position",)),
+    ("velocity", ("velocity",)),
+    ("attitude", ("attitude",)),
+    ("biases (solid accel, dashed gyro)", ("accel_bias", "gyro_bias")),
+    ("scale factors (solid accel, dashed gyro)", ("accel_scale", "gyro_scale")),
+    ("accelerometer misalignment", ("accel_misalignment",)),
+    ("gyro misalignment", ("gyro_misalignment",)),
+    ("receiver clock", ("clock",)),
+)
+_MAX_SEGMENT_BANDS = 40
+
+
 def observability_sigma(result, path):
-    """observability: 1-sigma of each state over time, relative to its prior."""
+    """observability: 1-sigma of each state over time relative to its prior, one panel
+    per state group; alternate segments (or, with many segments, the turns) shaded; the
+    unobservable combinations in the title."""
     if "covariance/sigma" not in result.datasets:
         return _note_figure(path, "no covariance analysis (covariance: false)")
+    from inins.core.error_model import GROUPS
+
     plt = _pyplot()
     time = result.datasets["covariance/time"].data
     sigma = result.datasets["covariance/sigma"].data
-    names = result.attrs["observability"]["states"]
-    fig, ax = plt.subplots(figsize=(9, 5), layout="constrained")
-    for i, name in enumerate(names):
-        ax.semilogy(time, sigma[:, i] / sigma[0, i], label=name, lw=1.2, color=plt.cm.tab20(i % 20))
-    for t in result.datasets["observability/segment_end"].data[:-1]:
-        ax.axvline(t, color="0.7", lw=0.8, ls=":")
-    ax.set_xlabel("time (s)")
-    ax.set_ylabel("1-sigma / prior")
-    ax.set_title(f"covariance analysis, model {result.attrs['observability']['model']}")
-    ax.legend(ncol=4, fontsize=7)
-    fig.savefig(path, dpi=120, format="png")
+    info = result.attrs["observability"]
+    names = list(info["states"])
+    panels = []
+    for title, groups in _OBS_PANELS:
+        members = [(n, g) for g in groups for n in GROUPS[g] if n in names]
+        if members:
+            panels.append((title, members, groups))
+    ncols = 2 if len(panels) > 1 else 1
+    nrows = -(-len(panels) // ncols)
+    fig, axes = plt.subplots(
+        nrows,
+        ncols,
+        figsize=(11, 2.6 * nrows + 1.2),
+        sharex=True,
+        squeeze=False,
+        layout="constrained",
+    )
+    ends = np.asarray(result.datasets["observability/segment_end"].data, float)
+    starts = np.concatenate([[0.0], ends[:-1]])
+    if len(ends) <= _MAX_SEGMENT_BANDS:
+        bands, band_text = list(zip(starts[1::2], ends[1::2], strict=True)), "alternate segments"
+    else:
+        bands, band_text = [tuple(t) for t in info.get("turns_s", [])], "turns"
+    for ax, (title, members, groups) in zip(axes.flat, panels, strict=False):
+        for lo, hi in bands:
+            ax.axvspan(lo, hi, color="0.5", alpha=0.08, lw=0)
+        count = {}
+        for name, group in members:
+            i = names.index(name)
+            style = "--" if len(groups) > 1 and group == groups[1] else "-"
+            k = count.setdefault(style, 0)
+            count[style] += 1
+            ax.semilogy(
+                time,
+                sigma[:, i] / sigma[0, i],
+                style,
+                lw=1.3,
+                label=name,
+                color=plt.cm.tab10(k % 10),
+            )
+        ax.set_title(title, fontsize=9)
+        ax.set_ylabel("1-sigma / prior")
+        ax.grid(alpha=0.3, which="both", lw=0.4)
+        ax.legend(fontsize=7, ncol=3, loc="lower left")
+    for k in range(len(panels), nrows * ncols):  # an empty cell: the one above shows the time
+        axes.flat[k].axis("off")
+        if k >= ncols:
+            axes.flat[k - ncols].xaxis.set_tick_params(labelbottom=True)
+            axes.flat[k - ncols].set_xlabel("time (s)")
+    for ax in axes[-1]:
+        ax.set_xlabel("time (s)")
+    combos = list(info.get("combinations", []))
+    lines = ["every state observable"] if not combos else ["unobservable:", *combos[:3]]
+    if len(combos) > 3:
+        lines.append(f"and {len(combos) - 3} more (see the report)")
+    fig.suptitle(
+        f"covariance analysis, model {info['model']} (shaded: {band_text})\n" + "\n".join(lines),
+        fontsize=9,
+    )
+    fig.savefig(path, dpi=110, format="png")
     plt.close(fig)
 
 
 def observability_singular_values(result, path):
-    """observability: singular values of the stacked matrix after each segment."""
+    """observability: singular values of the stacked matrix after each segment; the
+    smallest eight as lines (they decide the rank), the others as one grey band, the
+    rank tolerance dashed."""
     plt = _pyplot()
-    sv = result.datasets["observability/singular_values"].data
-    fig, ax = plt.subplots(figsize=(7, 4.5), layout="constrained")
+    sv = np.maximum(result.datasets["observability/singular_values"].data, 1e-300)
+    info = result.attrs["observability"]
+    fig, ax = plt.subplots(figsize=(8, 4.5), layout="constrained")
     segments = np.arange(1, sv.shape[0] + 1)
-    for k in range(sv.shape[1]):
-        ax.semilogy(segments, np.maximum(sv[:, k], 1e-300), "o-", ms=3, lw=0.8)
+    style = {"marker": "o", "ms": 3} if len(segments) <= 40 else {}
+    n = sv.shape[1]
+    shown = min(n, 8)
+    if n > shown:
+        ax.fill_between(
+            segments,
+            sv[:, : n - shown].min(axis=1),
+            sv[:, 0],
+            color="0.8",
+            lw=0,
+            label=f"the {n - shown} largest",
+        )
+    for j, k in enumerate(range(n - shown, n)):
+        ax.semilogy(
+            segments, sv[:, k], lw=1.1, color=plt.cm.tab10(j % 10), label=f"s{k + 1}", **style
+        )
+    if "tolerance" in info:
+        ax.axhline(info["tolerance"], color="k", lw=0.8, ls="--", label="rank tolerance")
+    ax.set_yscale("log")
     ax.set_xlabel("segments stacked")
     ax.set_ylabel("singular value (scaled, SI)")
-    ax.set_title("observability matrix: singular values per segment")
+    ax.set_title(f"observability matrix, model {info['model']}: singular values per segment")
+    ax.legend(fontsize=7, ncol=2)
+    ax.grid(alpha=0.3, which="both", lw=0.4)
     fig.savefig(path, dpi=120, format="png")
     plt.close(fig)
 
@@ -158,27 +246,65 @@ def _note_figure(path, text):
     plt.close(fig)
 
 
+class Skipped(Exception):
+    """A figure not drawn, with the reason (all zero, nothing to show): the run writes no
+    file for it and says why in its report."""
+
+
 def _ekf_states(result, names, path, title, scale, unit):
-    plt = _pyplot()
+    """Estimates with 1-sigma of sensor states, and their truth (dashed) where known."""
     ds = result.datasets
     states = result.attrs["ekf"]["states"]
+    shown = [n for n in names if n in states]
+    est_all = ds["states/estimate"].data
+    if not np.any(est_all[:, [states.index(n) for n in shown]]):
+        raise Skipped(f"{title}: every estimate is zero (the states never moved)")
+    truth = ds["truth/states"].data if "truth/states" in ds else None
+    plt = _pyplot()
     time = ds["nav/time"].data
     fig, ax = plt.subplots(figsize=(9, 4.5), layout="constrained")
-    for k, name in enumerate(n for n in names if n in states):
+    for k, name in enumerate(shown):
         i = states.index(name)
         color = plt.cm.tab10(k % 10)
-        est = ds["states/estimate"].data[:, i] / scale
+        est = est_all[:, i] / scale
         sig = ds["states/sigma"].data[:, i] / scale
         ax.plot(time, est, color=color, lw=1.0, label=name)
         ax.plot(time, est + sig, color=color, lw=0.5, ls=":")
         ax.plot(time, est - sig, color=color, lw=0.5, ls=":")
+        if truth is not None and np.isfinite(truth[i]):
+            ax.axhline(truth[i] / scale, color=color, lw=1.2, ls="--")
     ax.set_xlabel("time (s)")
     ax.set_ylabel(unit)
-    ax.set_title(title + " (dotted: 1-sigma)")
+    what = "dashed: truth" if truth is not None else "no truth: a recording"
+    ax.set_title(f"{title} estimates (dotted: 1-sigma; {what})")
     ax.legend(fontsize=7, ncol=3)
     ax.grid(alpha=0.3)
+    _shade_turns(ax, result)
     fig.savefig(path, dpi=110, format="png")
     plt.close(fig)
+
+
+TURN_RATE_DPS = 1.0
+"""Heading rate (deg/s) above which an epoch is shaded as turning."""
+
+
+def turn_windows(result):
+    """``[(start, end)]`` (s) where the body forward axis turns faster than
+    :data:`TURN_RATE_DPS` (from ``nav/forward_heading``; the flight or drive alike)."""
+    ds = result.datasets
+    if "nav/forward_heading" not in ds or len(ds["nav/time"].data) < 3:
+        return []
+    time = ds["nav/time"].data
+    heading = np.unwrap(ds["nav/forward_heading"].data)
+    rate = np.abs(np.gradient(heading, time)) / DEG
+    turning = rate > TURN_RATE_DPS
+    edges = np.flatnonzero(np.diff(np.concatenate([[0], turning.astype(int), [0]])))
+    return [(float(time[a]), float(time[min(b, len(time) - 1)])) for a, b in edges.reshape(-1, 2)]
+
+
+def _shade_turns(ax, result):
+    for k, (a, b) in enumerate(turn_windows(result)):
+        ax.axvspan(a, b, color="0.85", lw=0, zorder=0, label="turning" if k == 0 else None)
 
 
 def _chosen_text(result):
@@ -246,17 +372,37 @@ def simulate_table_motion(result, path, data):
 
 
 def run_ekf_heading(result, path):
-    """run-ekf, 003 Figs. 8, 12: heading error against truth (or the estimated phi_D)."""
+    """run-ekf, 003 Figs. 8, 12: heading error against the truth with the filter's
+    +-3-sigma, turns shaded; on a recording (no truth) the filter's heading correction
+    (cumulative in FB, the phi_D estimate in FF) with its +-3-sigma, labelled so."""
     plt = _pyplot()
     ds = result.datasets
     time = ds["nav/time"].data
-    fig, ax = plt.subplots(figsize=(9, 4.5), layout="constrained")
-    if "truth/heading_error" in ds:
-        ax.plot(time, np.degrees(ds["truth/heading_error"].data), lw=1.0, label="output - truth")
     i = result.attrs["ekf"]["states"].index("phi_D")
-    ax.plot(time, np.degrees(ds["states/estimate"].data[:, i]), lw=0.8, label="phi_D estimate")
+    sigma3 = 3.0 * np.degrees(ds["states/sigma"].data[:, i])
+    fig, ax = plt.subplots(figsize=(9, 4.5), layout="constrained")
+    _shade_turns(ax, result)
+    if "truth/heading_error" in ds:
+        err = np.degrees(ds["truth/heading_error"].data)
+        ax.plot(time, err, lw=1.0, color="tab:blue", label="heading error (output - truth)")
+        ax.fill_between(time, -sigma3, sigma3, color="tab:orange", alpha=0.25, lw=0)
+        ax.plot(time, sigma3, color="tab:orange", lw=0.6, label="+-3 sigma (filter)")
+        ax.plot(time, -sigma3, color="tab:orange", lw=0.6)
+        ax.set_ylabel("heading error (deg)")
+        ax.set_title("heading error against the truth")
+    else:
+        fb = result.attrs["ekf"]["coupling"] == "fb"
+        data = ds["states/cumulative"].data if fb else ds["states/estimate"].data
+        corr = np.degrees(data[:, i])
+        what = "cumulative fed-back correction" if fb else "phi_D estimate"
+        ax.plot(time, corr, lw=1.0, color="tab:blue", label=f"heading correction ({what})")
+        ax.fill_between(time, corr - sigma3, corr + sigma3, color="tab:orange", alpha=0.25, lw=0)
+        ax.plot([], [], color="tab:orange", lw=4, alpha=0.4, label="+-3 sigma (filter)")
+        ax.set_ylabel("heading correction (deg)")
+        ax.set_title(
+            "recording without truth: the filter's heading correction, not an error", fontsize=10
+        )
     ax.set_xlabel("time (s)")
-    ax.set_ylabel("heading error (deg)")
     ax.legend(fontsize=8)
     ax.grid(alpha=0.3)
     fig.savefig(path, dpi=110, format="png")
@@ -306,22 +452,29 @@ def run_ekf_misalignment(result, path):
     """run-ekf, 003 Fig. 11: gyro misalignment states with 1-sigma (arcsec)."""
     names = ("mg_xy", "mg_xz", "mg_yx", "mg_yz", "mg_zx", "mg_zy")
     if "mg_yz" not in result.attrs["ekf"]["states"]:
-        return _note_figure(path, "EKF1: no misalignment states")
+        raise Skipped("gyro misalignment: EKF1 has no misalignment states")
     _ekf_states(result, names, path, "gyro misalignment", ARCSEC, "arcsec")
 
 
 def run_ekf_corrections(result, path):
     """run-ekf, 003 §3.3.2: cumulative FB corrections of the attitude (deg)."""
-    plt = _pyplot()
     ds = result.datasets
     states = result.attrs["ekf"]["states"]
+    index = [states.index(name) for name in ("phi_N", "phi_E", "phi_D")]
+    cumulative = ds["states/cumulative"].data[:, index]
+    if not np.any(cumulative):
+        raise Skipped(
+            f"feedback corrections: none ({result.attrs['ekf']['coupling']} coupling "
+            "feeds nothing back; all zero)"
+        )
+    plt = _pyplot()
     fig, ax = plt.subplots(figsize=(9, 4.5), layout="constrained")
-    for name in ("phi_N", "phi_E", "phi_D"):
-        i = states.index(name)
-        ax.plot(ds["nav/time"].data, np.degrees(ds["states/cumulative"].data[:, i]), label=name)
+    _shade_turns(ax, result)
+    for k, name in enumerate(("phi_N", "phi_E", "phi_D")):
+        ax.plot(ds["nav/time"].data, np.degrees(cumulative[:, k]), label=name)
     ax.set_xlabel("time (s)")
     ax.set_ylabel("cumulative correction (deg)")
-    ax.set_title(f"feedback corrections ({result.attrs['ekf']['coupling']}; zero in ff)")
+    ax.set_title("attitude corrections fed back to the navigation (FB)")
     ax.legend(fontsize=8)
     ax.grid(alpha=0.3)
     fig.savefig(path, dpi=110, format="png")
@@ -387,5 +540,108 @@ def import_log_checks(result, path, data):
     for ax in axes:
         ax.grid(alpha=0.3, which="both")
         ax.legend(fontsize=8)
+    fig.savefig(path, dpi=110, format="png")
+    plt.close(fig)
+
+
+def _track_ned(result):
+    """SPP positions as north, east, down (m) from the reference position (or the first
+    fix), the origin's name, and the fix mask."""
+    ds = result.datasets
+    pos = ds["spp/pos_e"].data
+    fixed = np.isfinite(pos[:, 0])
+    if not fixed.any():
+        raise Skipped("no epoch has a fix: no track to draw")
+    ref = np.asarray(result.attrs[""]["reference_pos_e"], float)
+    origin = "the reference position" if np.all(np.isfinite(ref)) else "the first fix"
+    centre = ref if np.all(np.isfinite(ref)) else pos[fixed][0]
+    lla = earth.llh_from_ecef(centre)
+    ned = (pos - centre) @ earth.mat_en(lla[0], lla[1])
+    return ned, origin, fixed
+
+
+def import_flight_track(result, path):
+    """import-flight: the SPP track (north / east from the reference or the first fix)
+    coloured by time, and the height change."""
+    ned, origin, fixed = _track_ned(result)
+    plt = _pyplot()
+    time = result.datasets["spp/time"].data
+    t = time - time[0]
+    fig, (left, right) = plt.subplots(1, 2, figsize=(11, 4.5), layout="constrained")
+    dots = left.scatter(ned[fixed, 1], ned[fixed, 0], c=t[fixed], s=4, cmap="viridis")
+    fig.colorbar(dots, ax=left, label="time from the first epoch (s)")
+    left.set_xlabel("east (m)")
+    left.set_ylabel("north (m)")
+    left.set_aspect("equal", adjustable="datalim")
+    left.set_title(f"SPP track, from {origin}", fontsize=9)
+    left.grid(alpha=0.3)
+    right.plot(t[fixed], -ned[fixed, 2], ".", ms=2)
+    right.set_xlabel("time from the first epoch (s)")
+    right.set_ylabel("up (m)")
+    right.set_title(f"height from {origin}", fontsize=9)
+    right.grid(alpha=0.3)
+    fig.savefig(path, dpi=110, format="png")
+    plt.close(fig)
+
+
+def import_flight_residuals(result, path):
+    """import-flight: satellites used, PDOP and the pseudorange residuals of every epoch
+    (used rows; the excluded ones marked)."""
+    ds = result.datasets
+    if "spp/residual" not in ds or not np.isfinite(ds["spp/residual"].data).any():
+        raise Skipped("no residual: no epoch has a fix")
+    plt = _pyplot()
+    time = ds["spp/time"].data
+    t = time - time[0]
+    fig, axes = plt.subplots(3, 1, figsize=(9, 7.5), sharex=True, layout="constrained")
+    axes[0].plot(t, ds["spp/satellites_used"].data, ".", ms=2)
+    axes[0].set_ylabel("satellites used")
+    axes[1].semilogy(t, ds["spp/pdop"].data, ".", ms=2)
+    axes[1].set_ylabel("PDOP")
+    row_t = t[ds["spp/row_epoch"].data]
+    res = ds["spp/residual"].data
+    used = ds["spp/row_used"].data.astype(bool)
+    axes[2].plot(row_t[used], res[used], ".", ms=1.5, color="tab:blue", label="used")
+    span = 1.5 * float(np.percentile(np.abs(res[used]), 99.9)) if used.any() else 100.0
+    out = ~used & np.isfinite(res)
+    near = out & (np.abs(res) <= span)
+    if near.any():
+        axes[2].plot(row_t[near], res[near], "x", ms=3, color="tab:red", label="not used")
+    axes[2].set_ylim(-span, span)
+    far = int(np.count_nonzero(out & ~near))
+    if far:
+        axes[2].set_title(f"{far} unused rows beyond +-{span:.3g} m not shown", fontsize=8)
+    axes[2].set_ylabel("pseudorange residual (m)")
+    axes[2].set_xlabel("time from the first epoch (s)")
+    axes[2].legend(fontsize=8, loc="upper right")
+    for ax in axes:
+        ax.grid(alpha=0.3)
+    axes[0].set_title("single-point positioning of every epoch", fontsize=9)
+    fig.savefig(path, dpi=110, format="png")
+    plt.close(fig)
+
+
+def import_flight_sky(result, path):
+    """import-flight: sky plot, every satellite's track seen from the fixes."""
+    ds = result.datasets
+    el = ds["spp/row_elevation"].data if "spp/row_elevation" in ds else np.zeros(0)
+    ok = np.isfinite(el) & (el >= 0)
+    if not ok.any():
+        raise Skipped("no satellite above the horizon of a fix")
+    plt = _pyplot()
+    az = ds["spp/row_azimuth"].data
+    prn = ds["spp/row_prn"].data
+    fig = plt.figure(figsize=(6.5, 6.5), layout="constrained")
+    ax = fig.add_subplot(projection="polar")
+    ax.set_theta_zero_location("N")
+    ax.set_theta_direction(-1)
+    for k, p in enumerate(np.unique(prn[ok])):
+        rows = ok & (prn == p)
+        ax.plot(az[rows], 90.0 - np.degrees(el[rows]), ".", ms=1.5, color=plt.cm.tab20(k % 20))
+        last = np.flatnonzero(rows)[-1]
+        ax.annotate(f"G{p:02d}", (az[last], 90.0 - np.degrees(el[last])), fontsize=7)
+    ax.set_rlim(0, 90)
+    ax.set_yticks([0, 30, 60, 90], ["90", "60", "30", "0 deg"])
+    ax.set_title("sky plot (elevation, azimuth from the fix)", fontsize=9)
     fig.savefig(path, dpi=110, format="png")
     plt.close(fig)

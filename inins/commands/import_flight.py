@@ -12,6 +12,7 @@ track, and the error against a known position when the scenario gives one.
 
 import numpy as np
 
+from inins.commands import figures
 from inins.core import earth
 from inins.core.units import DEG
 from inins.exceptions import InputError
@@ -19,6 +20,7 @@ from inins.gnss import ephemeris, measurements, spp
 from inins.gnss.measurements import Signal
 from inins.gnss.spp import FixStatus
 from inins.io import flight_layout
+from inins.io.flight_checks import checked_flight
 from inins.io.flight_layout import ImuRecord, RecordedFlight
 from inins.io.psins_tc import read_psins_tc
 from inins.io.rinex_nav import read_nav
@@ -27,6 +29,11 @@ from inins.results import CommandResult, Series, format_table
 from inins.scenario.import_flight import ImportFlightScenario
 
 SCENARIO_MODEL = ImportFlightScenario
+FIGURES = {
+    "import-flight-track.png": figures.import_flight_track,
+    "import-flight-residuals.png": figures.import_flight_residuals,
+    "import-flight-sky.png": figures.import_flight_sky,
+}
 
 
 def run(scenario, seed, *, sink=None, progress=None):
@@ -41,8 +48,10 @@ def run(scenario, seed, *, sink=None, progress=None):
             "imu_t0_sow": float(scenario.imu_t0_sow),
         }
     flight = RecordedFlight(**{**vars(flight), **changes})
-    obs = measurements.from_record(flight.gnss)
     source = str(scenario.nav_file or scenario.file)
+    if scenario.format == "rinex":  # the PSINS reader checks its own flight
+        flight = checked_flight(flight, scenario.obs_file)
+    obs = measurements.from_record(flight.gnss)
     epochs = measurements.attach_satellites(
         obs, ephemeris.from_columns(flight.ephemeris), source=source
     )
@@ -54,7 +63,7 @@ def run(scenario, seed, *, sink=None, progress=None):
         klobuchar=klobuchar,
     )
     solution = spp.solve(epochs, options)
-    check = SppCheck(solution, flight, scenario.static_window_imu_s)
+    check = SppCheck(solution, flight, scenario.static_window_imu_s, epochs)
     datasets = {
         path: Series(value, unit, "", description)
         for path, (value, unit, description) in flight_layout.flight_arrays(flight).items()
@@ -66,7 +75,7 @@ def run(scenario, seed, *, sink=None, progress=None):
         datasets=datasets,
         attrs={"": flight_layout.flight_attrs(flight), "spp": {"ionosphere": iono}},
         report=report(scenario, flight, epochs, check, iono),
-        warnings=check.warnings,
+        warnings=(*flight.dropped, *check.warnings),
     )
 
 
@@ -211,7 +220,8 @@ def _ionosphere(choice, flight, epochs):
 class SppCheck:
     """The SPP solution with the figures the report and summary carry."""
 
-    def __init__(self, solution, flight, window):
+    def __init__(self, solution, flight, window, epochs=None):
+        self.epochs = epochs
         self.sol = solution
         self.flight = flight
         self.window = window
@@ -297,11 +307,38 @@ class SppCheck:
             "spp/excluded_prn": Series(s.excluded_prn, "1", "", "satellite excluded, 0 none"),
             "spp/distance": Series(self.track.distance, "m", "", "path length so far"),
         }
+        out.update(self.row_datasets())
         if self.error_ned is not None:
             out["spp/error_ned"] = Series(
                 self.error_ned, "m", "n", "position error against the reference, NED"
             )
         return out
+
+    def row_datasets(self):
+        """Per measurement row: elevation and azimuth seen from the epoch's fix (NaN
+        without one), the residual and whether the fix used it (the sky plot, the
+        residual figure)."""
+        if self.epochs is None:
+            return {}
+        s, obs = self.sol, self.epochs.obs
+        counts = np.diff(obs.start)
+        rx = np.repeat(s.pos, counts, axis=0)
+        los = self.epochs.sat_pos - rx
+        lla = earth.llh_from_ecef(np.nan_to_num(rx))
+        mat = earth.mat_en(lla[:, 0], lla[:, 1])  # (m, 3, 3) ECEF from NED
+        ned = np.einsum("mji,mj->mi", mat, los)
+        rng = np.linalg.norm(ned, axis=1)
+        with np.errstate(invalid="ignore"):
+            el = np.arcsin(-ned[:, 2] / rng)
+        az = np.mod(np.arctan2(ned[:, 1], ned[:, 0]), 2 * np.pi)
+        return {
+            "spp/row_elevation": Series(el, "rad", "", "elevation from the fix (NaN: no fix)"),
+            "spp/row_azimuth": Series(az, "rad", "", "azimuth from the fix, from north"),
+            "spp/row_prn": Series(obs.prn, "1", "", "satellite of each row"),
+            "spp/row_epoch": Series(np.repeat(np.arange(len(counts)), counts), "1", "", "epoch"),
+            "spp/residual": Series(s.residual, "m", "", "pseudorange residual (measured - model)"),
+            "spp/row_used": Series(s.used.astype(np.int8), "1", "", "row used in the fix"),
+        }
 
 
 def _median(values):
@@ -336,6 +373,9 @@ def report(scenario, flight, epochs, check, iono):
         f"{scenario.spp.sigma_zenith_m:g} m at zenith, Saastamoinen troposphere, residual "
         f"test at false-alarm {scenario.spp.false_alarm:g}",
     ]
+    if flight.dropped:
+        lines.append("dropped at the edge checks (counted, not used):")
+        lines += [f"  {note}" for note in flight.dropped]
     dropped = dict(zip(epochs.dropped_prn.tolist(), epochs.dropped_count.tolist(), strict=True))
     if dropped:
         lines.append(

@@ -18,7 +18,8 @@ from inins.exceptions import InputError
 from inins.io.tabledata import read_table_data
 from inins.observability import analysis, models
 from inins.observability import measurements as meas
-from inins.observability.segments import cut_segments, make_segment
+from inins.observability.analysis import NEAR_PRIOR, PRACTICAL_RATIO
+from inins.observability.segments import cut_segments, interval_means, make_segment
 from inins.results import CommandResult, Series, format_table
 from inins.scenario.observability import ObservabilityScenario
 
@@ -28,24 +29,14 @@ FIGURES = {
     "observability-singular-values.png": figures.observability_singular_values,
 }
 
-_PRIOR_OF_GROUP = {  # state group -> (prior key, SI per unit)
-    "position": ("position_m", 1.0),
-    "velocity": ("velocity_mps", 1.0),
-    "attitude": ("attitude_deg", DEG),
-    "accel_bias": ("accel_bias_ug", UG),
-    "gyro_bias": ("gyro_bias_dph", DPH),
-    "accel_misalignment": ("accel_misalignment_arcsec", ARCSEC),
-    "gyro_misalignment": ("gyro_misalignment_arcsec", ARCSEC),
-}
-
 
 def run(scenario, seed, *, sink=None, progress=None):
     """Analyse the scenario's model along its segments; ``seed`` is unused."""
     model = models.model_by_name(scenario.model)
-    los_n = lines_of_sight(scenario.satellites)
+    los_n = scenario.lines_of_sight()
     segments = build_segments(scenario, los_n)
     rows = [measurement(m, i) for i, m in enumerate(scenario.measurements)]
-    sigma_0 = priors(scenario.priors, model.names) if scenario.covariance else None
+    sigma_0 = scenario.priors.sigmas(model.names) if scenario.covariance else None
     noise = models.ProcessNoise(
         arw=scenario.noise.arw_deg_rth * DEG_RTH, vrw=scenario.noise.vrw_ug_rthz * UG_RTHZ
     )
@@ -61,6 +52,9 @@ def run(scenario, seed, *, sink=None, progress=None):
                 "model": found.model,
                 "states": list(model.names),
                 "method": found.pwcs.method,
+                "combinations": list(found.combinations),
+                "tolerance": float(found.pwcs.tolerance),
+                "turns_s": [list(t) for t in turns(segments)],
             }
         },
         report=report(scenario, found, segments) + turn_report(found, segments),
@@ -71,23 +65,25 @@ def run(scenario, seed, *, sink=None, progress=None):
 def declared_results(scenario):
     """``(results, truth)`` names of a run of ``scenario``'s model."""
     names = models.model_by_name(scenario.model).names
-    fixed = ("rank", "n_states", "n_unobservable", "gramian_rank", "segments", "full_rank_after_s")
+    fixed = (
+        "rank",
+        "n_states",
+        "n_unobservable",
+        "gramian_rank",
+        "segments",
+        "full_rank_after_s",
+        "practically_observable_after_s",
+        "n_poorly_observable",
+    )
     per_state = [f"{kind}_{n}" for kind in ("observable", "sigma_ratio") for n in names]
     return (*fixed, *per_state), ()
 
 
 def estimate(scenario):
-    """None: small matrices, one row of sigmas per update."""
-    return None
+    """Size of the analysis (:mod:`inins.commands.preflight`)."""
+    from inins.commands.preflight import observability_estimate
 
-
-def lines_of_sight(satellites):
-    """Unit vectors receiver -> satellite in NED, shape (k, 3), or None."""
-    if not satellites:
-        return None
-    az = np.array([s.azimuth_deg for s in satellites]) * DEG
-    el = np.array([s.elevation_deg for s in satellites]) * DEG
-    return np.stack([np.cos(el) * np.cos(az), np.cos(el) * np.sin(az), -np.sin(el)], axis=1)
+    return observability_estimate(scenario)
 
 
 def measurement(m, index):
@@ -151,19 +147,13 @@ def trajectory_segments(trajectory, los_n):
         )
     edges = np.round((np.concatenate([[record.t0], truth.time]) - record.t0) / record.dt)
     edges = np.clip(edges.astype(np.int64), 0, record.n_samples)
-    sums = np.zeros((len(truth.time), 6))
-    for k0, dtheta, dv in record.imu_chunks():
-        rows = np.hstack([dtheta, dv])
-        owner = np.searchsorted(edges, np.arange(k0, k0 + len(rows)), side="right") - 1
-        inside = (owner >= 0) & (owner < len(sums))
-        np.add.at(sums, owner[inside], rows[inside])
-    span = np.maximum(np.diff(edges), 1)[:, None] * record.dt
+    omega_b, f_b = interval_means(record.imu_chunks(), edges, record.dt)
     n = len(truth.time)
     return cut_segments(
         truth.time,
         rotation.mat_from_quat(truth.quat_nb),
-        sums[:, 3:] / span,
-        sums[:, :3] / span,
+        f_b,
+        omega_b,
         np.zeros((n, 3)),
         np.tile(record.lla, (n, 1)),
         attitude_threshold=trajectory.attitude_threshold_deg * DEG,
@@ -174,7 +164,6 @@ def trajectory_segments(trajectory, los_n):
 
 def flight_segments(source, los_n):
     """Segments of a run-ekf scenario's simulated flight, sampled at ``sample_rate_hz``."""
-    from inins.commands.run_ekf import flight_plan
     from inins.ekf.flight import flight_trajectory
     from inins.scenario.base import load_scenario
     from inins.scenario.run_ekf import RunEkfScenario
@@ -184,7 +173,7 @@ def flight_segments(source, los_n):
         raise InputError(
             "the run-ekf scenario has no flight: section", source=str(source.scenario), key="flight"
         )
-    plan = flight_plan(ekf_scenario.flight)
+    plan = ekf_scenario.flight.plan()
     truth = flight_trajectory(plan)
     time = np.arange(0.0, plan.duration + 1e-9, 1.0 / source.sample_rate_hz)
     mat_nb, vel_n, lla = truth.state(time)
@@ -202,23 +191,12 @@ def flight_segments(source, los_n):
     )
 
 
-def priors(p, names):
-    """Initial 1-sigma per state (SI) from the prior groups."""
-    group_of = {name: group for group, members in GROUPS.items() for name in members}
-    out = []
-    for name in names:
-        if name == "clock_bias":
-            out.append(p.clock_bias_m)
-        elif name == "clock_drift":
-            out.append(p.clock_drift_mps)
-        else:
-            key, unit = _PRIOR_OF_GROUP[group_of[name]]
-            out.append(getattr(p, key) * unit)
-    return np.array(out)
-
-
 def result_numbers(found, segments):
-    """Flat results: ranks and per state ``observable_<state>``, ``sigma_ratio_<state>``."""
+    """Flat results: ranks, the time of full rank and the time every state is observable
+    in practice (sigma down to a tenth of its prior,
+    :data:`inins.observability.analysis.PRACTICAL_RATIO`), the number of states that stay
+    poorly observable, and per state ``observable_<state>``, ``sigma_ratio_<state>``."""
+    cov = found.covariance is not None
     out = {
         "rank": found.rank,
         "n_states": found.n_states,
@@ -226,6 +204,8 @@ def result_numbers(found, segments):
         "gramian_rank": found.gramian_rank,
         "segments": len(found.pwcs.segment_rank),
         "full_rank_after_s": _full_rank_time(found, segments),
+        "practically_observable_after_s": found.practically_observable_after_s,
+        "n_poorly_observable": len(found.poorly_observable) if cov else None,
     }
     for s in found.states:
         out[f"observable_{s.name}"] = bool(s.observable)
@@ -318,12 +298,33 @@ def turn_report(found, segments):
     )
 
 
+_LAB_UNIT = {  # state group -> (lab unit name, SI per lab unit)
+    "attitude": ("deg", DEG),
+    "accel_bias": ("ug", UG),
+    "gyro_bias": ("deg/h", DPH),
+    "accel_misalignment": ("arcsec", ARCSEC),
+    "gyro_misalignment": ("arcsec", ARCSEC),
+}
+
+
+def _lab_text(name, value):
+    """A sigma in the lab unit of its state group (deg, ug, deg/h, arcsec), or n/a."""
+    group = next((g for g, members in GROUPS.items() if name in members), None)
+    if group not in _LAB_UNIT:
+        return "(SI)"
+    if not np.isfinite(value):
+        return "n/a"
+    unit, si = _LAB_UNIT[group]
+    return f"{value / si:.4g} {unit}"
+
+
 def _sigma_text(value, unit):
-    return "" if not np.isfinite(value) else f"{value:.4g} {unit}"
+    return "n/a" if not np.isfinite(value) else f"{value:.4g} {unit}"
 
 
 def report(scenario, found, segments):
-    """Report body: the verdict, the per-state table, the unobservable combinations."""
+    """Report body: the verdict (rank and degree of observability), the per-state table,
+    the unobservable combinations and the states that stay poorly observable."""
     rows = [
         [
             s.name,
@@ -332,23 +333,41 @@ def report(scenario, found, segments):
             s.null_weight,
             _sigma_text(s.sigma_0, s.unit),
             _sigma_text(s.sigma_final, s.unit),
-            s.sigma_ratio if np.isfinite(s.sigma_ratio) else None,
+            _lab_text(s.name, s.sigma_final),
+            s.sigma_ratio if np.isfinite(s.sigma_ratio) else "n/a",
+            s.degree,
         ]
         for s in found.states
     ]
     kinds = ", ".join(m.kind for m in scenario.measurements)
+    full = _full_rank_time(found, segments)
     lines = [
         f"model {found.model}: rank {found.rank} of {found.n_states} "
         f"({found.n_unobservable} unobservable); Gramian rank {found.gramian_rank}",
         f"measurements: {kinds}; {len(segments)} segments, {sum(s.duration for s in segments):g}"
         f" s; {found.pwcs.method} observability matrix (null(Q_j) in null(F_j) on "
         f"{sum(found.pwcs.condition_holds)} of {len(segments)} segments)",
-        f"rank after each segment: {list(found.pwcs.segment_rank)}",
+        f"rank after each segment: {_compact(found.pwcs.segment_rank)}",
+        "full rank (every state observable in principle): "
+        + ("never" if full is None else f"after {full:g} s"),
+        _practical_line(found),
         "",
-        "states",
+        "states (degree of the observable ones: good = sigma down to "
+        f"{PRACTICAL_RATIO:g} of the prior or below, weak = reduced less, none = above "
+        f"{NEAR_PRIOR:g} of the prior: hardly estimated at all)",
         format_table(
             rows,
-            ["state", "unit", "observable", "null weight", "sigma 0", "sigma end", "ratio"],
+            [
+                "state",
+                "unit",
+                "observable",
+                "null weight",
+                "sigma 0",
+                "sigma end",
+                "sigma end (lab)",
+                "ratio",
+                "degree",
+            ],
             fmt=".4g",
         ),
         "",
@@ -356,9 +375,52 @@ def report(scenario, found, segments):
         "others by their coefficients, SI, changes no measurement):",
     ]
     lines += [f"  {c}" for c in found.combinations] or ["  none: every state is observable"]
+    weak = [s for s in found.states if s.degree in ("weak", "none")]
+    if weak:
+        lines += ["", "poorly observable (observable in rank, sigma above a tenth of the prior):"]
+        lines += [
+            f"  {s.name}: sigma end {s.sigma_ratio:.3g} of the prior"
+            + (" - not estimated in practice" if s.degree == "none" else "")
+            for s in weak
+        ]
     lines += [
         "",
         f"rank tolerance {found.pwcs.tolerance:.3g} on the singular values of the "
         "SI-scaled matrix (rows normalised per measurement)",
     ]
     return "\n".join(lines)
+
+
+def _practical_line(found):
+    if found.covariance is None:
+        return "observable in practice: n/a (covariance: false)"
+    t = found.practically_observable_after_s
+    if t is not None:
+        return (
+            f"observable in practice (every sigma down to {PRACTICAL_RATIO:g} of its prior): "
+            f"after {t:g} s"
+        )
+    return (
+        f"observable in practice (every sigma down to {PRACTICAL_RATIO:g} of its prior): "
+        f"never; {_count(len(found.poorly_observable), 'state')} "
+        f"({', '.join(found.poorly_observable)}) "
+        + ("stays" if len(found.poorly_observable) == 1 else "stay")
+        + " above"
+    )
+
+
+def _count(n, word):
+    return f"{n} {word}" + ("" if n == 1 else "s")
+
+
+def _compact(ranks):
+    """``[9, 9, 9, 11, 12]`` -> ``9 x3, 11, 12`` (runs of equal ranks counted)."""
+    out, k = [], 0
+    ranks = list(ranks)
+    while k < len(ranks):
+        j = k
+        while j + 1 < len(ranks) and ranks[j + 1] == ranks[k]:
+            j += 1
+        out.append(f"{ranks[k]}" + (f" x{j - k + 1}" if j > k else ""))
+        k = j + 1
+    return ", ".join(out)

@@ -15,7 +15,7 @@ from dataclasses import replace
 
 import numpy as np
 
-from inins.commands import figures
+from inins.commands import figures, run_ekf_report
 from inins.core import rotation, strapdown
 from inins.core.units import ARCSEC, DEG, DPH
 from inins.ekf import flight as fl
@@ -27,7 +27,7 @@ from inins.gnss import constellation, ephemeris, gpstime, measurements
 from inins.io.flight_layout import read_flight
 from inins.io.resources import configs_root
 from inins.io.rinex_nav import read_nav
-from inins.results import CommandResult, Series, format_table
+from inins.results import CommandResult, Series
 from inins.scenario.run_ekf import RunEkfScenario
 
 SCENARIO_MODEL = RunEkfScenario
@@ -62,6 +62,7 @@ def run(scenario, seed, *, sink=None, progress=None):
             }
         },
         report=_report(scenario, result, summary, info),
+        warnings=info.get("dropped", ()),
     )
 
 
@@ -230,6 +231,7 @@ def _recorded(scenario):
         "spp_vel_n": start.fix_vel_n[idx],
         "heading_init": start.heading,
         "lever": np.asarray(d.lever_arm_m, float),
+        "dropped": rec.dropped,
     }
     return result, info
 
@@ -280,9 +282,10 @@ def declared_results(scenario):
 
 
 def estimate(scenario):
-    """None: a run streams epoch by epoch (memory flat in flight length) and writes
-    epoch-rate series only."""
-    return None
+    """Size of the run and its numerical edges (:mod:`inins.commands.preflight`)."""
+    from inins.commands.preflight import run_ekf_estimate
+
+    return run_ekf_estimate(scenario)
 
 
 def _results(result, s, info):
@@ -339,7 +342,7 @@ def _truth(info):
 
 def _datasets(r, info):
     d = {
-        "nav/time": Series(r.time, "s", "", "1PPS epoch"),
+        "nav/time": Series(r.time, "s", "", "1PPS epoch (naive pairing: data arrival)"),
         "nav/lla": Series(r.lla, "rad, rad, m", "", "corrected position (IMU)"),
         "nav/vel_n": Series(r.vel_n, "m/s", "n", "corrected velocity"),
         "nav/quat_nb": Series(r.quat_nb, "1", "nb", "corrected attitude"),
@@ -363,6 +366,10 @@ def _datasets(r, info):
         d["truth/heading_error"] = Series(r.heading_error, "rad", "", "heading minus truth")
     if r.nees.size:
         d["truth/nees"] = Series(r.nees, "1", "", "NEES of all states")
+    truth = run_ekf_report.state_truth(info.get("errors"), r.layout.names)
+    if truth:
+        vector = np.array([truth.get(n, np.nan) for n in r.layout.names])
+        d["truth/states"] = Series(vector, "SI", "", "true sensor states (NaN: none single)")
     if info.get("spp_pos") is not None:
         d["spp/pos_e"] = Series(info["spp_pos"], "m", "e", "SPP antenna position at each epoch")
         d["spp/vel_n"] = Series(info["spp_vel_n"], "m/s", "n", "SPP range-rate velocity")
@@ -374,17 +381,15 @@ def _datasets(r, info):
 
 def _report(scenario, r, s, info):
     source = "recording " + scenario.data.file.name if scenario.data else "simulated flight"
-    rows = [
-        [name, float(r.state[-1, i]), float(r.sigma[-1, i])]
-        for i, name in enumerate(r.layout.names)
-    ]
     lines = [
         f"{r.model.upper()}-{r.coupling.upper()} ({len(r.layout.names)} states) on the "
         f"{source}: {r.time.size} epochs, {r.flight_time:.1f} s",
         f"realtime factor {s.realtime_factor:.4g} (wall {r.wall_time:.3g} s, first epoch "
         f"includes JIT compilation), update {1e3 * s.update_time_mean_s:.3g} ms mean",
-        f"NIS mean {s.nis_mean:.3g}, NEES mean {s.nees_mean:.3g}, rejected "
-        f"{s.rejected_measurements}, coasted epochs {s.coasted_epochs}",
+        run_ekf_report.summary_line(s, info.get("errors") is not None),
+        run_ekf_report.heading_line(
+            s, scenario.filter.turning_from_s, info.get("errors") is not None
+        ),
     ]
     if info.get("heading_init") is not None:
         h = info["heading_init"]
@@ -395,5 +400,7 @@ def _report(scenario, r, s, info):
             f"of the forward axis {math.degrees(math.atan2(axis[1], axis[0])):.2f} deg "
             f"(body x {h.heading / DEG:.2f} deg) from the velocity at {used} s"
         )
-    lines += ["", "final states (SI)", format_table(rows, ["state", "estimate", "sigma"])]
+    truth = run_ekf_report.state_truth(info.get("errors"), r.layout.names)
+    lines += run_ekf_report.final_states(r.layout.names, r.state[-1], r.sigma[-1], truth)
+    lines += run_ekf_report.truth_table(_results(r, s, info), _truth(info))
     return "\n".join(lines)

@@ -26,6 +26,41 @@ SHORT_RUNS = (  # (command, shipped scenario (folder, name), --set overrides)
 """Runs (no output written) whose kernels have no ``warm_up()`` of their own."""
 
 
+class CompileNotice:
+    """What a run says while numba compiles kernels (a :func:`inins.core.jit.on_compile`
+    listener): the first run after an install, an upgrade or an edit of a kernel
+    source compiles for this machine (a few seconds to half a minute); later runs
+    load the compiled code.
+
+    ``echo(text)`` prints one line: a first line when the first compile starts,
+    then at most one a second (``every_s``) with the count of kernels compiled so
+    far and the time spent, so the screen never sits frozen without a word.
+    """
+
+    def __init__(self, label, echo, every_s=1.0):
+        self.label, self.echo, self.every_s = label, echo, every_s
+        self.count, self.start, self.last = 0, None, None
+
+    def __call__(self, event, name, seconds):
+        now = time.perf_counter()
+        if self.start is None:
+            self.start = self.last = now
+            self.echo(
+                f"{self.label}: compiling numerical kernels for this machine (once after "
+                "an install or upgrade; later runs load them) ..."
+            )
+        if event != "done":
+            return
+        self.count += 1
+        if now - self.last >= self.every_s:
+            self.last = now
+            short = name.removeprefix("inins.")
+            self.echo(
+                f"{self.label}:   {self.count} kernels compiled, {now - self.start:.0f} s "
+                f"(last: {short})"
+            )
+
+
 def warm_up(progress=None):
     """Compile (or load from the cache) every kernel; ``progress(text)`` per step."""
     jit.activate()

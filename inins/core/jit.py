@@ -15,17 +15,37 @@ from the same source by the same compiler for a generic CPU of the architecture,
 gives bit-identical results (a test compares both on a whole run). It holds
 the GIL while it runs, where the dispatcher releases it for ``nogil`` kernels, and
 takes 1.1-1.6 times as long as numba's copy compiled for this CPU: it is for short
-runs, where numba's start-up would dominate. So a process takes the library for its
-first :data:`LIBRARY_ROWS` rows of work and loads numba for the rest (a sweep worker,
-which lives for many runs, loads numba at once).
+runs, where numba's start-up would dominate. So a process runs each kernel's
+first :data:`LIBRARY_ROWS` rows through the library and loads numba for the rest
+(a budget per kernel: a run calls several over the same samples). A local sweep
+worker does the same; a Dask worker, whose threads need the GIL released, loads
+numba at once.
+
+Cache keys. numba stamps its on-disk cache of a kernel with the hash of the
+kernel's own file, so a kernel that calls or inlines one from another module
+would keep running the old callee after an edit (or an upgrade) of that module
+only. Here every ``inins`` kernel's cache entry, and the library, are stamped
+with one hash of all the kernel sources (:func:`kernel_sources`: the kernel
+modules and every ``inins`` module they import): a change anywhere in them
+recompiles every kernel, once; a change elsewhere (commands, CLI, I/O) keeps them.
 
 The library sits next to the package's bytecode (``inins/__pycache__``), under
 ``$NUMBA_CACHE_DIR/inins`` when that is set, or in ``$ININS_KERNEL_DIR``. It is
-used only while the numpy and numba versions it was built with are installed and
-the source of every kernel module hashes as it did at the build; otherwise calls
-fall back to numba, silently and correctly.
+used only while the Python, numpy and numba it was built with are installed and
+the kernel sources hash as they did at the build; otherwise calls go to numba,
+silently and correctly. Builds are serialised by a lock file; each build writes a
+new file and then the manifest naming it, so a reader sees one build whole.
+
+numba marks ``pycc`` for deprecation (0.57) without a removal date; it exists in
+every release ``pyproject.toml`` allows (0.59-0.68, upper bound ``<0.69``). Where
+it is missing the warm-up says so and every call goes to numba (correct, 0.5-1 s
+slower to start a short run).
+
+A compile (not a cache load) is reported to the :func:`on_compile` listeners:
+the command line says what it prepares while a first run compiles.
 """
 
+import contextlib
 import functools
 import hashlib
 import importlib.machinery
@@ -42,7 +62,17 @@ from pathlib import Path
 
 import numpy as np
 
-__all__ = ["Kernel", "activate", "build_library", "library_dir", "library_status", "njit"]
+__all__ = [
+    "Kernel",
+    "activate",
+    "build_library",
+    "kernel_sources",
+    "library_dir",
+    "library_status",
+    "njit",
+    "on_compile",
+    "source_digest",
+]
 
 LIBRARY = "_inins_kernels"
 """Module name of the kernel library (an extension module)."""
@@ -63,6 +93,8 @@ _library_rows = {}
 """Qualified name -> rows run through the library's copy by this process."""
 _source_digest = None
 """Hash of the kernel sources (:func:`kernel_sources`), computed once."""
+_compile_listeners = []
+"""Callables told of every kernel numba compiles (not loads): :func:`on_compile`."""
 
 
 def njit(function=None, *, aot=False, **options):
@@ -156,6 +188,7 @@ def activate():
         import numba
 
         _key_numba_cache()
+        _report_compiles()
         for kernel in _PENDING:
             kernel._dispatcher = numba.njit(**kernel._options)(kernel.py_func)
         for name, module in list(sys.modules.items()):
@@ -300,6 +333,54 @@ def _key_numba_cache():
             return None
 
     caching.CacheImpl._locator_classes = [PackageSourcesLocator, *standard]
+
+
+def on_compile(listener):
+    """Call ``listener(event, name, seconds)`` around every kernel numba compiles
+    (a cache miss: the first run after an install, an upgrade or an edit; not a
+    cache load). ``event`` is ``"start"`` or ``"done"``, ``name`` the kernel's
+    qualified name, ``seconds`` its compile time (0 at start). Nested compiles (a
+    kernel's callees) are reported too. Returns ``listener``; see
+    :func:`remove_compile_listener`."""
+    with _LOCK:
+        _compile_listeners.append(listener)
+    return listener
+
+
+def remove_compile_listener(listener) -> None:
+    """Stop telling ``listener`` (:func:`on_compile`) of compiles."""
+    with _LOCK, contextlib.suppress(ValueError):
+        _compile_listeners.remove(listener)
+
+
+def _report_compiles():
+    """Forward numba's compile events to the :func:`on_compile` listeners."""
+    import time
+
+    from numba.core import event
+
+    class Forward(event.Listener):
+        def __init__(self):
+            self.started = {}
+
+        def _name(self, ev):
+            dispatcher = (ev.data or {}).get("dispatcher")
+            function = getattr(dispatcher, "py_func", None)
+            return _qualname(function) if function is not None else "?"
+
+        def on_start(self, ev):
+            name = self._name(ev)
+            self.started[name] = time.perf_counter()
+            for listener in list(_compile_listeners):
+                listener("start", name, 0.0)
+
+        def on_end(self, ev):
+            name = self._name(ev)
+            seconds = time.perf_counter() - self.started.pop(name, time.perf_counter())
+            for listener in list(_compile_listeners):
+                listener("done", name, seconds)
+
+    event.register("numba:compile", Forward())
 
 
 def library_dir():

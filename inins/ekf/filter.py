@@ -333,13 +333,13 @@ def run_filter(config, initial, t0, epochs, true_sensor=None):
             log.nis.append(0.0)
         else:
             rows, acc, y, s = update
-            used = int(acc.sum())
+            used = int(np.count_nonzero(acc))
             log.n_used.append(used)
             log.n_rejected.append(acc.size - used)
-            log.nis.append(float(np.sum(y[acc] ** 2 / s[acc])))
+            log.nis.append(float(np.dot(y * y / s, acc)))
             log.rows.append((index, ep.gnss.prn[rows // 2], rows % 2, y, s, acc))
         log.state.append(estimate)
-        log.sigma.append(np.sqrt(np.diag(run.P)))
+        log.sigma.append(np.sqrt(run.P.ravel()[:: n + 1]))  # the diagonal
         if ep.truth is not None:
             log.truth.append(ep.truth)
             log.covariance.append(run.P.copy())

@@ -167,6 +167,9 @@ class RecordedFlight:
     reference_pos_e: np.ndarray
     iono_alpha: np.ndarray | None = None
     iono_beta: np.ndarray | None = None
+    dropped: tuple = ()
+    """What the edge checks dropped (counted), one line each
+    (:func:`inins.io.flight_checks.checked_flight`); the commands report it."""
 
 
 def layout_text():
@@ -252,11 +255,15 @@ def _dataset(f, path, value, unit, description):
 def read_flight(path):
     """Read a file of the recorded-flight layout.
 
+    The flight is checked by :func:`inins.io.flight_checks.checked_flight` (the same
+    rules for every source): rows it drops are counted in ``dropped``.
+
     Raises
     ------
     InputError
-        Not an HDF5 file of this layout, or a required dataset missing (named),
-        or rows that do not match (the ``start`` offsets against the rows).
+        Not an HDF5 file of this layout or another version of it, a required dataset
+        missing or not numbers (named), or data breaking the rules of
+        :mod:`inins.io.flight_checks` (dataset and row named).
     """
     path = Path(path)
     try:
@@ -271,10 +278,19 @@ def read_flight(path):
                 source=str(path),
                 key="/",
             )
+        version = f.attrs.get("layout_version")
+        if version != LAYOUT_VERSION:
+            shown = version.item() if isinstance(version, np.generic) else version
+            raise InputError(
+                f"layout_version {shown!r} is not {LAYOUT_VERSION}, the version this "
+                "inins reads (written by another version of inins?)",
+                source=str(path),
+                key="/layout_version",
+            )
         values = {}
         for d in DATASETS:
             if d.path in f:
-                values[d.path] = np.asarray(f[d.path][()], dtype=d.dtype)
+                values[d.path] = _read_dataset(f, d.path, d.dtype, path)
             elif d.required:
                 raise InputError("dataset missing", source=str(path), key=d.path)
         eph = np.zeros(0, dtype=[(n, dt) for n, dt, _, _ in EPHEMERIS_FIELDS])
@@ -282,7 +298,17 @@ def read_flight(path):
             key = f"gnss/ephemeris/{name}"
             if key not in f:
                 raise InputError("dataset missing", source=str(path), key=key)
-            column = np.asarray(f[key][()], dtype=dtype)
+            column = _read_dataset(f, key, dtype, path)
+            if column.ndim != 1:
+                raise InputError(
+                    f"has shape {column.shape}, expected (n_sets,)", source=str(path), key=key
+                )
+            if len(eph) and len(eph) != len(column):
+                raise InputError(
+                    f"has {len(column)} rows, the other ephemeris fields {len(eph)}",
+                    source=str(path),
+                    key=key,
+                )
             if len(eph) != len(column):
                 eph = np.zeros(len(column), dtype=eph.dtype)
             eph[name] = column
@@ -290,15 +316,31 @@ def read_flight(path):
     return _assemble(values, eph, attrs, path)
 
 
-def _assemble(values, eph, attrs, path):
-    m = len(values["gnss/obs/prn"])
-    start = values["gnss/epoch/start"]
-    if len(start) != len(values["gnss/epoch/time"]) + 1 or start[-1] != m:
+def _read_dataset(f, key, dtype, path):
+    """A dataset as an array of ``dtype``; bad input if it is a group or not numbers
+    (integer datasets may be read from floats, then checked for whole numbers)."""
+    node = f[key]
+    if not isinstance(node, h5py.Dataset):
+        raise InputError("is a group, expected a dataset", source=str(path), key=key)
+    try:
+        raw = np.asarray(node[()])
+        if raw.dtype.kind not in "biuf":
+            raise TypeError(raw.dtype)
+        if np.dtype(dtype).kind in "iu" and raw.dtype.kind == "f":
+            return raw  # whole numbers and range checked with the rest
+        return raw.astype(dtype)
+    except (TypeError, ValueError, OSError):
         raise InputError(
-            f"epoch offsets do not match the {m} measurement rows",
+            f"holds {np.asarray(node[()]).dtype} values, expected {dtype} numbers",
             source=str(path),
-            key="gnss/epoch/start",
-        )
+            key=key,
+        ) from None
+
+
+def _assemble(values, eph, attrs, path):
+    from inins.io.flight_checks import checked_flight
+
+    m = len(values["gnss/obs/prn"])
     carrier = values.get("gnss/obs/carrier", np.full(m, np.nan))
     gnss = GnssRecord(
         carrier=carrier,
@@ -309,16 +351,50 @@ def _assemble(values, eph, attrs, path):
         },
     )
     imu = None
-    if "imu/time" in values:
+    present = [k for k in ("imu/time", "imu/dtheta", "imu/dv") if k in values]
+    if present and len(present) < 3:
+        missing = next(k for k in ("imu/time", "imu/dtheta", "imu/dv") if k not in values)
+        raise InputError(
+            f"dataset missing (the IMU needs imu/time, imu/dtheta and imu/dv; "
+            f"{', '.join(present)} found)",
+            source=str(path),
+            key=missing,
+        )
+    if present:
         imu = ImuRecord(time=values["imu/time"], dtheta=values["imu/dtheta"], dv=values["imu/dv"])
-    return RecordedFlight(
-        gnss=gnss,
-        ephemeris=eph,
-        imu=imu,
-        source=str(attrs.get("source", "")),
-        imu_t0_week=int(attrs.get("imu_t0_week", -1)),
-        imu_t0_sow=float(attrs.get("imu_t0_sow", np.nan)),
-        reference_pos_e=np.asarray(attrs.get("reference_pos_e", np.full(3, np.nan)), float),
-        iono_alpha=attrs.get("iono_alpha"),
-        iono_beta=attrs.get("iono_beta"),
-    )
+    try:
+        flight = RecordedFlight(
+            gnss=gnss,
+            ephemeris=eph,
+            imu=imu,
+            source=str(attrs.get("source", "")),
+            imu_t0_week=int(attrs.get("imu_t0_week", -1)),
+            imu_t0_sow=float(np.asarray(attrs.get("imu_t0_sow", np.nan)).reshape(-1)[0]),
+            reference_pos_e=_vector(attrs, "reference_pos_e", 3, path),
+            iono_alpha=_optional_vector(attrs, "iono_alpha", path),
+            iono_beta=_optional_vector(attrs, "iono_beta", path),
+        )
+    except (TypeError, ValueError, IndexError):
+        raise InputError(
+            "a root attribute (imu_t0_week, imu_t0_sow) is not a number", source=str(path), key="/"
+        ) from None
+    return checked_flight(flight, path)
+
+
+def _vector(attrs, name, size, path):
+    try:
+        value = np.asarray(attrs.get(name, np.full(size, np.nan)), float).reshape(-1)
+    except (TypeError, ValueError):
+        value = np.zeros(0)
+    if value.shape != (size,):
+        raise InputError(f"expected {size} numbers", source=str(path), key=f"/{name}")
+    return value
+
+
+def _optional_vector(attrs, name, path):
+    if name not in attrs:
+        return None
+    value = _vector(attrs, name, 4, path)
+    if not np.isfinite(value).all():
+        raise InputError("not finite", source=str(path), key=f"/{name}")
+    return value

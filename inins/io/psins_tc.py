@@ -62,16 +62,30 @@ def _array(mat, name, columns, path, finite=None):
         raise InputError(
             f"array {name!r} missing (expected imu, obss, ephs, t0)", source=str(path), key=name
         )
-    value = np.asarray(mat[name], dtype=float)
-    if (
-        value.ndim != 2
-        or value.shape[1] < columns
-        or not np.isfinite(value[:, finite] if finite is not None else value).all()
-    ):
+    try:
+        value = np.asarray(mat[name], dtype=float)
+    except (TypeError, ValueError):
         raise InputError(
-            f"array {name!r} has shape {value.shape}, expected (n, {columns}) of finite numbers",
+            f"array {name!r} holds {np.asarray(mat[name]).dtype} values, expected numbers",
             source=str(path),
             key=name,
+        ) from None
+    if value.ndim == 2 and value.shape[0] == columns and value.shape[1] > columns:
+        raise InputError(
+            f"array {name!r} has shape {value.shape}, expected (n, {columns}): transposed?",
+            source=str(path),
+            key=name,
+        )
+    if value.ndim != 2 or value.shape[1] < columns:
+        raise InputError(
+            f"array {name!r} has shape {value.shape}, expected (n, {columns})",
+            source=str(path),
+            key=name,
+        )
+    if finite is not None and not np.isfinite(value[:, finite]).all():
+        row = int(np.flatnonzero(~np.isfinite(value[:, finite]).all(axis=1))[0])
+        raise InputError(
+            f"row {row}: not a finite number where one is needed", source=str(path), key=name
         )
     return value
 
@@ -89,16 +103,29 @@ def _ephemeris(ephs):
     return out
 
 
-def _gnss(obss, week):
-    order = np.argsort(obss[:, 0], kind="stable")
-    obss = obss[order]
-    times, first = np.unique(obss[:, 0], return_index=True)
+def _gnss(obss, week, path):
+    """Rows grouped into epochs by their receive time, which must not decrease (a row
+    whose time is NaN is its own epoch, dropped by the edge checks)."""
+    t = obss[:, 0]
+    finite = np.flatnonzero(np.isfinite(t))
+    back = np.flatnonzero(np.diff(t[finite]) < 0.0)
+    if back.size:
+        i = int(finite[back[0] + 1])
+        raise InputError(
+            f"row {i}: receive time {t[i]:.3f} s comes before row {int(finite[back[0]])} "
+            f"({t[finite[back[0]]]:.3f} s): epochs out of order",
+            source=str(path),
+            key="obss",
+        )
+    new = np.ones(len(t), bool)
+    new[1:] = ~(t[1:] == t[:-1])
+    first = np.flatnonzero(new)
     m = len(obss)
     return GnssRecord(
-        week=np.full(len(times), week, np.int64),
-        time=times,
+        week=np.full(len(first), week, np.int64),
+        time=t[first],
         start=np.append(first, m).astype(np.int64),
-        prn=obss[:, 1].astype(np.int64),
+        prn=obss[:, 1],
         pseudorange=obss[:, 2],
         signal=np.ones(m, np.int8),
         range_rate=-obss[:, 5],
@@ -124,8 +151,11 @@ def read_psins_tc(path):
     Raises
     ------
     InputError
-        Not a MATLAB file, or an array missing or of the wrong shape (named).
+        Not a MATLAB file, an array missing, of the wrong shape or not numbers (named),
+        or data breaking the rules of :mod:`inins.io.flight_checks` (row named).
     """
+    from inins.io.flight_checks import checked_flight
+
     path = Path(path)
     try:
         mat = scipy.io.loadmat(path)
@@ -141,13 +171,17 @@ def read_psins_tc(path):
     obss = _array(mat, "obss", 6, path)
     # URA (column 26) may be NaN or inf in a valid row
     ephs = _array(mat, "ephs", 28, path, [c - 1 for c in EPHS_COLUMNS.values() if c != 26])
-    t0 = _array(mat, "t0", 1, path)
+    t0 = _array(mat, "t0", 1, path, [0])
+    if t0.size == 0:
+        raise InputError("array 't0' is empty", source=str(path), key="t0")
     eph = _ephemeris(ephs)
     if len(eph) == 0:
         raise InputError("no ephemeris row (every health is 255)", source=str(path), key="ephs")
+    if np.any(eph["week"] < 0):
+        raise InputError("a GPS week (column 24) is negative", source=str(path), key="ephs")
     week = int(np.bincount(eph["week"]).argmax())
-    return RecordedFlight(
-        gnss=_gnss(obss, week),
+    flight = RecordedFlight(
+        gnss=_gnss(obss, week, path),
         ephemeris=eph,
         imu=ImuRecord(time=imu[:, 6].copy(), dtheta=imu[:, 0:3].copy(), dv=imu[:, 3:6].copy()),
         source=f"PSINS tc file {path.name}",
@@ -155,3 +189,4 @@ def read_psins_tc(path):
         imu_t0_sow=float(t0[0, 0]),
         reference_pos_e=np.full(3, np.nan),
     )
+    return checked_flight(flight, path)

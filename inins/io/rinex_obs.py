@@ -13,6 +13,7 @@ RINEX 3 observation codes are reported under RINEX 2 names by
 ``C2W``/``C2P``/``C2Y``/``C2D`` -> P2, ``D1C`` -> D1, ``S1C`` -> S1, ``L1C`` -> L1.
 """
 
+import re
 from dataclasses import dataclass
 
 import numpy as np
@@ -115,12 +116,29 @@ class _Body:
     """Accumulates epochs and satellite records while scanning."""
 
     def __init__(self):
-        self.cal, self.flag, self.count = [], [], []
+        self.cal, self.flag, self.count, self.epoch_line = [], [], [], []
         self.prn, self.text, self.line = [], [], []
+        self.count_all = []
 
 
 def _truncated(path, line, what):
     return InputError(f"truncated epoch record: {what}", source=str(path), line=line)
+
+
+_V2_EPOCH = re.compile(r"^ [ \d]\d [ \d]\d [ \d]\d [ \d]\d [ \d]\d [ \d]\d\.\d{7}  [0-6][ \d]{2}\d")
+"""A RINEX 2 epoch line (`` 15  1  8  0  0  0.0000000  0 12G01...``)."""
+
+
+def _check_satellite_list(ids, nsat, path, line):
+    """The satellite list of a RINEX 2 epoch line must hold as many satellites as it counts."""
+    listed = [ids[3 * i : 3 * i + 3] for i in range(len(ids) // 3)]
+    given = sum(1 for sid in listed if sid.strip())
+    if given != nsat or any(not sid.strip() for sid in listed[:nsat]):
+        raise InputError(
+            f"the epoch line counts {nsat} satellites but lists {given}",
+            source=str(path),
+            line=line,
+        )
 
 
 def _epoch_v2(line, path, k):
@@ -154,10 +172,12 @@ def _scan_v2(lines, k, n_types, path):
         if k + extra >= n:
             raise _truncated(path, k + 1, "satellite list continues past the end of the file")
         ids = line[32:68] + "".join(lines[k + 1 + j][32:68] for j in range(extra))
+        epoch_line = k + 1
         k += 1 + extra
         if flag > 1:  # event record: nsat special lines follow
             k += nsat
             continue
+        _check_satellite_list(ids, nsat, path, epoch_line)
         if k + nsat * per > n:
             raise _truncated(
                 path,
@@ -167,6 +187,13 @@ def _scan_v2(lines, k, n_types, path):
         kept = 0
         for i in range(nsat):
             sid = ids[3 * i : 3 * i + 3]
+            if _V2_EPOCH.match(lines[k]):
+                raise InputError(
+                    f"the epoch line {epoch_line} counts {nsat} satellites but only {i} "
+                    "records follow before this epoch line",
+                    source=str(path),
+                    line=k + 1,
+                )
             if sid[0] in "G ":
                 body.prn.append(sid[1:3])
                 body.text.append("".join(lines[k + j].ljust(80)[:80] for j in range(per)))
@@ -176,6 +203,7 @@ def _scan_v2(lines, k, n_types, path):
         body.cal.append(cal)
         body.flag.append(flag)
         body.count.append(kept)
+        body.epoch_line.append(epoch_line)
     offsets = [(j // 5) * 80 + (j % 5) * 16 for j in range(n_types)]
     return body, per * 80, offsets
 
@@ -190,8 +218,14 @@ def _scan_v3(lines, k, n_types, path):
             k += 1
             continue
         if line[0] != ">":
+            after = (
+                f" (the epoch line {body.epoch_line[-1]} counts {body.count_all[-1]} "
+                "satellites: more records follow than it counts)"
+                if body.epoch_line
+                else ""
+            )
             raise InputError(
-                f"expected an epoch line starting '>', found {line[:20]!r}",
+                f"expected an epoch line starting '>', found {line[:20]!r}{after}",
                 source=str(path),
                 line=k + 1,
             )
@@ -209,11 +243,20 @@ def _scan_v3(lines, k, n_types, path):
             raise InputError(
                 f"unreadable epoch line {line.rstrip()!r}", source=str(path), line=k + 1
             ) from None
+        epoch_line = k + 1
         k += 1
         if flag > 1:
             k += nsat
             continue
-        if k + nsat > n or any(lines[j][:1] == ">" for j in range(k, min(k + nsat, n))):
+        short = next((j for j in range(k, min(k + nsat, n)) if lines[j][:1] == ">"), None)
+        if short is not None:
+            raise InputError(
+                f"the epoch line {epoch_line} counts {nsat} satellites but only "
+                f"{short - k} records follow before the next epoch line",
+                source=str(path),
+                line=short + 1,
+            )
+        if k + nsat > n:
             raise _truncated(path, k, f"{nsat} satellite lines expected")
         kept = 0
         for j in range(k, k + nsat):
@@ -226,6 +269,8 @@ def _scan_v3(lines, k, n_types, path):
         body.cal.append(cal)
         body.flag.append(flag)
         body.count.append(kept)
+        body.count_all.append(nsat)
+        body.epoch_line.append(epoch_line)
     return body, width, [16 * j for j in range(n_types)]
 
 
@@ -251,6 +296,21 @@ def _numbers(body, width, offsets, path):
                     "unreadable observation value", source=str(path), line=body.line[i]
                 ) from None
         raise
+
+
+def _check_epoch_order(t, epoch_line, path):
+    """Epochs must follow each other in time: a repeated or earlier epoch is refused."""
+    step = np.diff(t)
+    back = np.flatnonzero(step <= 0.0)
+    if back.size:
+        i = int(back[0]) + 1
+        said = "repeats" if step[i - 1] == 0 else "comes before"
+        raise InputError(
+            f"this epoch {said} the epoch at line {epoch_line[i - 1]}: epochs duplicated "
+            "or out of order",
+            source=str(path),
+            line=epoch_line[i],
+        )
 
 
 def read_obs(path):
@@ -284,6 +344,12 @@ def read_obs(path):
     types, marker, interval, pos = _header_info(header, version, path)
     scan = _scan_v2 if version < 3 else _scan_v3
     body, width, offsets = scan(lines, k, len(types), path)
+    if not body.cal:
+        raise InputError(
+            "no observation epoch after the header (a header-only file?)",
+            source=str(path),
+            line=len(lines),
+        )
     values = _numbers(body, width, offsets, path)
     try:
         prn = np.array(body.prn, dtype="U2").astype(np.int64)
@@ -291,6 +357,7 @@ def read_obs(path):
         raise InputError("unreadable satellite number", source=str(path)) from None
     cal = np.array(body.cal, dtype=float).reshape(-1, 6)
     week, sow = gps_week_sow(*cal[:, :5].astype(np.int64).T, cal[:, 5])
+    _check_epoch_order(np.asarray(week, float) * 604800.0 + sow, body.epoch_line, path)
     return ObservationFile(
         path=str(path),
         version=version,

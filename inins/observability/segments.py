@@ -166,7 +166,7 @@ def make_segment(
     return Segment(duration, mat, f_n, omega_ib_b, vel, lla_arr, los_n, key)
 
 
-@jit.njit(cache=True)
+@jit.njit(cache=True, aot=True)
 def _segment_starts(mat_nb, f_b, trace_min, force_max):
     """Indices where a segment starts: attitude angle since the start > threshold
     (``trace(C_s^T C_k) < 1 + 2 cos(threshold)``) or ``|f_k - f_s| > force_max``."""
@@ -285,3 +285,34 @@ def cut_segments(
         )
         segments.append(seg)
     return tuple(segments)
+
+
+def interval_means(chunks, edges, dt):
+    """Mean body rate and specific force of IMU increments over consecutive intervals.
+
+    Parameters
+    ----------
+    chunks : iterable of (k0, dtheta, dv)
+        Increments in order, ``dtheta`` and ``dv`` (m, 3) of samples ``k0 .. k0 + m``
+        (rad, m/s), e.g. :meth:`inins.core.records.TableRecord.imu_chunks`.
+    edges : array_like of int, shape (J + 1,)
+        Sample index where each interval starts, then the end of the last; samples
+        outside ``[edges[0], edges[-1])`` are ignored.
+    dt : float
+        Sample interval (s).
+
+    Returns
+    -------
+    omega_b, f_b : ndarray, shape (J, 3)
+        ``sum dtheta / (n dt)`` and ``sum dv / (n dt)`` per interval (rad/s, m/s^2);
+        an empty interval divides by one sample.
+    """
+    edges = np.asarray(edges, dtype=np.int64)
+    sums = np.zeros((len(edges) - 1, 6))
+    for k0, dtheta, dv in chunks:
+        rows = np.hstack([dtheta, dv])
+        owner = np.searchsorted(edges, np.arange(k0, k0 + len(rows)), side="right") - 1
+        inside = (owner >= 0) & (owner < len(sums))
+        np.add.at(sums, owner[inside], rows[inside])
+    span = np.maximum(np.diff(edges), 1)[:, None] * dt
+    return sums[:, :3] / span, sums[:, 3:] / span

@@ -13,8 +13,11 @@ navigation frame) and may be given in the body frame (``f_b_mps2``,
 
 from typing import Literal
 
+import numpy as np
 from pydantic import Field, model_validator
 
+from inins.core.error_model import GROUPS
+from inins.core.units import ARCSEC, DEG, DPH, UG
 from inins.scenario.base import ScenarioModel, ScenarioPath
 from inins.scenario.base import ScenarioSection as Section
 from inins.scenario.common import Site
@@ -143,6 +146,31 @@ class Priors(Section):
     clock_bias_m: PositiveFloat = Field(100.0, description="receiver clock bias (m)")
     clock_drift_mps: PositiveFloat = Field(1.0, description="receiver clock drift (m/s)")
 
+    def sigmas(self, names):
+        """Initial 1-sigma per state of ``names`` in SI, shape (n,)."""
+        group_of = {name: group for group, members in GROUPS.items() for name in members}
+        out = []
+        for name in names:
+            if name == "clock_bias":
+                out.append(self.clock_bias_m)
+            elif name == "clock_drift":
+                out.append(self.clock_drift_mps)
+            else:
+                key, unit = _PRIOR_OF_GROUP[group_of[name]]
+                out.append(getattr(self, key) * unit)
+        return np.array(out)
+
+
+_PRIOR_OF_GROUP = {  # state group -> (prior key, SI per unit)
+    "position": ("position_m", 1.0),
+    "velocity": ("velocity_mps", 1.0),
+    "attitude": ("attitude_deg", DEG),
+    "accel_bias": ("accel_bias_ug", UG),
+    "gyro_bias": ("gyro_bias_dph", DPH),
+    "accel_misalignment": ("accel_misalignment_arcsec", ARCSEC),
+    "gyro_misalignment": ("gyro_misalignment_arcsec", ARCSEC),
+}
+
 
 class Noise(Section):
     """Process noise of the covariance analysis."""
@@ -182,6 +210,14 @@ class ObservabilityScenario(ScenarioModel):
     priors: Priors = Field(default_factory=Priors)
     noise: Noise = Field(default_factory=Noise)
     covariance: bool = Field(True, description="also run the covariance analysis (1)")
+
+    def lines_of_sight(self):
+        """Unit vectors receiver -> satellite in NED, shape (k, 3), or None."""
+        if not self.satellites:
+            return None
+        az = np.array([s.azimuth_deg for s in self.satellites]) * DEG
+        el = np.array([s.elevation_deg for s in self.satellites]) * DEG
+        return np.stack([np.cos(el) * np.cos(az), np.cos(el) * np.sin(az), -np.sin(el)], axis=1)
 
     @model_validator(mode="after")
     def _sources(self):

@@ -272,7 +272,10 @@ class FilterSettings(Section):
         "whole dither periods (1 for recordings)",
     )
     pps_storage: bool = Field(
-        True, description="update with the INS state stored at the 1PPS (003 §2.1)"
+        True,
+        description="update with the INS state stored at the 1PPS (003 §2.1); false: the "
+        "naive pairing with the state at the data arrival, whose outputs are then labelled "
+        "(nav/time) and scored against truth at the arrival",
     )
     outages_s: list[tuple[float, float]] = Field(
         [], description="GPS outage windows [start, end) (s): epochs inside are coasted"

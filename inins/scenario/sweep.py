@@ -39,11 +39,23 @@ class ValueRange(ScenarioSection):
 
     @model_validator(mode="after")
     def _one_of(self):
+        for key in ("start", "stop", "step"):
+            value = getattr(self, key)
+            if value is not None and not math.isfinite(value):
+                raise KeyPathError((key,), f"must be a finite number, got {value}")
         if (self.step is None) == (self.num is None):
             raise KeyPathError(("step",), "give exactly one of step and num")
         if self.step is not None and (self.step == 0 or (self.stop - self.start) / self.step < 0):
             raise KeyPathError(("step",), "step must be nonzero and lead from start to stop")
+        if self.step is not None and not math.isfinite((self.stop - self.start) / self.step):
+            raise KeyPathError(("step",), "(stop - start) / step overflows: step too small")
         return self
+
+    def count(self) -> int:
+        """Number of values, without building them (a range may be too long to expand)."""
+        if self.num is not None:
+            return self.num
+        return math.floor((self.stop - self.start) / self.step * (1 + 1e-12) + 1e-9) + 1
 
     def values(self) -> list[float]:
         """The values, as floats."""
@@ -52,8 +64,7 @@ class ValueRange(ScenarioSection):
                 return [self.start]
             span = self.stop - self.start
             return [self.start + span * i / (self.num - 1) for i in range(self.num)]
-        count = math.floor((self.stop - self.start) / self.step * (1 + 1e-12) + 1e-9) + 1
-        return [self.start + i * self.step for i in range(count)]
+        return [self.start + i * self.step for i in range(self.count())]
 
 
 class SeedRange(ScenarioSection):
@@ -150,6 +161,15 @@ class SweepScenario(ScenarioSection):
         if isinstance(self.seeds, SeedRange):
             return list(range(self.seeds.start, self.seeds.start + self.seeds.count))
         return list(self.seeds)
+
+    def point_count(self) -> int:
+        """Number of points (grid product x zip length x seeds), without expanding any axis."""
+        count = self.seed_count()
+        for values in self.grid.values():
+            count *= len(values) if isinstance(values, list) else values.count()
+        for group in self.zip:
+            count *= len(next(iter(group.values())))
+        return count
 
     def seed_count(self) -> int:
         """Number of seeds, without building the list."""

@@ -25,6 +25,11 @@ _BOOL = "tag:yaml.org,2002:bool"
 _FLOAT = "tag:yaml.org,2002:float"
 _TIMESTAMP = "tag:yaml.org,2002:timestamp"
 _MAX_NODES = 200_000
+MAX_DEPTH = 64
+"""Deepest nesting of mappings and lists a scenario may have (the shipped ones reach 5)."""
+MAX_BYTES = 1 << 20
+"""Largest scenario text (1 MB: 20,000 observability segments); a longer list belongs
+in a data file (trajectory:, flight:)."""
 _KEY_RE = re.compile(r"^[A-Za-z_][\w-]*(?:\[\d+\])*(?:\.(?:[\w-]+)(?:\[\d+\])*)*$")
 
 
@@ -91,6 +96,13 @@ def parse_yaml(text: str, source: str) -> tuple[dict, dict]:
         Syntax error (with line and column), duplicate key, or a top level
         that is not a mapping.
     """
+    if len(text) > MAX_BYTES:
+        raise InputError(
+            f"scenario text of {len(text) / 1e6:.3g} MB, more than the {MAX_BYTES >> 20} MB a "
+            "scenario may hold (long lists of segments or steps belong in a data file)",
+            source=source,
+        )
+    _check_depth(text, source)
     loader = _Loader(text)
     try:
         node = loader.get_single_node()
@@ -113,6 +125,35 @@ def parse_yaml(text: str, source: str) -> tuple[dict, dict]:
             line=node.start_mark.line + 1,
         )
     return data, lines
+
+
+def _check_depth(text: str, source: str) -> None:
+    """Refuse nesting deeper than :data:`MAX_DEPTH` before the (recursive) composer sees
+    it; the event parser is iterative. Syntax errors are left to the composer."""
+    depth, events = 0, 0
+    loader = _Loader(text)
+    try:
+        while loader.check_event():
+            event = loader.get_event()
+            events += 1
+            if isinstance(event, yaml.CollectionStartEvent):
+                depth += 1
+                if depth > MAX_DEPTH:
+                    raise InputError(
+                        f"nested more than {MAX_DEPTH} levels deep (mappings and lists)",
+                        source=source,
+                        line=event.start_mark.line + 1,
+                    )
+            elif isinstance(event, yaml.CollectionEndEvent):
+                depth -= 1
+            if events > 2 * _MAX_NODES:
+                raise InputError(
+                    f"scenario too large (more than {_MAX_NODES} YAML nodes)", source=source
+                )
+    except yaml.YAMLError:
+        return
+    finally:
+        loader.dispose()
 
 
 def _syntax_error(exc, source) -> InputError:
@@ -207,6 +248,7 @@ def parse_override(item: str) -> tuple[tuple, object]:
         else:
             path.append(int(part) if part.isdigit() else part)
     try:
+        _check_depth(raw, f"--set {key}")
         value = yaml.load(raw, Loader=_Loader)
     except yaml.YAMLError as exc:
         problem = getattr(exc, "problem", None) or str(exc)

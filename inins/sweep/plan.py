@@ -136,15 +136,19 @@ def override(key: str, value) -> str:
     return f"{key}={json.dumps(value, allow_nan=False)}"
 
 
-def load_sweep(path, max_points: int = DEFAULT_MAX_POINTS) -> SweepPlan:
+def load_sweep(path, max_points: int = DEFAULT_MAX_POINTS, overrides=(), seed=None) -> SweepPlan:
     """Read and check a sweep file; nothing runs.
 
     Checks, each an :class:`InputError` naming the sweep file and key: the file
     and its model (:class:`inins.scenario.sweep.SweepScenario`), the base
     scenario, the number of points (<= ``max_points``), and every axis value
     against the command's scenario model (an unknown key, a wrong type, a value
-    out of range).
+    out of range). ``overrides`` (``--set``) are applied to every point after the
+    file's ``set:``; ``seed`` (``--seed``) is the seed of every point of a sweep without
+    ``seeds:``.
     """
+    from dataclasses import replace
+
     from pydantic import ValidationError
 
     from inins.scenario.base import _read_text
@@ -162,12 +166,27 @@ def load_sweep(path, max_points: int = DEFAULT_MAX_POINTS) -> SweepPlan:
         raise to_input_error(
             exc, data=data, lines=lines, source=source, model_cls=SweepScenario, overrides={}
         ) from None
-    plan = _plan(model, source)
-    if plan.size > max_points:
+    count = model.point_count()  # before any axis is expanded in memory
+    if count > max_points:
         raise InputError(
-            f"the sweep has {plan.size:,} points, more than --max-points {max_points:,}",
+            f"the sweep has {count:,} points, more than --max-points {max_points:,}",
             source=source,
         )
+    plan = _plan(model, source)
+    for item in overrides:
+        _check_key(item, "--set")
+    plan = replace(plan, fixed=plan.fixed + tuple(overrides))
+    if seed is not None:
+        from inins.commands.execute import check_seed
+
+        check_seed(seed)
+        if model.seeds is not None:
+            raise InputError(
+                "the sweep file lists Monte Carlo seeds (seeds:); --seed would replace them",
+                source=source,
+                key="--seed",
+            )
+        plan = replace(plan, seeds=(int(seed),))
     validate_axes(plan)
     return plan
 
@@ -222,7 +241,6 @@ def validate_axes(plan: SweepPlan) -> None:
     """Load the scenario of every axis value (others at their first value); raise the
     first problem as an :class:`InputError` naming the axis."""
     from inins.commands import find_command
-    from inins.commands.execute import load
 
     spec = find_command(plan.command)
     first = [axis.values[0] for axis in plan.axes]
@@ -235,7 +253,7 @@ def validate_axes(plan: SweepPlan) -> None:
                 for k, v in zip(a.keys, s, strict=True)
             )
             try:
-                load(spec, plan.base, overrides)
+                _check_point(spec, plan.base, overrides)
             except InputError as exc:
                 raise InputError(
                     f"{exc} (value {json.dumps(list(step))[1:-1]})",
@@ -244,9 +262,32 @@ def validate_axes(plan: SweepPlan) -> None:
                 ) from None
     if not plan.axes:
         try:
-            load(spec, plan.base, plan.fixed)
+            _check_point(spec, plan.base, plan.fixed)
         except InputError as exc:
             raise InputError(str(exc), source=plan.source, key="set") from None
+
+
+def _check_point(spec, base, overrides) -> None:
+    """Load a point's scenario and refuse it as the single command would before its run:
+    its size against the stated limits and its numerical edges
+    (:func:`inins.commands.budget.check_budget`, without an output folder)."""
+    from inins.commands.budget import check_budget
+    from inins.commands.execute import load
+
+    module, loaded = load(spec, base, overrides)
+    estimate = getattr(module, "estimate", None)
+    if estimate is None:
+        return
+    try:
+        check_budget(estimate(loaded.model), None)
+    except InputError as exc:
+        hint = "; pass --force to run anyway"
+        if exc.message.endswith(hint):  # a sweep has no --force: run that point alone
+            exc.message = exc.message[: -len(hint)] + (
+                "; a sweep runs no point beyond the limits (run it alone with --force)"
+            )
+            exc.args = (exc.message,)
+        raise
 
 
 def _representatives(values) -> list:

@@ -7,7 +7,7 @@ from pathlib import Path
 
 from typer.testing import CliRunner
 
-from inins.cli import _display, _runner
+from inins.cli import _runner
 from inins.cli import app as real_app
 from inins.cli.schema import schema_dict, schema_rows, schema_table
 
@@ -60,15 +60,6 @@ def test_no_bool_placeholders_in_help():
         assert result.exit_code == 0
         assert "<bool>" not in result.stdout and "<int range>" not in result.stdout, args
         assert "--force" in result.stdout or args != ["calibrate-bias", "--help"]
-
-
-def test_first_run_says_it_compiles(invoke, tmp_path, monkeypatch):
-    monkeypatch.setattr(_display, "kernels_compiled", lambda: False)
-    result = invoke("fake", "-o", tmp_path / "out")
-    assert result.exit_code == 0
-    assert "compiling numerical kernels (first run only, ~30 s)" in result.stderr
-    monkeypatch.setattr(_display, "kernels_compiled", lambda: True)
-    assert "compiling" not in invoke("fake", "-o", tmp_path / "out").stderr
 
 
 def test_progress_phases_are_labelled(monkeypatch):

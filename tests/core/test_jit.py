@@ -144,6 +144,17 @@ print(json.dumps({"numba": loaded, "equal": bool(np.array_equal(first, second))}
 """
 
 
+OBSERVABILITY = """
+import json, runpy, sys
+sys.argv = ["inins", "observability", "-o", sys.argv[1]]
+try:
+    runpy.run_module("inins", run_name="__main__")
+except SystemExit as exc:
+    code = exc.code
+print(json.dumps([code, "numba" in sys.modules]))
+"""
+
+
 def _run(out, kernel_dir):
     env = {**os.environ, "ININS_KERNEL_DIR": str(kernel_dir)}
     done = subprocess.run(
@@ -214,6 +225,26 @@ def test_a_run_through_the_library_is_the_run_through_numba_without_numba(tmp_pa
     for name, value in aot.items():
         assert np.array_equal(value, numba_run[name]), name
 
+    # the default observability run: its kernels are in the library too
+    loaded = {}
+    for name, kernels in (("aot", library), ("jit", tmp_path / "empty")):
+        done = subprocess.run(
+            [sys.executable, "-c", OBSERVABILITY, str(tmp_path / f"obs-{name}")],
+            capture_output=True,
+            text=True,
+            check=False,
+            cwd=ROOT,
+            env={**os.environ, "ININS_KERNEL_DIR": str(kernels)},
+        )
+        assert done.returncode == 0, done.stderr
+        loaded[name] = json.loads(done.stdout.strip().splitlines()[-1])
+    assert loaded == {"aot": [0, False], "jit": [0, True]}
+    aot = _datasets(tmp_path / "obs-aot" / "observability.h5")
+    numba_run = _datasets(tmp_path / "obs-jit" / "observability.h5")
+    assert aot.keys() == numba_run.keys() and len(aot) > 3
+    for name, value in aot.items():
+        assert np.array_equal(value, numba_run[name]), name
+
 
 CALLEE = "from inins.core import jit\n\n\n@jit.njit\ndef offset(x):\n    return x + {}\n"
 CALLER = (
@@ -270,3 +301,26 @@ def test_kernel_sources_are_the_kernel_modules_and_what_they_import():
         assert name in sources
     assert "core/units.py" in sources  # constants numba freezes into a kernel
     assert not any(s.startswith(("commands/", "cli/", "io/", "scenario/")) for s in sources)
+
+
+@pytest.mark.slow
+def test_a_run_on_a_fresh_install_says_what_it_compiles(tmp_path):
+    """No numba cache and no kernel library (a fresh ``pip install``): the run names
+    the compile as it starts and reports progress; the next run loads and is quiet."""
+    env = {
+        **os.environ,
+        "NUMBA_CACHE_DIR": str(tmp_path / "numba"),
+        "ININS_KERNEL_DIR": str(tmp_path / "none"),
+    }
+    args = [sys.executable, "-m", "inins", "simulate-table", "-o", str(tmp_path / "out")]
+    args += ["--set", "imu.sample_rate_hz=20"]
+
+    def run():
+        done = subprocess.run(args, capture_output=True, text=True, check=False, env=env)
+        assert done.returncode == 0, done.stderr
+        return done.stderr
+
+    first = run()
+    assert "inins simulate-table: compiling numerical kernels for this machine" in first
+    assert "kernels compiled" in first
+    assert "compiling" not in run()

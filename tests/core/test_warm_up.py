@@ -51,3 +51,26 @@ def test_pulse_counts_share_one_specialisation():
     weight = np.array([1.0, 2.0, 0.5])
     pulses.counts_from_increments(np.arange(12.0).reshape(2, 2, 3) * weight, weight)
     assert len(pulses._counts_kernel.signatures) == 1
+
+
+def test_a_compile_is_announced_with_progress_and_a_cache_load_is_not():
+    from inins.commands.warmup import CompileNotice
+    from inins.core import jit
+
+    jit.activate()
+    lines = []
+    notice = jit.on_compile(CompileNotice("inins test", lines.append, every_s=0.0))
+    try:
+
+        @jit.njit
+        def scaled(x):
+            return 3.0 * x
+
+        assert scaled(2.0) == 6.0
+        assert lines[0].startswith("inins test: compiling numerical kernels for this machine")
+        assert lines[1].startswith("inins test:   1 kernels compiled")
+        assert "scaled" in lines[1]
+        assert scaled(3.0) == 9.0  # compiled already: nothing more to say
+        assert len(lines) == 2
+    finally:
+        jit.remove_compile_listener(notice)

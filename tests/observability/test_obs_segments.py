@@ -128,3 +128,19 @@ def test_aircraft_flight_cut_into_segments_keeps_each_within_the_threshold():
         angle = np.linalg.norm(rot.rotvec_from_mat(rel), axis=-1)
         assert angle.max() <= 3 * DEG
         assert np.linalg.norm(f_b[inside] - f_b[first], axis=-1).max() <= 0.5
+
+
+def test_interval_means_of_chunked_increments():
+    """Means over intervals that straddle chunk boundaries equal the means of the whole
+    array; samples before the first edge and after the last are left out."""
+    from inins.observability.segments import interval_means
+
+    rng = np.random.default_rng(4)
+    dtheta, dv = rng.normal(size=(100, 3)), rng.normal(size=(100, 3))
+    edges = np.array([5, 17, 40, 41, 90])
+    chunks = [(k, dtheta[k : k + 23], dv[k : k + 23]) for k in range(0, 100, 23)]
+    omega, force = interval_means(chunks, edges, 0.01)
+    for j in range(len(edges) - 1):
+        lo, hi = edges[j], edges[j + 1]
+        np.testing.assert_allclose(omega[j], dtheta[lo:hi].sum(0) / ((hi - lo) * 0.01))
+        np.testing.assert_allclose(force[j], dv[lo:hi].sum(0) / ((hi - lo) * 0.01))

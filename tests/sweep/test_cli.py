@@ -27,7 +27,9 @@ def _sweep_file(folder, **extra):
 def test_sweep_runs_prints_aggregates_and_plots(tmp_path):
     pytest.importorskip("matplotlib")
     out = tmp_path / "out"
-    result = invoke("sweep", _sweep_file(tmp_path), "-o", out, "-j", "1", "--plot", "samples")
+    result = invoke(
+        "sweep", _sweep_file(tmp_path), "-o", out, "-j", "1", "--plot-result", "samples"
+    )
     assert result.exit_code == 0, result.output
     assert "2 run, 0 already finished, 0 raised; 2 of 2 points" in result.output
     assert "Sample std" not in result.output and "samples" in result.output
@@ -42,7 +44,7 @@ def test_sweep_runs_prints_aggregates_and_plots(tmp_path):
         ({"grid": {"imu.gyro.bias": [1, 2]}}, [], "grid.imu.gyro.bias"),
         ({"grid": {"motion.0.duration_s": [1, "x"]}}, [], "expected a number"),
         ({"seeds": 6}, ["--max-points", "10"], "12 points, more than --max-points 10"),
-        ({}, ["--plot", "samples", "--against", "imu.sample_rate_hz"], "not a swept key"),
+        ({}, ["--plot-result", "samples", "--against", "imu.sample_rate_hz"], "not a swept key"),
     ],
 )
 def test_bad_sweeps_exit_2_before_anything_runs(tmp_path, extra, args, expected):

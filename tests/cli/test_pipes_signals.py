@@ -1,0 +1,96 @@
+"""Real processes (issue 18, item 4): a closed standard output ends a run quietly with
+its own exit code; SIGHUP is handled like SIGTERM; Ctrl-C stops ``inins check`` at
+once, lists the finished scenarios and exits 130."""
+
+import os
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import pytest
+
+ROOT = Path(__file__).resolve().parents[2]
+CONFIGS = ROOT / "configs"
+INS = [sys.executable, "-m", "inins"]
+
+
+def _closed_stdout(args, cwd, timeout=300):
+    """Run ``inins ARGS`` with a pipe for stdout whose reader reads one line and goes
+    away (``| head -1``); return (exit code, stderr)."""
+    p = subprocess.Popen(
+        [*INS, *args], stdout=subprocess.PIPE, stderr=subprocess.PIPE, cwd=cwd, text=True
+    )
+    p.stdout.readline()
+    p.stdout.close()
+    with p.stderr:
+        err = p.stderr.read()
+    return p.wait(timeout=timeout), err
+
+
+def test_check_into_a_closed_pipe_ends_with_its_exit_code(tmp_path):
+    code, err = _closed_stdout(["check", str(CONFIGS / "observability"), "-j", "1"], tmp_path)
+    assert code == 0, err
+    assert "Traceback" not in err and "BrokenPipe" not in err
+
+
+def test_show_and_schema_into_a_closed_pipe(tmp_path):
+    out = tmp_path / "o"
+    subprocess.run([*INS, "observability", "-o", str(out)], check=True, capture_output=True)
+    code, err = _closed_stdout(["show", str(out / "observability.h5")], tmp_path)
+    assert code == 0 and "Traceback" not in err, err
+    code, err = _closed_stdout(["schema", "run-ekf"], tmp_path)
+    assert code == 0 and "Traceback" not in err, err
+
+
+def test_a_run_into_a_closed_pipe_completes_its_files(tmp_path):
+    out = tmp_path / "o"
+    code, err = _closed_stdout(
+        ["import-flight", str(CONFIGS / "import-flight" / "psins-tc.yaml"), "-o", str(out)],
+        tmp_path,
+    )
+    assert code == 0 and "Traceback" not in err, err
+    assert sorted(p.name for p in out.iterdir()) == [
+        "import-flight.h5",
+        "import-flight.txt",
+        "summary.json",
+    ]
+
+
+@pytest.mark.parametrize("sig", [signal.SIGHUP, signal.SIGTERM])
+def test_sighup_like_sigterm_leaves_nothing(tmp_path, sig):
+    out = tmp_path / "o"
+    p = subprocess.Popen(
+        [*INS, "run-ekf", str(CONFIGS / "run-ekf" / "default.yaml"), "-o", str(out)],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+    )
+    deadline = time.monotonic() + 120
+    while not out.exists() and time.monotonic() < deadline:  # the run has started
+        time.sleep(0.2)
+    time.sleep(1.0)
+    p.send_signal(sig)
+    _, err = p.communicate(timeout=120)
+    assert p.returncode == 130, err
+    assert "interrupted" in err
+    assert [q.name for q in out.iterdir()] == [] if out.exists() else True
+
+
+def test_ctrl_c_stops_check_and_lists_the_finished(tmp_path):
+    p = subprocess.Popen(
+        [*INS, "check", str(CONFIGS / "observability"), str(CONFIGS / "paper003"), "-j", "1"],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+        start_new_session=True,
+    )
+    first = p.stdout.readline()  # "checking N scenarios"
+    assert first.startswith("checking")
+    line = p.stdout.readline()  # the first finished scenario
+    assert line.startswith("[1/"), line
+    os.killpg(p.pid, signal.SIGINT)
+    _, err = p.communicate(timeout=60)  # a hang guard: the workers are stopped, not awaited
+    assert p.returncode == 130, err
+    assert "interrupted" in err and "scenarios finished" in err
