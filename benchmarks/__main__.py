@@ -26,7 +26,7 @@ SLOW_MODULES = ("bench_compile",)
 FIXED_COST = "bench_fixed_cost"
 """Whole-process figures of the default commands (``--quick``: 3 runs, no first run)."""
 """Left out by ``--quick``."""
-QUICK_AWARE = ("bench_ekf", "bench_sweep", "bench_imu")
+QUICK_AWARE = ("bench_ekf", "bench_sweep", "bench_imu", "bench_noise")
 """Modules whose ``run(quick=True)`` drops their long parts (the 4-h EKF stream, the
 sweep throughput runs, the chunked sensor-error pass)."""
 TARGETS = (  # (figure path, relation, target, what)
@@ -68,6 +68,9 @@ TARGETS = (  # (figure path, relation, target, what)
     ("bench_ekf.hour_truth_scoring_s", "<", 0.1, "EKF truth scoring one hour, s"),
     ("bench_ekf.simulation_4h_over_1h_cpu", "<=", 4.2, "run-ekf simulation 4 h / 1 h"),
     ("bench_ekf.process_run_ekf_1h_warm_s", "<", 1.5, "run-ekf 1-h flight whole process, s"),
+    ("bench_noise.noise_24h_extrapolated_s", "<", 10.0, "noise 24 h 1 kHz 6 sensors, s (extrap.)"),
+    ("bench_noise.noise_peak_rss_mb", "<", 1024.0, "noise peak RSS, MB"),
+    ("bench_noise.speedup_over_allantools", ">=", 5.0, "noise / allantools oadev speed-up"),
     ("commands.calibrate_imu_1h_1khz.warm_s", "<", 2.0, "calibrate-imu 24-pos + rates 1 h, s"),
     ("commands.calibrate_imu_xsens.warm_s", "<", 1.0, "calibrate-imu table-free Xsens, s"),
 )
@@ -79,6 +82,7 @@ MODULES = (
     "bench_observability",
     "bench_ekf",
     "bench_sweep",
+    "bench_noise",
 )
 
 

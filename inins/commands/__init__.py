@@ -111,6 +111,13 @@ COMMANDS = (
         "ranks, unobservable combinations, degree of observability.",
     ),
     CommandSpec(
+        "noise",
+        "Noise of an IMU at rest (any import-log format, a table-data file or a simulated "
+        "hold): overlapping Allan deviation with confidence intervals, the IEEE 952 noise "
+        "terms fitted with intervals, and the sensor error-model blocks for simulate-table, "
+        "run-ekf and Kalibr.",
+    ),
+    CommandSpec(
         "calibrate-imu",
         "Calibration of every error term of both triads (biases, scale factors, "
         "misalignments, g-sensitivity): multi-position and rate tests on a table, or "

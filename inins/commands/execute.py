@@ -254,7 +254,8 @@ def write_outputs(command, module, loaded, seed, outdir, makers=None, progress=N
     from inins.io.diskspace import disk_full_error, is_disk_full
 
     makers = makers or {}
-    names = (*makers, f"{command}.h5", f"{command}.txt", "summary.json")
+    files = getattr(module, "FILES", {})  # {name: function(result) -> text}, optional
+    names = (*makers, *files, f"{command}.h5", f"{command}.txt", "summary.json")
     group = AtomicGroup(outdir, names)
     current = [outdir / f"{command}.h5"]
     try:
@@ -299,6 +300,9 @@ def _write_all(command, module, loaded, seed, group, makers, progress, current):
             group[name].discard()
             del group.files[name]
             notes.append(f"figure {name} not drawn: {reason}")
+    for name, text in getattr(module, "FILES", {}).items():
+        current[0] = group[name].path
+        group[name].tmp.write_text(text(result), encoding="utf-8")
     report = build_report(prov, result.report, (*result.warnings, *notes), summary["checks"])
     current[0] = group[f"{command}.txt"].path
     group[f"{command}.txt"].tmp.write_text(report, encoding="utf-8")

@@ -58,10 +58,9 @@ def run_ekf_estimate(scenario):
     _check_forward_axis(scenario)
     if scenario.flight is None:
         return None  # a recording: a few MB, checked as it is read
-    from inins.commands.run_ekf import flight_plan
 
     flight = scenario.flight
-    plan = flight_plan(flight)
+    plan = flight.plan()
     duration = float(plan.duration)
     rate = float(flight.imu.sample_rate_hz)
     samples = duration * rate
@@ -182,7 +181,6 @@ def observability_estimate(scenario):
 
 
 def _flight_size(source):
-    from inins.commands.run_ekf import flight_plan
     from inins.scenario.base import load_scenario
     from inins.scenario.run_ekf import RunEkfScenario
 
@@ -191,7 +189,7 @@ def _flight_size(source):
         raise InputError(
             "the run-ekf scenario has no flight: section", source=str(source.scenario), key="flight"
         )
-    duration = float(flight_plan(ekf.flight).duration)
+    duration = float(ekf.flight.plan().duration)
     return duration, duration * float(source.sample_rate_hz)
 
 

@@ -14,7 +14,8 @@ from inins.cli.schema import schema_dict, schema_rows, schema_table
 ROOT = Path(__file__).resolve().parents[2]
 
 
-def test_schema_table_of_fake_command(invoke):
+def test_schema_table_of_fake_command(invoke, monkeypatch):
+    monkeypatch.delenv("COLUMNS", raising=False)  # not a terminal: the unwrapped table
     result = invoke("schema", "fake")
     assert result.exit_code == 0, result.output
     rows = {line.split()[0]: line for line in result.stdout.splitlines()[4:] if line.strip()}

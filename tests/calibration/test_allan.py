@@ -1,0 +1,192 @@
+"""Allan deviation numerics: Stable32 tables, the Greenhall & Riley edf, streaming against
+in memory, the five-term fit's coverage on simulated noise."""
+
+import math
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from inins.calibration import allan
+
+REFERENCE = Path(__file__).resolve().parents[2] / ".." / "shared" / "data" / "allan-reference"
+"""allantools' test data (LGPL-3.0), read in place, not copied into the repository."""
+
+
+def _table(name):
+    if not (REFERENCE / name).exists():
+        pytest.skip(f"reference data {name} not present (allantools tests, LGPL-3.0)")
+    return np.loadtxt(REFERENCE / name)
+
+
+def _ocxo():
+    f = np.loadtxt(REFERENCE / "ocxo_frequency.txt")
+    # fractional frequency; f - 1e7 first: f / 1e7 - 1 loses 5 digits in float64
+    return (f - 1e7) / 1e7
+
+
+def _printed(values):
+    return np.array([float(f"{v:.4e}") for v in values])
+
+
+def test_allan_deviation_matches_stable32_all_tau():
+    """Stable32's non-overlapping Allan deviation of the OCXO at 271 tau, every printed
+    digit; and the number of differences."""
+    tab = _table("stable32_adev_alltau.txt")
+    dev = allan.deviations(_ocxo()[:, None], 1.0, ms=tab[:, 0].astype(int), kinds=("adev",))
+    d = dev["adev"]
+    np.testing.assert_array_equal(_printed(d.dev[:, 0]), tab[:, 5])
+    np.testing.assert_array_equal(d.terms, tab[:, 2])
+
+
+def test_allan_deviation_matches_stable32_octave_and_its_intervals():
+    """The octave table: 10 of 12 deviations to every printed digit; at AF 512 and 2048
+    this table (Stable32's file .001, the frequency normalised to 1) differs from our value
+    by 1.8e-5 and 1.1e-4 relative, where the all-tau table of the same record (file .003)
+    is matched exactly -- the two Stable32 runs disagree there, not the formula. The
+    noise type (Alpha) is identified at every tau as Stable32 did. The 68.3 % bounds with
+    the Greenhall & Riley edf agree with Stable32's to 4e-4 relative (its chi-square
+    inverse is not exact; allantools' implementation gives our numbers, see below)."""
+    tab = _table("adev_octave.txt")
+    d = allan.deviations(_ocxo()[:, None], 1.0, ms=tab[:, 0].astype(int), kinds=("adev",))["adev"]
+    same = _printed(d.dev[:, 0]) == tab[:, 5]
+    assert same.sum() == 10 and list(tab[~same, 0]) == [512.0, 2048.0]
+    np.testing.assert_allclose(d.dev[~same, 0], tab[~same, 5], rtol=1.2e-4)
+    np.testing.assert_array_equal(d.alpha[:, 0], tab[:, 3])
+    lo, hi = d.interval(allan.ONE_SIGMA)
+    np.testing.assert_allclose(lo[:, 0], tab[:, 4], rtol=4e-4)
+    np.testing.assert_allclose(hi[:, 0], tab[:, 6], rtol=4e-4)
+
+
+def test_phase_record_matches_stable32():
+    """PHASE.DAT: all 135 tau and the octave table to every printed digit, white FM
+    identified at every octave tau, bounds within 4e-4 (as above)."""
+    x = np.loadtxt(REFERENCE / "PHASE.DAT") if (REFERENCE / "PHASE.DAT").exists() else None
+    for name in ("phase_dat_adev.txt", "phase_dat_adev_octave.txt"):
+        tab = _table(name)
+        d = allan.deviations(
+            None, 1.0, ms=tab[:, 0].astype(int), kinds=("adev",), phase=x[:, None]
+        )["adev"]
+        np.testing.assert_array_equal(_printed(d.dev[:, 0]), tab[:, 5])
+    np.testing.assert_array_equal(d.alpha[:, 0], tab[:, 3])
+    lo, hi = d.interval(allan.ONE_SIGMA)
+    np.testing.assert_allclose(lo[:, 0], tab[:, 4], rtol=4e-4)
+    np.testing.assert_allclose(hi[:, 0], tab[:, 6], rtol=4e-4)
+
+
+def test_edf_equals_allantools_greenhall():
+    """Our Greenhall & Riley edf against allantools' independent implementation (a
+    benchmark-only dependency; skipped without it): all noise types, both estimators."""
+    ci = pytest.importorskip("allantools.ci")
+    for alpha in (2, 1, 0, -1, -2):
+        for m in (1, 2, 8, 64, 1000):
+            for overlapping in (True, False):
+                ours = allan.edf_greenhall(alpha, m, 20001, overlapping=overlapping)
+                ref = ci.edf_greenhall(alpha, 2, m, 20001, overlapping=overlapping)
+                assert ours == pytest.approx(ref, rel=1e-12), (alpha, m, overlapping)
+            ours = allan.edf_greenhall(alpha, m, 20001, "mdev")
+            ref = ci.edf_greenhall(alpha, 2, m, 20001, overlapping=True, modified=True)
+            assert ours == pytest.approx(ref, rel=1e-12), (alpha, m, "mdev")
+
+
+def test_white_noise_edf_large_r_form_and_continuity():
+    """White FM, fully overlapping, J > 100: Greenhall & Riley Table 2, 1 / edf =
+    (a0 - a1 / r) / r with a0 = 2/3, a1 = 1/3 (d = 2), r = M / S."""
+    n = 100_001
+    for m in (34, 50, 400):
+        big_m = 1 + math.floor(m * (n - (1 + 2 * m)) / m)  # L = m/F + m d, F = m
+        r = big_m / m
+        assert allan.edf_greenhall(0, m, n) == pytest.approx(r / (2 / 3 - 1 / 3 / r), rel=1e-12)
+    # just below the switch (m = 33, J = 99, the basic sum) edf * m is 2.9 % lower:
+    # the discrete filter F = m against the continuous limit of the table
+    assert allan.edf_greenhall(0, 33, n) * 33 == pytest.approx(
+        allan.edf_greenhall(0, 34, n) * 34, rel=0.035
+    )
+
+
+def test_mdev_totdev_against_allantools():
+    at = pytest.importorskip("allantools")
+    rng = np.random.default_rng(3)
+    y = rng.standard_normal(4000)
+    ms = np.array([1, 2, 4, 8, 16, 32])
+    d = allan.deviations(y[:, None], 1.0, ms=ms, kinds=("oadev", "mdev", "totdev"))
+    for kind, fn in (("oadev", at.oadev), ("mdev", at.mdev), ("totdev", at.totdev)):
+        _, ref, *_ = fn(y, rate=1.0, data_type="freq", taus=ms.astype(float))
+        np.testing.assert_allclose(d[kind].dev[:, 0], ref, rtol=1e-9, err_msg=kind)
+
+
+def test_streaming_equals_in_memory_and_decimation_loses_little():
+    """The accumulator fed in uneven chunks equals the in-memory overlapping deviation
+    exactly with offsets=0; with 16 offsets per tau it differs from it by under 0.3 of
+    the full estimate's 1-sigma half-interval at every tau (white noise; measured 0.22
+    at most)."""
+    rng = np.random.default_rng(5)
+    inc = rng.standard_normal((200_000, 2)) * 1e-3 + 5e-3
+    ms = allan.tau_grid(inc.shape[0], 1, 0)
+    full = allan.deviations(inc, 0.01, ms=ms)["oadev"]
+    lo, hi = full.interval()
+    for offsets in (0, 16):
+        grid = allan.tau_grid(inc.shape[0], 1, offsets)
+        acc = allan.AllanAccumulator(0.01, 2, grid, offsets)
+        for a, b in ((0, 1), (1, 7777), (7777, 131072), (131072, 200_000)):
+            acc.add(inc[a:b])
+        d = acc.finish()
+        np.testing.assert_array_equal(d.m, ms)
+        if offsets == 0:
+            np.testing.assert_allclose(d.dev, full.dev, rtol=1e-9)
+            np.testing.assert_array_equal(d.alpha, full.alpha)
+        else:
+            assert np.all(np.abs(d.dev - full.dev) < 0.3 * (hi - lo) / 2)
+            assert not np.allclose(d.dev[-4:], full.dev[-4:], rtol=1e-6)  # it is decimated
+
+
+def test_tau_grid_denser_than_octave():
+    grid = allan.tau_grid(1 << 16, per_octave=4, offsets=16)
+    assert list(grid[:8]) == [1, 2, 3, 4, 5, 6, 7, 8]
+    assert all(allan._level(int(m), 16)[1] < 32 for m in grid)
+    assert np.all(np.diff(np.log2(grid[grid >= 16])) <= 0.3)
+
+
+TRUTH = {"q": 0.1, "arw": 1.0, "bias": 0.476, "rrw": 0.039}
+"""Crossovers at 0.03 s (quantization / white), 10 s (white / flicker), 200 s
+(flicker / rate random walk); record 1311 s at 100 Hz."""
+
+
+@pytest.mark.slow
+def test_fitted_terms_cover_the_truth_in_95_percent_of_50_seeds():
+    """Simulated quantization, white rate, flicker bias and rate random walk with known
+    coefficients, 50 seeds at once: each fitted term's 95 % interval holds the truth in at
+    least 48 of 50 (measured coverage in the message), the estimates unbiased to within
+    their spread, and the model reproduces the curve in most seeds."""
+    rng = np.random.default_rng(2026)
+    seeds, n, tau0 = 50, 1 << 17, 0.01
+    inc = allan.simulate_increments(rng, n, tau0, (seeds,), **TRUTH)
+    ms = allan.tau_grid(n, 1, 16)
+    acc = allan.AllanAccumulator(tau0, seeds, ms, 16)
+    for k in range(0, n, 1 << 15):
+        acc.add(inc[k : k + (1 << 15)])
+    dev = acc.finish()
+    fits = [allan.fit_terms(dev, c, use=allan.TERMS[:4]) for c in range(seeds)]
+    names = dict(zip(allan.TERMS[:4], TRUTH.values(), strict=True))
+    coverage = {}
+    for name, truth in names.items():
+        t = [f.term(name) for f in fits]
+        inside = sum(x.lo <= truth <= x.hi for x in t)
+        coverage[name] = inside / seeds
+        values = np.array([x.value for x in t])
+        assert abs(values.mean() - truth) < 3 * values.std() / math.sqrt(seeds) + 0.05 * truth
+    assert all(c >= 0.95 for c in coverage.values()), coverage
+    assert sum(f.reproduces for f in fits) >= 40
+
+
+def test_fit_recovers_white_noise_and_quantization_exactly_shaped():
+    """One long record, two terms: both within their intervals and 1 % of the truth."""
+    rng = np.random.default_rng(11)
+    inc = allan.simulate_increments(rng, 1 << 18, 0.01, (1,), q=0.05, arw=0.2)
+    dev = allan.deviations(inc, 0.01)["oadev"]
+    fit = allan.fit_terms(dev, 0)
+    for name, truth in (("quantization", 0.05), ("random_walk", 0.2)):
+        t = fit.term(name)
+        assert t.lo <= truth <= t.hi and t.value == pytest.approx(truth, rel=0.01)
+    assert fit.reproduces
+    assert fit.term("bias_instability").tau_range is None  # not shown: a bound
