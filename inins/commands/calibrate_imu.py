@@ -5,9 +5,9 @@ Methods (the scenario's ``methods``): the discrete rate-table method
 (:mod:`inins.calibration.tablefree`). The planner (``plan``) checks the schedule before
 anything is estimated and refuses one that cannot separate a requested term. The run
 gives every term with its 1-sigma and expanded uncertainty (k = 2), residuals per
-position, correlations, a compensation file (in the report, in the results file and,
-with ``--plot``, as ``calibrate-imu-compensation.yaml``) and, with ``--plot``, the
-before/after figures and a self-contained HTML calibration certificate.
+position, correlations, a compensation file (``calibrate-imu-compensation.yaml``, also
+in the report and the results file) and, with ``--plot``, the before/after figures and
+a self-contained HTML calibration certificate.
 """
 
 import datetime
@@ -52,8 +52,17 @@ def _certificate(result, path, data):
 FIGURES = {
     "calibrate-imu-residuals.png": _fig("residuals"),
     "calibrate-imu-certificate.html": _certificate,
-    "calibrate-imu-compensation.yaml": _fig("compensation_file"),
 }
+
+
+def _compensation_text(result):
+    from inins.commands import calibrate_imu_figures
+
+    return calibrate_imu_figures.compensation_text(result)
+
+
+FILES = {"calibrate-imu-compensation.yaml": _compensation_text}
+"""Written beside the results on every run: the compensation file of the first method."""
 
 
 # ----------------------------------------------------------------------------- inputs

@@ -124,16 +124,13 @@ def residuals(result, path):
         _draw(result, fh)
 
 
-def compensation_file(result, path):
+def compensation_text(result):
     """The compensation file of the first method (the YAML in the results file)."""
     if not result.attrs[""]["methods"]:
-        with open(path, "w", encoding="utf-8") as fh:
-            fh.write("# calibrate-imu plan only: nothing estimated, no compensation\n")
-        return
+        return "# calibrate-imu plan only: nothing estimated, no compensation\n"
     first = result.attrs[""]["methods"][0]
     pre = {"table-free": "table_free", "system-level": "system"}.get(first, first)
-    with open(path, "w", encoding="utf-8") as fh:
-        fh.write(result.attrs[pre]["compensation_yaml"])
+    return result.attrs[pre]["compensation_yaml"]
 
 
 def certificate(result, path, data=None):

@@ -132,6 +132,9 @@ def test_xsens_real_log_runs_and_passes_its_checks(tmp_path):
     res = json.loads((tmp_path / "summary.json").read_text())["results"]
     assert res["table_free_static_intervals"] == 38
     assert res["table_free_gravity_norm_rms_after_mps2"] < 2e-3
+    # the compensation file is written on every run, --plot or not
+    comp = yaml.safe_load((tmp_path / "calibrate-imu-compensation.yaml").read_text())
+    assert comp["method"] == "table-free" and comp["unit"]["name"] == "Xsens"
 
 
 def test_saturated_counts_are_refused_naming_file_and_line(tmp_path):
