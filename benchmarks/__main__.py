@@ -26,7 +26,7 @@ SLOW_MODULES = ("bench_compile",)
 FIXED_COST = "bench_fixed_cost"
 """Whole-process figures of the default commands (``--quick``: 3 runs, no first run)."""
 """Left out by ``--quick``."""
-QUICK_AWARE = ("bench_ekf", "bench_sweep", "bench_imu", "bench_noise")
+QUICK_AWARE = ("bench_ekf", "bench_sweep", "bench_imu", "bench_noise", "bench_ekf_post")
 """Modules whose ``run(quick=True)`` drops their long parts (the 4-h EKF stream, the
 sweep throughput runs, the chunked sensor-error pass)."""
 TARGETS = (  # (figure path, relation, target, what)
@@ -36,6 +36,9 @@ TARGETS = (  # (figure path, relation, target, what)
     ("bench_gnss.states_32sat_1hz_24h_s", "<", 1.0, "32 satellites 24 h at 1 Hz, s"),
     ("bench_gnss.spp_abpo_day_s", "<", 0.5, "SPP of the ABPO day, s"),
     ("bench_gnss.read_obs_abpo_s", "<", 0.5, "read the ABPO observations, s"),
+    ("bench_gnss.states_all_systems_1hz_24h_s", "<", 3.0, "4 systems 24 h at 1 Hz, s"),
+    ("bench_gnss.read_obs_mixed_day_s", "<", 0.5, "read 24 h 4-system RINEX 3, s"),
+    ("bench_gnss.spp_mixed_day_s", "<", 1.0, "SPP of a 4-system day, s"),
     ("bench_observability.som_26x100_s", "<", 0.2, "26-state SOM over 100 segments, s"),
     ("bench_observability.covariance_1h_1hz_s", "<", 1.0, "covariance 1 h at 1 Hz, s"),
     ("bench_ekf.hour_ekf2_fb_s", "<", 2.0, "EKF2-FB one hour, s"),
@@ -71,6 +74,9 @@ TARGETS = (  # (figure path, relation, target, what)
     ("bench_noise.noise_24h_extrapolated_s", "<", 10.0, "noise 24 h 1 kHz 6 sensors, s (extrap.)"),
     ("bench_noise.noise_peak_rss_mb", "<", 1024.0, "noise peak RSS, MB"),
     ("bench_noise.speedup_over_allantools", ">=", 5.0, "noise / allantools oadev speed-up"),
+    ("bench_ekf_post.hour_loose_total_s", "<", 0.5, "loose + RTS one hour, s"),
+    ("bench_ekf_post.stream_4h_peak_rss_mb", "<", 1024.0, "loose + RTS 4-h peak RSS, MB"),
+    ("bench_ekf_post.hour_tight_total_s", "<", 2.0, "tight EKF2-FB + RTS one hour, s"),
     ("commands.calibrate_imu_1h_1khz.warm_s", "<", 2.0, "calibrate-imu 24-pos + rates 1 h, s"),
     ("commands.calibrate_imu_xsens.warm_s", "<", 1.0, "calibrate-imu table-free Xsens, s"),
 )
@@ -83,6 +89,7 @@ MODULES = (
     "bench_ekf",
     "bench_sweep",
     "bench_noise",
+    "bench_ekf_post",
 )
 
 

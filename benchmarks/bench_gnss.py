@@ -8,7 +8,14 @@ cache load), wall time and process CPU time (the machine may be shared):
 - ``spp_*``: satellite states at transmit time and single-point positioning of
   the 2,727 ABPO epochs (ionosphere-free, troposphere, fault test; target < 0.5 s);
 - ``read_obs_*``: reading the gzip-compressed ABPO observation file (3 MB
-  uncompressed; target < 0.5 s).
+  uncompressed; target < 0.5 s);
+- ``states_all_*``: every satellite of the smartLoc mixed navigation file (GPS,
+  GLONASS by RK4, Galileo, BeiDou; 79 satellites) at 1 Hz over 24 h (target < 3 s);
+- ``read_obs_mixed_*``: a synthetic 24 h four-system RINEX 3.04 file at 30 s (a
+  static receiver in Berlin, every satellite above 5 deg, eight codes per system:
+  61,433 satellite rows, 8 MB; target < 0.5 s);
+- ``spp_mixed_*``: satellite states and SPP of that day (2,880 epochs, one clock
+  and three inter-system biases; target < 1 s).
 """
 
 import time
@@ -72,9 +79,134 @@ def run():
     figures.update(spp_abpo_day_s=wall, spp_cpu_s=cpu, spp_epochs_per_s=2727 / wall)
     wall, cpu = _best(lambda: read_obs(DATA / "abpo0080.15o.gz"))
     figures.update(read_obs_abpo_s=wall, read_obs_cpu_s=cpu)
+    figures.update(run_multi())
     return figures
 
 
 if __name__ == "__main__":
     for key, value in run().items():
         print(f"{key:>28}: {value:,.3f}")
+
+
+# --------------------------------------------------------------------------------------
+# Multi-GNSS (GPS, GLONASS, Galileo, BeiDou) from the smartLoc mixed navigation file
+
+SMARTLOC = DATA / "smartloc"
+BERLIN_E = np.array([3785108.11, 899901.49, 5037234.46])
+"""The smartLoc drive's start (m, ECEF): a receiver that sees all four systems."""
+
+
+def _mixed_nav():
+    from inins.gnss import broadcast
+    from inins.io.rinex_nav import read_navigation
+
+    m = read_navigation(SMARTLOC / "BRDC00WRD_U_20161580000_01D_MN.rnx.gz", leap_seconds=17)
+    return broadcast.from_records(m.records, m.glonass)
+
+
+def _all_states(nav):
+    """Every satellite of the file at 1 Hz over the day: the row of each (satellite, time)."""
+    from inins.gnss import broadcast
+
+    sats = np.unique(np.concatenate([nav.kepler.prn, nav.glonass.sat]))
+    t = np.arange(86400.0) + 86400.0  # Monday 2016-06-06, GPS week 1900
+    sat = np.repeat(sats, len(t))
+    sow = np.tile(t, len(sats))
+
+    def work():
+        index = broadcast.select(nav, sat, 1900, sow)
+        ok = index >= 0
+        return broadcast.satellite_states(nav, sat[ok], index[ok], 1900, sow[ok])
+
+    return work, len(sats)
+
+
+def synthetic_day(nav, interval=30.0, mask_deg=5.0):
+    """Observations of a static receiver in Berlin over 24 h (four systems, every satellite
+    above ``mask_deg`` with a set): exact ranges + a 30 m clock + a 5 m GLONASS bias, as
+    :class:`inins.gnss.measurements.Observations` (C1 only) and RINEX 3 columns."""
+    from inins.gnss import broadcast, measurements, propagation
+
+    sats = np.unique(np.concatenate([nav.kepler.prn, nav.glonass.sat]))
+    t = 86400.0 + np.arange(0.0, 86400.0, interval)
+    sat, sow = np.repeat(sats, len(t)), np.tile(t, len(sats))
+    index = broadcast.select(nav, sat, 1900, sow - 0.075)
+    states = broadcast.satellite_states(
+        nav, sat[index >= 0], index[index >= 0], 1900, sow[index >= 0] - 0.075
+    )
+    sat, sow = sat[index >= 0], sow[index >= 0]
+    rho, _, los, _ = propagation.geometry(states.pos, states.vel, BERLIN_E, np.zeros(3))
+    el, _ = propagation.elevation_azimuth(los, np.broadcast_to(BERLIN_E, los.shape))
+    up = el > np.radians(mask_deg)
+    order = np.lexsort((sat[up], sow[up]))
+    sat, sow = sat[up][order], sow[up][order]
+    epoch_t, counts = np.unique(sow, return_counts=True)
+    start = np.concatenate([[0], np.cumsum(counts)])
+    first = measurements.make_observations(1900, epoch_t, start, sat, rho[up][order] + 30.0)
+    for _ in range(2):  # exact ranges at the transmit time of the last pseudorange
+        epochs = measurements.attach_satellites(first, nav)
+        rng, *_ = propagation.geometry(epochs.sat_pos, epochs.sat_vel, BERLIN_E, np.zeros(3))
+        glo = epochs.obs.prn // 100 == 1
+        pr = rng + 30.0 + np.where(glo, 5.0, 0.0) - epochs.sat_clock
+        first = measurements.make_observations(1900, epoch_t, epochs.obs.start, epochs.obs.prn, pr)
+    return first
+
+
+def _rinex3_day(obs, path):
+    """Write the synthetic day as a mixed RINEX 3.04 file: per system the codes a geodetic
+    receiver records (code, phase, Doppler, SNR on two bands)."""
+    from inins.io.rinex_obs import write_obs_v3
+
+    pr = obs.pseudorange[:, None]
+    lam = 0.19
+    base = {
+        "C": pr,
+        "L": pr / lam,
+        "D": np.full_like(pr, -1234.567),
+        "S": np.full_like(pr, 45.0),
+    }
+    codes = {
+        "G": ("C1C", "L1C", "D1C", "S1C", "C2W", "L2W", "D2W", "S2W"),
+        "R": ("C1C", "L1C", "D1C", "S1C", "C2P", "L2P", "D2P", "S2P"),
+        "E": ("C1C", "L1C", "D1C", "S1C", "C5Q", "L5Q", "D5Q", "S5Q"),
+        "C": ("C2I", "L2I", "D2I", "S2I", "C7I", "L7I", "D7I", "S7I"),
+    }
+    columns = {
+        s: (
+            c,
+            np.concatenate(
+                [base[code[0]] + (3.0 if k >= 4 else 0.0) for k, code in enumerate(c)], axis=1
+            ),
+        )
+        for s, c in codes.items()
+    }
+    write_obs_v3(path, obs.week, obs.time, obs.start, obs.prn, columns)
+
+
+def run_multi():
+    """Figures of the multi-GNSS paths: reading a 24 h four-system RINEX 3 file at 30 s,
+    the states of every satellite of the mixed file at 1 Hz for 24 h, SPP of the day."""
+    import tempfile
+
+    from inins.gnss import measurements, spp
+    from inins.io.rinex_obs import read_obs
+
+    nav = _mixed_nav()
+    figures = {}
+    work, n_sat = _all_states(nav)
+    wall, cpu = _best(work)
+    figures.update(states_all_systems_1hz_24h_s=wall, states_all_cpu_s=cpu, states_all_sats=n_sat)
+    obs = synthetic_day(nav)
+    with tempfile.TemporaryDirectory() as tmp:
+        path = Path(tmp) / "BERL00DEU_R_20161580000_01D_30S_MO.rnx"
+        _rinex3_day(obs, path)
+        wall, cpu = _best(lambda: read_obs(path, "GREC"))
+        figures.update(
+            read_obs_mixed_day_s=wall,
+            read_obs_mixed_cpu_s=cpu,
+            read_obs_mixed_rows=len(obs.prn),
+            read_obs_mixed_mb=path.stat().st_size / 1e6,
+        )
+    wall, cpu = _best(lambda: spp.solve(measurements.attach_satellites(obs, nav)))
+    figures.update(spp_mixed_day_s=wall, spp_mixed_cpu_s=cpu, spp_mixed_epochs=obs.n_epochs)
+    return figures

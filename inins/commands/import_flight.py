@@ -16,15 +16,17 @@ from inins.commands import figures
 from inins.core import earth
 from inins.core.units import DEG
 from inins.exceptions import InputError
-from inins.gnss import ephemeris, measurements, spp
-from inins.gnss.measurements import Signal
+from inins.gnss import broadcast, ephemeris, glonass, measurements, spp
+from inins.gnss import systems as systems_mod
 from inins.gnss.spp import FixStatus
+from inins.gnss.systems import LETTERS, NAMES, rinex_name
 from inins.io import flight_layout
 from inins.io.flight_checks import checked_flight
 from inins.io.flight_layout import ImuRecord, RecordedFlight
 from inins.io.psins_tc import read_psins_tc
-from inins.io.rinex_nav import read_nav
-from inins.io.rinex_obs import observable, read_obs
+from inins.io.rinex_nav import read_nav, read_navigation
+from inins.io.rinex_obs import observable, read_obs, system_observable
+from inins.io.rinex_text import read_track
 from inins.results import CommandResult, Series, format_table
 from inins.scenario.import_flight import ImportFlightScenario
 
@@ -52,18 +54,18 @@ def run(scenario, seed, *, sink=None, progress=None):
     if scenario.format == "rinex":  # the PSINS reader checks its own flight
         flight = checked_flight(flight, scenario.obs_file)
     obs = measurements.from_record(flight.gnss)
+    has_klobuchar = flight.iono_alpha is not None and flight.iono_beta is not None
+    rows = measurements.ionosphere_rows(obs.signal, scenario.spp.ionosphere, has_klobuchar)
     epochs = measurements.attach_satellites(
-        obs, ephemeris.from_columns(flight.ephemeris), source=source
+        obs.take_rows(rows.keep), _navigation(scenario, flight), source=source
     )
-    klobuchar, iono = _ionosphere(scenario.spp.ionosphere, flight, epochs)
-    options = spp.SppOptions(
-        mask_rad=scenario.spp.mask_deg * DEG,
-        sigma_zenith_m=scenario.spp.sigma_zenith_m,
-        false_alarm=scenario.spp.false_alarm,
-        klobuchar=klobuchar,
-    )
-    solution = spp.solve(epochs, options)
+    klobuchar = (flight.iono_alpha, flight.iono_beta) if rows.klobuchar else None
+    iono = rows.text
+    solution = spp.solve(epochs, spp_options(scenario.spp, klobuchar))
     check = SppCheck(solution, flight, scenario.static_window_imu_s, epochs)
+    check.single_frequency_dropped = rows.dropped
+    if scenario.reference_track is not None:
+        check.score_track(*read_track(scenario.reference_track), scenario.reference_track_offset_s)
     datasets = {
         path: Series(value, unit, "", description)
         for path, (value, unit, description) in flight_layout.flight_arrays(flight).items()
@@ -81,6 +83,11 @@ def run(scenario, seed, *, sink=None, progress=None):
 
 RESULT_NAMES = (
     "epochs",
+    "epochs_accepted",
+    "single_frequency_rows_dropped",
+    "err_h_median_m",
+    "err_h_p95_m",
+    "epochs_scored",
     "epochs_fix",
     "epochs_no_fix",
     "epochs_fault_excluded",
@@ -116,6 +123,8 @@ def read_recording(scenario):
     (NaN for the PSINS file)."""
     if scenario.format == "psins-tc":
         return read_psins_tc(scenario.file), np.full(3, np.nan)
+    if scenario.systems != "G" or scenario.extra_nav_files:
+        return _read_multi(scenario)
     obs_file, nav = read_obs(scenario.obs_file), read_nav(scenario.nav_file)
     obs = measurements.from_code(
         obs_file.week,
@@ -189,32 +198,128 @@ def _reference(scenario, approx_pos_e):
     return np.full(3, np.nan)
 
 
-def _ionosphere(choice, flight, epochs):
-    """Klobuchar coefficients for SPP (or None) and the text naming the model used."""
-    has_klobuchar = flight.iono_alpha is not None and flight.iono_beta is not None
-    free = int(np.count_nonzero(epochs.obs.signal == Signal.IONO_FREE))
-    rows = len(epochs.obs.signal)
-    if choice == "iono-free" and free < rows:
-        raise InputError(
-            f"ionosphere-free needs P1 and P2 on every row; {rows - free} of {rows} rows "
-            "have single-frequency code only",
-            key="spp.ionosphere",
-        )
-    if choice == "klobuchar" and not has_klobuchar:
-        raise InputError(
-            "the navigation data carry no Klobuchar coefficients", key="spp.ionosphere"
-        )
-    use = has_klobuchar and choice in ("auto", "klobuchar")
-    klobuchar = (flight.iono_alpha, flight.iono_beta) if use else None
-    single = "Klobuchar" if use else "none (single frequency, several metres of error)"
-    if free == rows:
-        return None, "ionosphere-free P1/P2 combination"
-    if free == 0:
-        return klobuchar, f"single-frequency L1; ionosphere model: {single}"
-    return klobuchar, (
-        f"ionosphere-free P1/P2 on {free} of {rows} rows; the others L1 "
-        f"with ionosphere model: {single}"
+def spp_options(section, klobuchar):
+    """:class:`inins.gnss.spp.SppOptions` of the scenario's ``spp`` section."""
+    index = {letter: k for k, letter in enumerate(LETTERS)}
+    return spp.SppOptions(
+        mask_rad=section.mask_deg * DEG,
+        sigma_zenith_m=section.sigma_zenith_m,
+        false_alarm=section.false_alarm,
+        klobuchar=klobuchar,
+        max_exclusions=section.max_exclusions,
+        snr_reference_dbhz=section.snr_reference_dbhz,
+        system_mask_rad=tuple((index[s], v * DEG) for s, v in section.system_mask_deg.items()),
+        system_sigma_scale=tuple((index[s], v) for s, v in section.system_sigma_scale.items()),
     )
+
+
+def _nav_files(scenario):
+    """The scenario's navigation files read for all systems."""
+    return [
+        read_navigation(path, leap_seconds=scenario.leap_seconds)
+        for path in (scenario.nav_file, *scenario.extra_nav_files)
+    ]
+
+
+def _navigation(scenario, flight):
+    """Broadcast data for the SPP check: the flight's GPS sets, or every enabled system's
+    sets of the navigation files (GLONASS state vectors are not in the flight layout)."""
+    if scenario.format != "rinex" or (scenario.systems == "G" and not scenario.extra_nav_files):
+        return ephemeris.from_columns(flight.ephemeris)
+    return _enabled(scenario, _nav_files(scenario))[0]
+
+
+def _enabled(scenario, files):
+    """(Navigation of the enabled systems, files); InputError for an enabled system that no
+    navigation file carries."""
+    nav = broadcast.merge([broadcast.from_records(f.records, f.glonass) for f in files])
+    have = {LETTERS[s] for s in nav.systems}
+    for letter in scenario.systems:
+        if letter not in have:
+            raise InputError(
+                f"no navigation record of system {letter} ({NAMES[LETTERS.index(letter)]}) in "
+                f"the navigation files; they carry {''.join(sorted(have)) or 'none'}",
+                source=", ".join(f.path for f in files),
+                key="systems",
+            )
+    keep = np.isin(nav.kepler.prn // 100, [LETTERS.index(s) for s in scenario.systems])
+    glo = nav.glonass if "R" in scenario.systems else glonass.empty()
+    return broadcast.Navigation(kepler=nav.kepler.take(keep), glonass=glo), files
+
+
+def _read_multi(scenario):
+    """A multi-system RINEX recording (``systems``) as a RecordedFlight."""
+    obs_file = read_obs(scenario.obs_file, scenario.systems)
+    if len(obs_file.prn) == 0:
+        raise InputError(
+            f"no observation of the enabled systems {scenario.systems}",
+            source=str(scenario.obs_file),
+            key="systems",
+        )
+    nav, files = _enabled(scenario, _nav_files(scenario))
+    channel = broadcast.glonass_channels(nav, obs_file.prn)
+    for slot, k in obs_file.glonass_channels.items():
+        channel[obs_file.prn == 100 + slot] = k
+    observed = {LETTERS[s] for s in np.unique(obs_file.prn // 100).tolist()}
+    doppler = system_observable(obs_file, "D1")
+    lost = (obs_file.prn // 100 == 1) & np.isnan(channel) & np.isfinite(doppler)
+    if lost.any():
+        names = " ".join(sorted({rinex_name(p) for p in obs_file.prn[lost].tolist()}))
+        raise InputError(
+            f"GLONASS frequency channel missing for {names}: neither the header's GLONASS "
+            "SLOT / FRQ # nor a navigation set gives it (a Doppler needs it)",
+            source=str(scenario.obs_file),
+            key="extra_nav_files",
+        )
+    obs = measurements.from_code(
+        obs_file.week,
+        obs_file.time,
+        obs_file.start,
+        obs_file.prn,
+        system_observable(obs_file, "P1"),
+        system_observable(obs_file, "P2"),
+        system_observable(obs_file, "C1"),
+        doppler_l1=doppler,
+        snr=system_observable(obs_file, "S1"),
+        channel=channel,
+    )
+    wavelength = systems_mod.l1_wavelength(obs.prn, channel)
+    gnss = flight_layout.GnssRecord(
+        week=obs.week,
+        time=obs.time,
+        start=obs.start,
+        prn=obs.prn,
+        pseudorange=obs.pseudorange,
+        signal=obs.signal,
+        range_rate=obs.range_rate,
+        sigma=obs.sigma,
+        snr=obs.snr,
+        carrier=system_observable(obs_file, "L1") * wavelength,
+    )
+    names = ", ".join(p.name for p in (scenario.nav_file, *scenario.extra_nav_files))
+    flight = RecordedFlight(
+        gnss=gnss,
+        ephemeris=nav_records(nav),
+        imu=None,
+        source=f"RINEX {obs_file.version:g} {scenario.obs_file.name} "
+        f"({''.join(s for s in scenario.systems if s in observed)}), {names}",
+        imu_t0_week=-1,
+        imu_t0_sow=float("nan"),
+        reference_pos_e=np.full(3, np.nan),
+        iono_alpha=next((f.iono_alpha for f in files if f.iono_alpha is not None), None),
+        iono_beta=next((f.iono_beta for f in files if f.iono_beta is not None), None),
+    )
+    return flight, obs_file.approx_pos_e
+
+
+def nav_records(nav):
+    """Structured array of the Keplerian sets of a Navigation (the flight layout's table)."""
+    from dataclasses import fields as dc_fields
+
+    out = np.zeros(len(nav.kepler), dtype=[(f[0], f[1]) for f in flight_layout.EPHEMERIS_FIELDS])
+    for f in dc_fields(nav.kepler):
+        out[f.name] = getattr(nav.kepler, f.name)
+    return out
 
 
 class SppCheck:
@@ -230,8 +335,29 @@ class SppCheck:
         ref = flight.reference_pos_e
         self.error_ned = spp.errors_ned(solution, ref) if np.all(np.isfinite(ref)) else None
         self.warnings = ()
+        self.single_frequency_dropped = 0
+        self.track_error_h = None
         if not self.fixed.any():
             self.warnings = ("no epoch has four satellites above the mask: no fix at all",)
+
+    def score_track(self, time, pos, offset_s):
+        """Horizontal errors of the accepted fixes against a reference trajectory whose time
+        is GPS seconds of week minus ``offset_s`` (linear interpolation; epochs outside it
+        are not scored)."""
+        t = self.sol.time - offset_s
+        inside = (t >= time[0]) & (t <= time[-1])
+        ref = np.stack([np.interp(t, time, pos[:, i]) for i in range(3)], axis=1)
+        lla = earth.llh_from_ecef(pos[0])
+        ned = (self.sol.pos - ref) @ earth.mat_en(lla[0], lla[1])
+        err = np.hypot(ned[:, 0], ned[:, 1])
+        self.track_error_h = np.where(inside & self.accepted, err, np.nan)
+        self.track_inside = int(inside.sum())
+
+    @property
+    def accepted(self):
+        """Epochs with a fix that passed the residual test (directly or after exclusions)."""
+        status = self.sol.status
+        return self.fixed & ((status == FixStatus.FIX) | (status == FixStatus.FAULT_EXCLUDED))
 
     def imu_time(self):
         """Epoch times on the IMU clock (s), NaN without IMU."""
@@ -245,8 +371,15 @@ class SppCheck:
 
     def results(self):
         s, status = self.sol, self.sol.status
+        err_h = self.track_error_h
+        scored = None if err_h is None else err_h[np.isfinite(err_h)]
         out = {
             "epochs": len(s.time),
+            "epochs_accepted": int(np.count_nonzero(self.accepted)),
+            "single_frequency_rows_dropped": int(self.single_frequency_dropped),
+            "err_h_median_m": None if scored is None or not scored.size else _median(scored),
+            "err_h_p95_m": None if scored is None or not scored.size else _p95(scored),
+            "epochs_scored": None if scored is None else int(scored.size),
             "epochs_fix": int(np.count_nonzero(self.fixed)),
             "epochs_no_fix": int(np.count_nonzero(status == FixStatus.NO_FIX)),
             "epochs_fault_excluded": int(np.count_nonzero(status == FixStatus.FAULT_EXCLUDED)),
@@ -305,8 +438,18 @@ class SppCheck:
             "spp/pdop": Series(s.pdop, "1", "", "position dilution of precision"),
             "spp/residual_rms": Series(s.residual_rms, "m", "", "RMS of the used residuals"),
             "spp/excluded_prn": Series(s.excluded_prn, "1", "", "satellite excluded, 0 none"),
+            "spp/n_excluded": Series(s.n_excluded, "1", "", "satellites excluded in the epoch"),
             "spp/distance": Series(self.track.distance, "m", "", "path length so far"),
         }
+        if s.isb_systems:
+            out["spp/isb_m"] = Series(
+                s.isb,
+                "m",
+                "",
+                "inter-system bias of each further system ("
+                + ", ".join(NAMES[k] for k in s.isb_systems)
+                + "), NaN where not estimated",
+            )
         out.update(self.row_datasets())
         if self.error_ned is not None:
             out["spp/error_ned"] = Series(
@@ -380,7 +523,7 @@ def report(scenario, flight, epochs, check, iono):
     if dropped:
         lines.append(
             "measurements without a healthy ephemeris (dropped): "
-            + ", ".join(f"G{p:02d} x{c}" for p, c in sorted(dropped.items()))
+            + ", ".join(f"{rinex_name(p)} x{c}" for p, c in sorted(dropped.items()))
         )
     if flight.imu is not None:
         imu = flight.imu
@@ -412,8 +555,34 @@ def report(scenario, flight, epochs, check, iono):
     excluded = sorted(set(s.excluded_prn[s.excluded_prn > 0].tolist()))
     if excluded:
         lines.append(
-            "satellites excluded by the residual test: " + ", ".join(f"G{p:02d}" for p in excluded)
+            "satellites excluded by the residual test: "
+            + ", ".join(rinex_name(p) for p in excluded)
         )
+    if s.isb_systems:
+        per = ", ".join(
+            f"{NAMES[k]} {np.nanmedian(s.isb[:, j]):.2f} m"
+            if np.isfinite(s.isb[:, j]).any()
+            else f"{NAMES[k]} not estimated"
+            for j, k in enumerate(s.isb_systems)
+        )
+        used = epochs.obs.prn[s.used] // 100
+        count = ", ".join(
+            f"{NAMES[k]} {np.count_nonzero(used == k)}" for k in np.unique(epochs.obs.prn // 100)
+        )
+        lines.append(f"inter-system biases (median, against the first system): {per}")
+        lines.append(f"measurements used per system: {count}")
+    if r["single_frequency_rows_dropped"]:
+        lines.append(
+            f"single-frequency rows dropped (no ionosphere correction): "
+            f"{r['single_frequency_rows_dropped']}"
+        )
+    if r["err_h_median_m"] is not None:
+        lines += [
+            "",
+            f"against the reference trajectory: {r['epochs_scored']} accepted fixes of "
+            f"{check.track_inside} epochs inside it; horizontal error median "
+            f"{r['err_h_median_m']:.2f} m, 95th percentile {r['err_h_p95_m']:.2f} m",
+        ]
     if check.error_ned is not None:
         ned = check.error_ned[np.isfinite(check.error_ned[:, 0])]
         rms = np.sqrt(np.mean(ned**2, axis=0))

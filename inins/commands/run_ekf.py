@@ -15,7 +15,7 @@ from dataclasses import replace
 
 import numpy as np
 
-from inins.commands import figures, run_ekf_report
+from inins.commands import figures, run_ekf_post, run_ekf_report
 from inins.core import rotation, strapdown
 from inins.core.units import ARCSEC, DEG, DPH
 from inins.ekf import flight as fl
@@ -23,37 +23,43 @@ from inins.ekf import recorded, sources
 from inins.ekf.config import Coupling, FilterConfig, InitialSigma, Model, clock_psd
 from inins.ekf.filter import run_filter
 from inins.exceptions import InputError
-from inins.gnss import constellation, ephemeris, gpstime, measurements
+from inins.gnss import broadcast, constellation, ephemeris, gpstime, measurements
 from inins.io.flight_layout import read_flight
 from inins.io.resources import configs_root
-from inins.io.rinex_nav import read_nav
+from inins.io.rinex_nav import read_nav, read_navigation
 from inins.results import CommandResult, Series
 from inins.scenario.run_ekf import RunEkfScenario
 
 SCENARIO_MODEL = RunEkfScenario
-FIGURES = {
-    "run-ekf-heading-error.png": figures.run_ekf_heading,
-    "run-ekf-gyro-bias.png": figures.run_ekf_gyro_bias,
-    "run-ekf-misalignment.png": figures.run_ekf_misalignment,
-    "run-ekf-fb-corrections.png": figures.run_ekf_corrections,
-}
+FIGURES = run_ekf_post.with_post_figures(
+    {
+        "run-ekf-heading-error.png": figures.run_ekf_heading,
+        "run-ekf-gyro-bias.png": figures.run_ekf_gyro_bias,
+        "run-ekf-misalignment.png": figures.run_ekf_misalignment,
+        "run-ekf-fb-corrections.png": figures.run_ekf_corrections,
+    }
+)
 
 
 def run(scenario, seed, *, sink=None, progress=None):
     """Run the filter on the scenario's flight or recording."""
+    if scenario.post is not None:  # loosely coupled post-processing of a drive
+        return run_ekf_post.run(scenario, seed, sink=sink, progress=progress)
+    store = run_ekf_post.tight_store(scenario.filter)
     if scenario.data is not None:
-        result, info = _recorded(scenario)
+        result, info = _recorded(scenario, store)
     else:
-        result, info = _simulated(scenario, seed, progress)
+        result, info = _simulated(scenario, seed, progress, store)
+    smoothed = run_ekf_post.tight_smoothed(result, store)
     summary = result.summary()
     if result.heading_error.size and np.any(result.time >= scenario.filter.turning_from_s):
         window = result.summary(window=(scenario.filter.turning_from_s, math.inf))
         summary = replace(summary, heading_err_rms_deg=window.heading_err_rms_deg)
     return CommandResult(
         command="run-ekf",
-        results=_results(result, summary, info),
+        results=_results(result, summary, info) | smoothed.results,
         truth=_truth(info),
-        datasets=_datasets(result, info),
+        datasets=_datasets(result, info) | smoothed.datasets,
         attrs={
             "ekf": {
                 "model": result.model,
@@ -61,7 +67,7 @@ def run(scenario, seed, *, sink=None, progress=None):
                 "states": list(result.layout.names),
             }
         },
-        report=_report(scenario, result, summary, info),
+        report=_report(scenario, result, summary, info) + smoothed.report,
         warnings=info.get("dropped", ()),
     )
 
@@ -84,13 +90,12 @@ def filter_config(f, dt, lever, dither_window):
     )
 
 
-def flight_plan(flight):
-    """The scenario's :class:`inins.core.flight.FlightPlan` (kept for callers: the
-    conversion is :meth:`inins.scenario.run_ekf.Flight.plan`)."""
-    return flight.plan()
-
-
 def _ephemeris(c, duration):
+    if c.source == "mixed":  # four systems from one RINEX 3 file (no LEAP SECONDS: 17 s)
+        week, sow0 = gpstime.from_calendar(2016, 6, 6, 0, 0, 0.0)
+        path = configs_root().parent / "data" / "smartloc" / "BRDC00WRD_U_20161580000_01D_MN.rnx.gz"
+        mixed = read_navigation(path, leap_seconds=17)
+        return broadcast.from_records(mixed.records, mixed.glonass), week, sow0 + c.start_hour_s
     week, sow0 = gpstime.from_calendar(2015, 1, 8, 0, 0, 0.0)
     sow0 += c.start_hour_s
     if c.source == "walker":
@@ -109,7 +114,7 @@ def _reporting(stream, total, progress):
         progress(total, total)
 
 
-def _simulated(scenario, seed, progress=None):
+def _simulated(scenario, seed, progress=None, store=None):
     fs, gs = scenario.flight, scenario.gnss
     plan = fs.plan()
     _check_imu(fs.imu)
@@ -136,7 +141,9 @@ def _simulated(scenario, seed, progress=None):
         math.floor(plan.duration),
         progress,
     )
-    result = _checked(lambda: run_filter(config, initial, 0.0, stream, errors), "gnss.mask_deg")
+    result = _checked(
+        lambda: run_filter(config, initial, 0.0, stream, errors, store=store), "gnss.mask_deg"
+    )
     info = {"errors": errors, "forward": np.array([1.0, 0.0, 0.0]), "track": None}
     return result, info
 
@@ -185,7 +192,7 @@ def _read(data):
     return read_flight(data.file)
 
 
-def _recorded(scenario):
+def _recorded(scenario, store=None):
     d, f = scenario.data, scenario.filter
     rec = _read(d)
     if rec.imu is None or len(rec.imu.time) < 2:
@@ -198,7 +205,7 @@ def _recorded(scenario):
         imu.dtheta,
         imu.dv,
         dt,
-        measurements.from_record(rec.gnss),
+        measurements.gps_rows(measurements.from_record(rec.gnss)),  # one clock: GPS only
         rec.ephemeris,
         rec.imu_t0_sow,
         mask=d.mask_deg * DEG,
@@ -220,7 +227,8 @@ def _recorded(scenario):
         f.range_rate_sigma_mps,
     )
     result = _checked(
-        lambda: run_filter(config, start.initial, start.t_start, stream), "data.mask_deg"
+        lambda: run_filter(config, start.initial, start.t_start, stream, store=store),
+        "data.mask_deg",
     )
     t = start.time
     idx = np.clip(np.searchsorted(t, result.gnss_time), 0, len(t) - 1)
@@ -273,11 +281,14 @@ RESULT_NAMES = (
     "mg_zy_sigma_arcsec",
 )
 """Every result a run gives (null where not applicable: no truth, no recording, EKF1)."""
+RESULT_NAMES += run_ekf_post.TIGHT_SMOOTH_NAMES  # null unless filter.smoother: rts
 TRUTH_NAMES = ("gyro_bias_z_est_dph", "mg_yz_est_arcsec", "mg_zy_est_arcsec")
 
 
 def declared_results(scenario):
     """``(results, truth)`` names of every run, for validating checks before it."""
+    if scenario.post is not None:
+        return run_ekf_post.RESULT_NAMES, ()
     return RESULT_NAMES, TRUTH_NAMES
 
 

@@ -162,6 +162,7 @@ class _Run:
     def __init__(self, config, initial, t0):
         self.cfg = config
         n = self.n = len(config.layout)
+        self.keep_phi = False  # accumulate Phi over sub-intervals (a smoother's store)
         self.x = np.zeros(n)
         self.P = config.initial_sigma.covariance(n)
         self.comp = np.zeros(15)
@@ -203,6 +204,7 @@ class _Run:
         mids, mid = probes[:SUB_STEPS], int(probes[SUB_STEPS])
         step.mean_rates_at(dth, dv, probes, cfg.dither_window, cfg.dt, self.rates_sub)
         split = dt_k > 0.0 and step.rates_change(self.rates_sub, self.limits)
+        self.Phi_k = self.Phi  # the interval's transition (for a smoother's store)
         if not split:
             step.propagate(
                 self.x,
@@ -218,7 +220,10 @@ class _Run:
                 self.noise,
             )
             return
+        total = np.eye(self.n) if self.keep_phi else None
         for j in range(SUB_STEPS):
+            if total is not None and j:
+                total = self.Phi @ total
             step.propagate(
                 self.x,
                 self.P,
@@ -232,6 +237,8 @@ class _Run:
                 dt_k / SUB_STEPS,
                 self.noise,
             )
+        if total is not None:
+            self.Phi_k = self.Phi @ total
 
     def update(self, gnss, quat, vel, lla, omega_b):
         """Measurement update at the stored PPS state; per-row arrays of the rows used."""
@@ -274,7 +281,7 @@ class _Run:
         )
 
 
-def run_filter(config, initial, t0, epochs, true_sensor=None):
+def run_filter(config, initial, t0, epochs, true_sensor=None, store=None):
     """Run the tightly coupled filter over a stream of epochs (module docstring).
 
     Parameters
@@ -291,6 +298,8 @@ def run_filter(config, initial, t0, epochs, true_sensor=None):
     true_sensor : inins.core.imu.SensorErrors, optional
         Constant true sensor errors, for the NEES of the sensor states when the
         epochs carry truth.
+    store : inins.ekf.tight_store.TightStore, optional
+        Records what an RTS smoother needs per epoch.
 
     Returns
     -------
@@ -302,6 +311,7 @@ def run_filter(config, initial, t0, epochs, true_sensor=None):
         If no epoch had a satellite (nothing to couple with).
     """
     cfg, run = config, _Run(config, initial, t0)
+    run.keep_phi = store is not None
     fb = cfg.coupling is Coupling.FB
     log = EpochLog()
     wall = 0.0  # the filter's own time: producing the epochs (simulation, file) is not counted
@@ -319,6 +329,8 @@ def run_filter(config, initial, t0, epochs, true_sensor=None):
         p = ep.pps_index if cfg.pps_storage else dth.shape[0]
         tick = _time.perf_counter()
         run.propagate(start, series, dth, dv, p, t_state - run.t_prev)
+        if store is not None:
+            store.predicted(run.P, run.Phi_k)
         quat, vel, lla = _state_at(start, series, p)
         step.mean_rates(dth, dv, p, cfg.dither_window, cfg.dt, run.rates)
         coasted = len(ep.gnss) == 0 or cfg.in_outage(t_k)
@@ -343,6 +355,14 @@ def run_filter(config, initial, t0, epochs, true_sensor=None):
         if ep.truth is not None:
             log.truth.append(ep.truth)
             log.covariance.append(run.P.copy())
+        if store is not None:
+            after = run.comp.copy()
+            if fb and not coasted:
+                after[: run.sens.size] += run.x[run.sens]
+            reset = np.r_[0:9, run.sens]
+            store.updated(
+                t_state, run.x, run.P, reset, fb and not coasted, (quat, vel, lla), out, after
+            )
         if fb and not coasted:
             run.feedback(tau)
         log.update_s.append(_time.perf_counter() - tick)

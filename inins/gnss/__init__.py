@@ -1,5 +1,6 @@
-"""GNSS measurement layer (spec §6a): GPS broadcast orbits, signal propagation,
-pseudorange and range-rate models, single-point positioning and receiver simulation.
+"""GNSS measurement layer (spec §6a, docs/gnss.md): broadcast orbits of GPS, GLONASS,
+Galileo and BeiDou, signal propagation, pseudorange and range-rate models, single-point
+positioning and receiver simulation.
 
 Pure numerics like :mod:`inins.core`: no file I/O, no CLI; imports only
 ``inins.core`` (and :mod:`inins.exceptions`). Readers of RINEX, the PSINS tc
@@ -10,8 +11,13 @@ plain arrays whose names match the structures below.
 Modules
 -------
 gpstime        GPS (week, seconds of week), calendar conversion, +-302400 s wrap
+systems        satellite numbers (100 * system + PRN), per-system GM, Earth rate, carriers
+timescales     GST, BDT, GLONASST (UTC(SU) + 3 h, leap seconds) to and from GPS time
+glonass        GLONASS state vectors integrated by RK4 (PZ-90.11), clock, selection
+broadcast      :class:`~inins.gnss.broadcast.Navigation` of all systems, mixed selection
 ephemeris      :class:`~inins.gnss.ephemeris.Ephemeris` (one row per broadcast set), ``select``
-orbit          satellite position, velocity, clock and drift (IS-GPS-200 Table 20-IV)
+orbit          satellite position, velocity, clock and drift (IS-GPS-200 Table 20-IV;
+               Galileo, BeiDou incl. the GEO rotation)
 propagation    Sagnac, range / range rate / line of sight, elevation and azimuth,
                Saastamoinen troposphere, Klobuchar, ionosphere-free combination
 measurements   :class:`~inins.gnss.measurements.Observations` and
@@ -33,7 +39,8 @@ week           (n_epochs,)      week    GPS week of the epoch
 time           (n_epochs,)      s       receive time tag, GPS seconds of week, as the
                                         receiver clock reads it (true time + dt_rx)
 start          (n_epochs + 1,)  -       row offsets of each epoch
-prn            (m,)             -       satellite PRN
+prn            (m,)             -       satellite number, 100 * system + PRN/slot
+                                        (GPS PRNs unchanged; :mod:`~inins.gnss.systems`)
 pseudorange    (m,)             m       L1 (C/A or P1) or ionosphere-free P1/P2
 signal         (m,)             -       :class:`~inins.gnss.measurements.Signal`:
                                         1 L1 (TGD, ionosphere model), 2 iono-free

@@ -13,7 +13,7 @@ from dataclasses import dataclass, fields, replace
 import numpy as np
 
 from inins.core.ephemeris_fields import FIELDS
-from inins.gnss import gpstime
+from inins.gnss import gpstime, systems, timescales
 
 
 @dataclass(frozen=True)
@@ -111,7 +111,8 @@ def select(eph, prn, week, sow, *, max_age_s=7200.0, healthy_only=True):
     eph : Ephemeris
     prn : array_like of int, shape (n,)
     week : array_like of int, shape (n,) or scalar
-        GPS week of the times.
+        GPS week of the times (converted to BDT for BeiDou satellites, whose sets are
+        kept in their own time, :mod:`inins.gnss.timescales`).
     sow : array_like of float, shape (n,), s
         GPS seconds of week.
     max_age_s : float, s
@@ -127,6 +128,9 @@ def select(eph, prn, week, sow, *, max_age_s=7200.0, healthy_only=True):
         np.asarray(week, dtype=np.int64),
         np.asarray(sow, dtype=float),
     )
+    system = systems.system_of(prn)
+    if np.any(system == systems.BEIDOU):  # BeiDou sets are in BDT
+        week, sow = timescales.system_from_gps(system, week, sow)
     rows = np.flatnonzero(eph.health == 0) if healthy_only else np.arange(len(eph))
     if rows.size == 0:
         return np.full(prn.shape, -1, dtype=np.int64)

@@ -14,7 +14,7 @@ import numpy as np
 
 from inins.core import earth
 from inins.exceptions import InputError
-from inins.gnss import ephemeris, orbit, propagation
+from inins.gnss import broadcast, propagation, systems
 from inins.gnss.orbit import C
 from inins.gnss.propagation import LAMBDA_L1, ionosphere_free
 
@@ -127,15 +127,18 @@ def make_observations(
     )
 
 
-def code_pseudorange(p1, p2, c1):
+def code_pseudorange(p1, p2, c1, sat=None):
     """Pseudorange and its :class:`Signal` per row from RINEX code observables.
 
     Ionosphere-free ``(f1^2 P1 - f2^2 P2) / (f1^2 - f2^2)`` where P1 and P2 both
-    exist, else P1, else C1 (single-frequency L1). NaN where none exists.
+    exist, else P1, else C1 (single-frequency L1). NaN where none exists. GLONASS
+    rows (``sat`` given) use their band ratio ``f1 / f2 = 9 / 7`` (the same for every
+    channel).
 
     Parameters
     ----------
     p1, p2, c1 : ndarray, shape (m,), m (NaN where absent)
+    sat : ndarray of int, shape (m,), optional; satellite numbers (GPS when None)
 
     Returns
     -------
@@ -145,13 +148,21 @@ def code_pseudorange(p1, p2, c1):
     p1, p2, c1 = (np.asarray(v, float) for v in (p1, p2, c1))
     dual = np.isfinite(p1) & np.isfinite(p2)
     single = np.where(np.isfinite(p1), p1, c1)
-    pr = np.where(dual, ionosphere_free(p1, p2), single)
+    free = ionosphere_free(p1, p2)
+    if sat is not None and np.any(systems.system_of(sat) == systems.GLONASS):
+        gamma = (9.0 / 7.0) ** 2
+        free = np.where(
+            systems.system_of(sat) == systems.GLONASS, (gamma * p1 - p2) / (gamma - 1.0), free
+        )
+    pr = np.where(dual, free, single)
     return pr, np.where(dual, Signal.IONO_FREE, Signal.L1).astype(np.int8)
 
 
-def range_rate_from_doppler(doppler_hz):
-    """Range rate (m/s, positive when the range grows) from an L1 Doppler (Hz): ``-lambda_L1 D``."""
-    return -LAMBDA_L1 * np.asarray(doppler_hz, float)
+def range_rate_from_doppler(doppler_hz, wavelength=LAMBDA_L1):
+    """Range rate (m/s, positive when the range grows) from a band-1 Doppler (Hz):
+    ``-lambda D`` (``wavelength`` per row for other systems:
+    :func:`inins.gnss.systems.l1_wavelength`)."""
+    return -np.asarray(wavelength, float) * np.asarray(doppler_hz, float)
 
 
 def from_record(record):
@@ -171,7 +182,9 @@ def from_record(record):
     )
 
 
-def from_code(week, time, start, prn, p1, p2, c1, *, doppler_l1=None, snr=None, sigma=None):
+def from_code(
+    week, time, start, prn, p1, p2, c1, *, doppler_l1=None, snr=None, sigma=None, channel=None
+):
     """:class:`Observations` from RINEX-style code observables (one call for a reader's arrays).
 
     Pseudorange per :func:`code_pseudorange` (ionosphere-free where P1 and P2
@@ -184,13 +197,35 @@ def from_code(week, time, start, prn, p1, p2, c1, *, doppler_l1=None, snr=None, 
     doppler_l1 : ndarray, shape (m,), Hz, optional
     snr : ndarray, shape (m,), dB-Hz, optional
     sigma : ndarray, shape (m,), m, optional
+    channel : ndarray, shape (m,), optional
+        GLONASS frequency channel per row (NaN elsewhere): the wavelength of a GLONASS
+        Doppler. GPS-only data need none.
 
     Returns
     -------
     Observations
+
+    Raises
+    ------
+    InputError
+        A GLONASS row carries a Doppler but no frequency channel.
     """
-    pr, signal = code_pseudorange(p1, p2, c1)
-    rate = None if doppler_l1 is None else range_rate_from_doppler(doppler_l1)
+    prn = np.asarray(prn, np.int64)
+    multi = np.any(prn >= 100)
+    pr, signal = code_pseudorange(p1, p2, c1, prn if multi else None)
+    rate = None
+    if doppler_l1 is not None and not multi:
+        rate = range_rate_from_doppler(doppler_l1)
+    elif doppler_l1 is not None:
+        wavelength = systems.l1_wavelength(prn, channel)
+        lost = np.isnan(wavelength) & np.isfinite(doppler_l1)
+        if lost.any():
+            names = sorted({systems.rinex_name(p) for p in prn[lost].tolist()})
+            raise InputError(
+                f"GLONASS frequency channel missing for {' '.join(names)} (Doppler needs "
+                "it; neither the observation header nor the navigation data give it)"
+            )
+        rate = range_rate_from_doppler(doppler_l1, wavelength)
     return make_observations(
         week, time, start, prn, pr, range_rate=rate, sigma=sigma, snr=snr, signal=signal
     )
@@ -255,7 +290,9 @@ def attach_satellites(obs, eph, *, max_age_s=7200.0, source=None):
     Parameters
     ----------
     obs : Observations
-    eph : Ephemeris
+    eph : Ephemeris or inins.gnss.broadcast.Navigation
+        GPS sets, or the sets of all systems (GLONASS rows use the 15 min validity of
+        :data:`inins.gnss.glonass.MAX_AGE_S`).
     max_age_s : float, s
     source : str, optional
         File name for the error message.
@@ -269,14 +306,16 @@ def attach_satellites(obs, eph, *, max_age_s=7200.0, source=None):
     InputError
         If no measurement has an ephemeris (navigation data missing).
     """
+    nav = broadcast.as_navigation(eph)
     week = obs.week[obs.epoch]
     t_sv = obs.time[obs.epoch] - obs.pseudorange / C
-    index = ephemeris.select(eph, obs.prn, week, t_sv, max_age_s=max_age_s)
+    index = broadcast.select(nav, obs.prn, week, t_sv, max_age_s=max_age_s)
     keep = (index >= 0) & np.isfinite(obs.pseudorange)
     if obs.prn.size and not keep.any():
+        names = sorted({systems.rinex_name(p) for p in obs.prn.tolist()})
         raise InputError(
             f"no usable navigation data for the satellites observed "
-            f"(PRNs {sorted(set(obs.prn.tolist()))[:12]}): no healthy ephemeris within "
+            f"({' '.join(names[:12])}): no healthy ephemeris within "
             f"{max_age_s:.0f} s of the observation times",
             source=source,
         )
@@ -284,10 +323,11 @@ def attach_satellites(obs, eph, *, max_age_s=7200.0, source=None):
     obs = obs.take_rows(keep)
     index, week, t_sv = index[keep], week[keep], t_sv[keep]
     single = obs.signal == Signal.L1
+    tgd = np.where(single, C * broadcast.group_delay(nav, obs.prn, index), 0.0)
     t_tx = t_sv
     for _ in range(2):
-        states = orbit.satellite_states(eph, index, week, t_tx)
-        clock = states.clock - np.where(single, C * eph.tgd[index], 0.0)
+        states = broadcast.satellite_states(nav, obs.prn, index, week, t_tx)
+        clock = states.clock - tgd
         t_tx = t_sv - clock / C
     return GnssEpochs(
         obs=obs,
@@ -371,3 +411,94 @@ def predict(epochs, rx_pos, rx_vel, clock, drift, *, troposphere=True, klobuchar
         azimuth=az,
         delay=delay,
     )
+
+
+@dataclass(frozen=True)
+class IonosphereChoice:
+    """Which rows SPP uses and how their ionosphere is handled (:func:`ionosphere_rows`).
+
+    Attributes
+    ----------
+    keep : ndarray of bool, shape (m,), rows to use
+    klobuchar : bool, apply the Klobuchar model to the kept single-frequency rows
+    dropped : int, single-frequency rows left out because nothing corrects them
+    text : str, what the report says
+    """
+
+    keep: np.ndarray
+    klobuchar: bool
+    dropped: int
+    text: str
+
+
+def ionosphere_rows(signal, choice, has_klobuchar):
+    """Rows to use and the ionosphere model, for ``choice`` in auto, iono-free, klobuchar, none.
+
+    - ``iono-free``: only the ionosphere-free rows; single-frequency rows are dropped and
+      counted (a refusal only when no row is dual-frequency);
+    - ``auto``: ionosphere-free rows as they are; single-frequency rows with Klobuchar when
+      the navigation data carry it, otherwise -- beside ionosphere-free rows -- dropped and
+      counted: an uncorrected L1 row carries metres of ionosphere delay (ABPO 2015-01-08:
+      46 C1 rows, median residual 28 m, moved 7 epochs by 5-8 m); with no dual-frequency
+      row at all they are kept (single-frequency data, several metres of error, said so);
+    - ``klobuchar``: every row, Klobuchar on the single-frequency rows (needs it);
+    - ``none``: every row, no model.
+
+    Raises
+    ------
+    InputError
+        ``iono-free`` without any dual-frequency row; ``klobuchar`` without coefficients.
+    """
+    signal = np.asarray(signal)
+    free = signal == Signal.IONO_FREE
+    n_free, rows = int(free.sum()), len(signal)
+    everything = np.ones(rows, bool)
+    if choice == "iono-free":
+        if rows and not n_free:
+            raise InputError(
+                "ionosphere-free needs P1 and P2: no row has both (single-frequency data)",
+                key="spp.ionosphere",
+            )
+        text = "ionosphere-free P1/P2 combination"
+        if n_free < rows:
+            text += f"; {rows - n_free} single-frequency rows dropped"
+        return IonosphereChoice(free, False, rows - n_free, text)
+    if choice == "klobuchar" and not has_klobuchar:
+        raise InputError(
+            "the navigation data carry no Klobuchar coefficients", key="spp.ionosphere"
+        )
+    if choice == "none":
+        return IonosphereChoice(everything, False, 0, "none (no ionosphere model)")
+    if choice == "klobuchar" or has_klobuchar:
+        if n_free == rows:
+            return IonosphereChoice(everything, False, 0, "ionosphere-free P1/P2 combination")
+        what = (
+            "single-frequency L1"
+            if n_free == 0
+            else (f"ionosphere-free P1/P2 on {n_free} of {rows} rows; the others L1")
+        )
+        return IonosphereChoice(everything, True, 0, f"{what} with the Klobuchar model")
+    if n_free == rows:
+        return IonosphereChoice(everything, False, 0, "ionosphere-free P1/P2 combination")
+    if n_free == 0:
+        return IonosphereChoice(
+            everything,
+            False,
+            0,
+            "single-frequency L1; ionosphere model: none (single frequency, several "
+            "metres of error)",
+        )
+    return IonosphereChoice(
+        free,
+        False,
+        rows - n_free,
+        f"ionosphere-free P1/P2; {rows - n_free} single-frequency rows dropped (no "
+        "ionosphere model in the navigation data to correct them)",
+    )
+
+
+def gps_rows(obs):
+    """The GPS rows of ``obs`` (a consumer with one receiver clock and no inter-system bias,
+    such as the tightly coupled filter, must not mix systems)."""
+    gps = systems.system_of(obs.prn) == systems.GPS
+    return obs if gps.all() else obs.take_rows(gps)

@@ -7,6 +7,14 @@ Clock: IS-GPS-200 §20.3.3.3.3.1 with the relativistic term
 ``dtr = F e sqrt(A) sin(E_k)`` and, for single-frequency L1 users, ``- TGD``
 (§20.3.3.3.3.2). Times are GPS time (week, seconds of week) of transmission;
 positions are in the ECEF frame of that same instant.
+
+The same algorithm serves Galileo (Galileo OS SIS ICD §5.1.1, Table 58) and
+BeiDou MEO/IGSO (BDS-SIS-ICD-B1I 3.0 §5.2.4.12) with each system's GM, Earth rate
+and relativistic constant (:mod:`inins.gnss.systems`) and its own time (BDT for
+BeiDou, :mod:`inins.gnss.timescales`); BeiDou GEO satellites use the ICD's
+rotation: the orbit is computed in an inertial-aligned frame (node without
+``- omega_e tk``) and rotated by ``R_Z(omega_e tk) R_X(-5 deg)``. GLONASS is in
+:mod:`inins.gnss.glonass`.
 """
 
 from dataclasses import dataclass
@@ -14,15 +22,15 @@ from dataclasses import dataclass
 import numpy as np
 
 from inins.core import jit
+from inins.gnss import systems, timescales
 from inins.gnss.gpstime import WEEK
+from inins.gnss.systems import C  # the speed of light, declared once (systems)
 
-MU = 3.986005e14
+MU = float(systems.GM[systems.GPS])
 """WGS84 Earth gravitational constant for GPS orbits (m^3/s^2), IS-GPS-200 Table 20-IV."""
-OMEGA_E = 7.2921151467e-5
+OMEGA_E = float(systems.OMEGA_E[systems.GPS])
 """WGS84 Earth rotation rate for GPS (rad/s), IS-GPS-200 Table 20-IV."""
-C = 299792458.0
-"""Speed of light (m/s)."""
-F_REL = -4.442807633e-10
+F_REL = float(systems.F_REL[systems.GPS])
 """Relativistic clock constant F = -2 sqrt(mu) / c^2 (s/m^0.5), IS-GPS-200 §20.3.3.3.3.1."""
 KEPLER_ITERATIONS = 10
 """Most Newton steps on Kepler's equation (from E = M + e sin M; 2-3 reach 1e-15 rad
@@ -80,15 +88,28 @@ def satellite_states(eph, index, week, sow, *, tgd=False):
     )
     shape = index.shape
     par = np.stack([getattr(eph, name) for name in _PARAMS], axis=1)
+    system = systems.system_of(eph.prn)
+    if np.any(system == systems.BEIDOU):  # the request in BDT for BeiDou sets
+        week, sow = timescales.system_from_gps(system[index], week, sow)
+    consts = np.stack(
+        [
+            systems.GM[system],
+            systems.OMEGA_E[system],
+            systems.F_REL[system],
+            np.array([_is_geo(s) for s in eph.prn.tolist()], float),
+        ],
+        axis=1,
+    )
     pos = np.empty((index.size, 3))
     vel = np.empty((index.size, 3))
     clock = np.empty(index.size)
     drift = np.empty(index.size)
     _states_kernel(
-        np.ascontiguousarray(index).ravel(),
-        np.ascontiguousarray(week).ravel(),
-        np.ascontiguousarray(sow).ravel(),
+        np.array(index, np.int64).ravel(),
+        np.array(week, np.int64).ravel(),
+        np.array(sow, float).ravel(),
         par,
+        consts,
         eph.week.astype(np.int64),
         bool(tgd),
         pos,
@@ -129,15 +150,26 @@ _PARAMS = (
 )
 
 
+def _is_geo(sat):
+    return sat // 100 == systems.BEIDOU and sat % 100 in systems.BEIDOU_GEO
+
+
+_SIN_5, _COS_5 = np.sin(np.radians(-5.0)), np.cos(np.radians(-5.0))
+
+
 @jit.njit(cache=True)
 def _wrap(dt):
     return dt - WEEK * np.floor((dt + 0.5 * WEEK) / WEEK)
 
 
 @jit.njit(cache=True)
-def _states_kernel(index, week, sow, par, eph_week, tgd, pos, vel, clock, drift):
-    """IS-GPS-200 Table 20-IV per state (see :func:`satellite_states`); outputs filled in place."""
+def _states_kernel(index, week, sow, par, consts, eph_week, tgd, pos, vel, clock, drift):
+    """IS-GPS-200 Table 20-IV per state (see :func:`satellite_states`); outputs filled in place.
+
+    ``consts[set]`` = (GM, Earth rate, relativistic F, 1.0 for a BeiDou GEO set).
+    """
     for k in range(index.size):
+        mu, omega_e, f_rel, geo = consts[index[k]]
         (
             sqrt_a,
             delta_n,
@@ -164,7 +196,7 @@ def _states_kernel(index, week, sow, par, eph_week, tgd, pos, vel, clock, drift)
         weeks = float(week[k] - eph_week[index[k]]) * WEEK
         tk = _wrap(weeks + sow[k] - toe)
         a = sqrt_a * sqrt_a
-        n = np.sqrt(MU / (a * a * a)) + delta_n
+        n = np.sqrt(mu / (a * a * a)) + delta_n
         mean = m0 + n * tk
         ecc = mean + e * np.sin(mean)
         sin_e, cos_e = np.sin(ecc), np.cos(ecc)
@@ -192,8 +224,8 @@ def _states_kernel(index, week, sow, par, eph_week, tgd, pos, vel, clock, drift)
         u_dot = nu_dot * (1.0 + 2.0 * (cus * c2 - cuc * s2))
         r_dot = a * e * sin_e * ecc_dot + 2.0 * nu_dot * (crs * c2 - crc * s2)
         inc_dot = idot + 2.0 * nu_dot * (cis * c2 - cic * s2)
-        node_dot = omega_dot - OMEGA_E
-        node = omega0 + node_dot * tk - OMEGA_E * toe
+        node_dot = omega_dot - omega_e if geo == 0.0 else omega_dot
+        node = omega0 + node_dot * tk - omega_e * toe
         x_p, y_p = r * cu, r * su
         xp_dot = r_dot * cu - r * su * u_dot
         yp_dot = r_dot * su + r * cu * u_dot
@@ -201,13 +233,25 @@ def _states_kernel(index, week, sow, par, eph_week, tgd, pos, vel, clock, drift)
         si, ci = np.sin(inc), np.cos(inc)
         x = x_p * cn - y_p * ci * sn
         y = x_p * sn + y_p * ci * cn
-        pos[k, 0], pos[k, 1], pos[k, 2] = x, y, y_p * si
-        vel[k, 0] = xp_dot * cn - yp_dot * ci * sn + y_p * si * sn * inc_dot - y * node_dot
-        vel[k, 1] = xp_dot * sn + yp_dot * ci * cn - y_p * si * cn * inc_dot + x * node_dot
-        vel[k, 2] = yp_dot * si + y_p * ci * inc_dot
+        z = y_p * si
+        vx = xp_dot * cn - yp_dot * ci * sn + y_p * si * sn * inc_dot - y * node_dot
+        vy = xp_dot * sn + yp_dot * ci * cn - y_p * si * cn * inc_dot + x * node_dot
+        vz = yp_dot * si + y_p * ci * inc_dot
+        if geo != 0.0:  # BDS-SIS-ICD 5.2.4.12: R_Z(omega_e tk) R_X(-5 deg)
+            yg, zg = _COS_5 * y + _SIN_5 * z, -_SIN_5 * y + _COS_5 * z
+            vyg, vzg = _COS_5 * vy + _SIN_5 * vz, -_SIN_5 * vy + _COS_5 * vz
+            se, ce = np.sin(omega_e * tk), np.cos(omega_e * tk)
+            x, y, z = ce * x + se * yg, -se * x + ce * yg, zg
+            vx, vy, vz = (
+                ce * vx + se * vyg + omega_e * y,
+                -se * vx + ce * vyg - omega_e * x,
+                vzg,
+            )
+        pos[k, 0], pos[k, 1], pos[k, 2] = x, y, z
+        vel[k, 0], vel[k, 1], vel[k, 2] = vx, vy, vz
         tc = _wrap(weeks + sow[k] - toc)
-        clk = af0 + af1 * tc + af2 * tc * tc + F_REL * e * sqrt_a * sin_e
+        clk = af0 + af1 * tc + af2 * tc * tc + f_rel * e * sqrt_a * sin_e
         if tgd:
             clk -= group_delay
         clock[k] = C * clk
-        drift[k] = C * (af1 + 2.0 * af2 * tc + F_REL * e * sqrt_a * cos_e * ecc_dot)
+        drift[k] = C * (af1 + 2.0 * af2 * tc + f_rel * e * sqrt_a * cos_e * ecc_dot)

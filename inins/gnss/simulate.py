@@ -19,7 +19,7 @@ import numpy as np
 
 from inins.core import earth
 from inins.core.units import DEG
-from inins.gnss import ephemeris, orbit, propagation
+from inins.gnss import broadcast, ephemeris, orbit, propagation, systems
 from inins.gnss.measurements import Signal, make_observations
 from inins.gnss.orbit import C
 
@@ -124,7 +124,10 @@ class SimulationOptions:
     mask_rad (rad), sigma_pr_m (m), sigma_rate_mps (m/s): 1-sigma white noise,
     divided by sin(elevation) when ``elevation_noise``; ``signal``: L1 (TGD and
     Klobuchar apply) or IONO_FREE; ``troposphere``: Saastamoinen delay on;
-    ``klobuchar``: (alpha, beta) or None.
+    ``klobuchar``: (alpha, beta) or None (scaled by ``(f_L1 / f)^2`` for other systems'
+    band-1 signals); ``system_bias_m``: (system index, m) pairs, an inter-system bias the
+    receiver adds to that system's pseudoranges (GLONASS-GPS time offset and receiver
+    code biases).
     """
 
     mask_rad: float = 10.0 * DEG
@@ -134,9 +137,10 @@ class SimulationOptions:
     signal: Signal = Signal.L1
     troposphere: bool = True
     klobuchar: tuple | None = None
+    system_bias_m: tuple = ()
 
 
-def _delays(los, pos_e, sow, options):
+def _delays(los, pos_e, sow, options, sat=None):
     el, az = propagation.elevation_azimuth(los, pos_e)
     lla = earth.llh_from_ecef(pos_e)
     delay = np.zeros_like(el)
@@ -144,9 +148,8 @@ def _delays(los, pos_e, sow, options):
         delay += propagation.troposphere_saastamoinen(lla[..., 2], lla[..., 0], el)
     if options.klobuchar is not None and options.signal == Signal.L1:
         alpha, beta = options.klobuchar
-        delay += propagation.ionosphere_klobuchar(
-            sow, lla[..., 0], lla[..., 1], el, az, alpha, beta
-        )
+        iono = propagation.ionosphere_klobuchar(sow, lla[..., 0], lla[..., 1], el, az, alpha, beta)
+        delay += iono if sat is None else iono * systems.iono_scale(sat)
     return el, delay
 
 
@@ -155,8 +158,10 @@ def simulate(eph, week, time, pos_e, vel_e, clock, drift, rng, options=Simulatio
 
     Parameters
     ----------
-    eph : Ephemeris
-        Constellation (a navigation file or :func:`inins.gnss.constellation.walker`).
+    eph : Ephemeris or inins.gnss.broadcast.Navigation
+        Constellation (a navigation file or :func:`inins.gnss.constellation.walker`); a
+        Navigation of a mixed file simulates every system in it (GLONASS within the 15 min
+        of its sets).
     week : int
     time : ndarray, shape (n,), s
         True GPS seconds of week of reception.
@@ -174,26 +179,42 @@ def simulate(eph, week, time, pos_e, vel_e, clock, drift, rng, options=Simulatio
     truth : ReceiverTruth
     """
     time = np.asarray(time, float)
-    prns = np.unique(eph.prn[eph.health == 0])
+    nav = eph if isinstance(eph, broadcast.Navigation) else None
+    if nav is None:
+        prns = np.unique(eph.prn[eph.health == 0])
+    else:
+        prns = np.unique(
+            np.concatenate(
+                [nav.kepler.prn[nav.kepler.health == 0], nav.glonass.sat[nav.glonass.health == 0]]
+            )
+        )
     shape = (len(time), len(prns))
     t = np.broadcast_to(time[:, None], shape)
     prn = np.broadcast_to(prns[None, :], shape)
     rx, rx_vel = np.asarray(pos_e, float)[:, None, :], np.asarray(vel_e, float)[:, None, :]
     tau = np.full(shape, 0.075)
-    index = ephemeris.select(eph, prn, week, t - tau)
+    if nav is None:
+        index = ephemeris.select(eph, prn, week, t - tau)
+    else:
+        index = broadcast.select(nav, prn.ravel(), week, (t - tau).ravel()).reshape(shape)
     have = index >= 0
-    index = np.where(have, index, 0)
     single = options.signal == Signal.L1
+    index = np.where(have, index, 0)
     for _ in range(3):
-        sat = orbit.satellite_states(eph, index, week, t - tau, tgd=single)
+        sat = _states(eph, nav, prn, index, week, t - tau, single, have)
         rho, rate, los, _ = propagation.geometry(sat.pos, sat.vel, rx, rx_vel)
-        el, delay = _delays(los, rx, t, options)
+        el, delay = _delays(los, rx, t, options, None if nav is None else prn)
         tau = (rho + delay) / C
     seen = have & (el >= options.mask_rad)
     scale = 1.0 / np.sin(np.clip(el, 1e-3, None)) if options.elevation_noise else 1.0
     sigma = np.broadcast_to(options.sigma_pr_m * scale, shape)
     sigma_rate = options.sigma_rate_mps * scale
     pr = rho + clock[:, None] - sat.clock + delay + sigma * rng.standard_normal(shape)
+    if options.system_bias_m:
+        bias = np.zeros(systems.SBAS + 1)
+        for system, value in options.system_bias_m:
+            bias[system] = value
+        pr = pr + bias[systems.system_of(prn)]
     rr = rate + drift[:, None] - sat.drift + sigma_rate * rng.standard_normal(shape)
     counts = seen.sum(axis=1)
     obs = make_observations(
@@ -214,6 +235,24 @@ def simulate(eph, week, time, pos_e, vel_e, clock, drift, rng, options=Simulatio
         drift=np.asarray(drift, float),
     )
     return obs, truth
+
+
+def _states(eph, nav, prn, index, week, t_tx, single, have):
+    """Satellite states (shape of ``index``) of GPS sets, or of any system's (computed where
+    ``have``; elsewhere a placeholder far below the horizon of nothing, masked later)."""
+    if nav is None:
+        return orbit.satellite_states(eph, index, week, t_tx, tgd=single)
+    shape = index.shape
+    pos = np.tile([2.6e7, 0.0, 0.0], (*shape, 1))
+    vel, clock, drift = np.zeros((*shape, 3)), np.zeros(shape), np.zeros(shape)
+    flat = broadcast.satellite_states(
+        nav, prn[have], index[have], week, np.broadcast_to(t_tx, shape)[have]
+    )
+    pos[have], vel[have], drift[have] = flat.pos, flat.vel, flat.drift
+    clock[have] = flat.clock
+    if single:
+        clock[have] -= C * broadcast.group_delay(nav, prn[have], index[have])
+    return orbit.SatelliteStates(pos=pos, vel=vel, clock=clock, drift=drift)
 
 
 def static_receiver(lat, lon, height, n):

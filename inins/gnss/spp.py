@@ -15,6 +15,16 @@ epoch solved again and tested again; the excluded PRN is reported. With five
 satellites a fault is detectable but not identifiable (all w_i are equal):
 the epoch is flagged. Fewer than four satellites: no fix (recorded, not an error).
 
+Several systems: one receiver clock ``b`` plus one inter-system bias per further
+system present in the data (``P = ... + b + b_s`` on rows of system ``s``; the bias
+takes the system time offsets, GLONASS-GPS, Galileo GGTO, BDT 14 s is already
+removed, and the receiver's inter-system code biases). In an epoch the lowest
+system present carries ``b`` alone (its bias column is left out), so an epoch
+needs ``3 + (systems present)`` satellites. GLONASS channels share one bias: the
+receiver's inter-frequency code biases (up to ~1 m between channels) stay in the
+residuals. Per-system elevation masks and sigma scales: :class:`SppOptions`.
+GPS-only data give exactly the four-unknown solution.
+
 Velocity and clock drift from range rates (or Doppler, ``rate = -lambda_L1 D``):
 ``rdot = s (A - e . v_rx) + d - c dt_sv_dot`` (see
 :func:`inins.gnss.propagation.geometry`), linear least squares at the fixed position.
@@ -29,7 +39,7 @@ import numpy as np
 from inins.core import earth
 from inins.core.stats import chi2_ppf
 from inins.core.units import DEG
-from inins.gnss import propagation
+from inins.gnss import propagation, systems
 from inins.gnss.measurements import Signal
 
 NEAR_EARTH_M = 6.0e6
@@ -74,8 +84,22 @@ class SppOptions:
     troposphere : bool
         Saastamoinen standard-atmosphere model.
     klobuchar : tuple of two (4,) arrays or None
-        (alpha, beta) for L1 rows; the ionosphere-free rows need none.
+        (alpha, beta) for L1 rows; the ionosphere-free rows need none. Other systems'
+        band-1 rows take it scaled by ``(f_L1 / f)^2``.
     max_iterations : int
+    system_mask_rad : tuple of (system index, rad) pairs
+        Elevation mask of a system instead of ``mask_rad``.
+    system_sigma_scale : tuple of (system index, factor) pairs
+        Pseudorange sigma of a system's rows = factor * ``sigma_zenith_m`` (1 when absent).
+    max_exclusions : int
+        Satellites excluded one after another (largest w first) until the residual test
+        passes; each exclusion keeps two rows of redundancy. 1 on clean sky (a station);
+        several in a city, where more than one signal arrives reflected.
+    snr_reference_dbhz : float or None, dB-Hz
+        Carrier-to-noise weighting: a row's sigma is multiplied by
+        ``max(1, 10^((ref - C/N0) / 20))`` (variance ``~ 10^(-C/N0 / 10)`` below the
+        reference, the model of Kuusniemi et al. 2004); None: no weighting. Rows without
+        C/N0 keep factor 1.
     """
 
     mask_rad: float = 10.0 * DEG
@@ -86,6 +110,10 @@ class SppOptions:
     troposphere: bool = True
     klobuchar: tuple | None = None
     max_iterations: int = 12
+    system_mask_rad: tuple = ()
+    system_sigma_scale: tuple = ()
+    max_exclusions: int = 1
+    snr_reference_dbhz: float | None = None
 
 
 @dataclass(frozen=True)
@@ -104,7 +132,12 @@ class SppSolution:
     n_used : ndarray of int64, shape (n,), satellites in the position solution
     pdop : ndarray, shape (n,)
     residual_rms : ndarray, shape (n,), m, unweighted RMS of the used residuals
-    excluded_prn : ndarray of int64, shape (n,), 0 when none was excluded
+    excluded_prn : ndarray of int64, shape (n,), 0 when none was excluded (the first one
+        when several were)
+    n_excluded : ndarray of int64, shape (n,), satellites excluded
+    isb : ndarray, shape (n, j), m, inter-system bias of each system of ``isb_systems``
+        (NaN in epochs where that system is absent or carries the clock)
+    isb_systems : tuple of int, the system indices of the ``isb`` columns
     residual : ndarray, shape (m,), m, pseudorange residual (measured - model)
     used : ndarray of bool, shape (m,)
     elevation, azimuth : ndarray, shape (m,), rad
@@ -121,6 +154,9 @@ class SppSolution:
     pdop: np.ndarray
     residual_rms: np.ndarray
     excluded_prn: np.ndarray
+    n_excluded: np.ndarray
+    isb: np.ndarray
+    isb_systems: tuple
     residual: np.ndarray
     used: np.ndarray
     elevation: np.ndarray
@@ -135,7 +171,7 @@ def padded_rows(start):
     return np.where(col < counts[:, None], start[:-1, None] + col, -1)
 
 
-def _model_terms(los, rx_pos, sow, signal, options):
+def _model_terms(los, rx_pos, sow, signal, options, scale=1.0):
     """Elevation, azimuth, troposphere and ionosphere (m) per padded row; ``rx_pos`` (n, 1, 3)."""
     el, az = propagation.elevation_azimuth(los, rx_pos)
     lla = earth.llh_from_ecef(rx_pos[:, 0, :])
@@ -147,16 +183,16 @@ def _model_terms(los, rx_pos, sow, signal, options):
         iono = propagation.ionosphere_klobuchar(
             sow[:, None], lla[:, 0:1], lla[:, 1:2], el, az, alpha, beta
         )
-        delay += np.where(signal == Signal.L1, iono, 0.0)
+        delay += np.where(signal == Signal.L1, iono * scale, 0.0)
     return el, az, delay
 
 
-def _weights(el, near, use, options):
+def _weights(el, near, m, options):
     sin_el = np.where(
         near[:, None] & options.elevation_weights, np.sin(np.clip(el, 1e-3, None)), 1.0
     )
-    ok = use & (~near[:, None] | (el >= options.mask_rad))
-    return np.where(ok, sin_el**2 / options.sigma_zenith_m**2, 0.0), ok
+    ok = m.use & (~near[:, None] | (el >= m.mask))
+    return np.where(ok, sin_el**2 / (options.sigma_zenith_m * m.sigma_scale) ** 2, 0.0), ok
 
 
 def _normal(h, w, v):
@@ -166,7 +202,11 @@ def _normal(h, w, v):
 
 @dataclass(frozen=True)
 class _Padded:
-    """Measurements of n epochs padded to k slots: (n, k[, 3]); ``use`` False in the padding."""
+    """Measurements of n epochs padded to k slots: (n, k[, 3]); ``use`` False in the padding.
+
+    ``system`` is the column of each slot's inter-system bias (-1: none, the first system);
+    ``mask`` (rad) and ``sigma_scale`` per slot; ``iono`` the Klobuchar scale per slot.
+    """
 
     sat_pos: np.ndarray
     pr: np.ndarray
@@ -174,6 +214,11 @@ class _Padded:
     signal: np.ndarray
     use: np.ndarray
     sow: np.ndarray
+    system: np.ndarray
+    mask: np.ndarray
+    sigma_scale: np.ndarray
+    iono: np.ndarray
+    n_isb: int
 
     def take(self, k, use=None):
         return _Padded(
@@ -183,12 +228,18 @@ class _Padded:
             self.signal[k],
             self.use[k] if use is None else use,
             self.sow[k],
+            self.system[k],
+            self.mask[k],
+            self.sigma_scale[k],
+            self.iono[k],
+            self.n_isb,
         )
 
 
 class _Fit(NamedTuple):
-    """State of the batch least squares: x (n, 4) [m, m, m, m]; per slot (n, k): residual v
-    (m), weight w (1/m^2), ok (used), el, az (rad); design h (n, k, 4); done (n,)."""
+    """State of the batch least squares: x (n, 4 + j) [m, m, m, m, m...]; per slot (n, k):
+    residual v (m), weight w (1/m^2), ok (used), el, az (rad); design h (n, k, 4 + j);
+    done (n,); active (n, j) inter-system bias columns estimated in each epoch."""
 
     x: np.ndarray
     v: np.ndarray
@@ -198,6 +249,7 @@ class _Fit(NamedTuple):
     az: np.ndarray
     h: np.ndarray
     done: np.ndarray
+    active: np.ndarray
 
     def take(self, k):
         return _Fit(*(a[k] for a in self))
@@ -209,12 +261,28 @@ class _Fit(NamedTuple):
             a[k] = b
         return _Fit(*arrays)
 
+    @property
+    def n_par(self):
+        """Unknowns of each epoch (n,): position, clock and the active biases."""
+        return 4 + self.active.sum(axis=1)
 
-def _pad(epochs, rows):
+
+def _pad(epochs, rows, options):
     have = rows >= 0
     r = np.where(have, rows, 0)
     obs = epochs.obs
     pr = np.where(have, obs.pseudorange[r], np.nan)
+    system = systems.system_of(obs.prn)
+    present = np.unique(system)
+    column = np.full(systems.SBAS + 1, -1, np.int64)
+    column[present[1:]] = np.arange(len(present) - 1)
+    mask = np.full(systems.SBAS + 1, options.mask_rad)
+    scale = np.ones(systems.SBAS + 1)
+    for s, value in options.system_mask_rad:
+        mask[s] = value
+    for s, value in options.system_sigma_scale:
+        scale[s] = value
+    slot_system = np.where(have, system[r], present[0] if len(present) else 0)
     return _Padded(
         sat_pos=np.where(have[..., None], epochs.sat_pos[r], [2.0e7, 0.0, 0.0]),
         pr=pr,
@@ -222,55 +290,101 @@ def _pad(epochs, rows):
         signal=np.where(have, obs.signal[r], Signal.IONO_FREE),
         use=have & np.isfinite(pr),
         sow=obs.time,
+        system=column[slot_system],
+        mask=mask[slot_system],
+        sigma_scale=scale[slot_system] * _snr_scale(obs.snr, r, have, options),
+        iono=systems.iono_scale(np.where(have, obs.prn[r], 1)),
+        n_isb=len(present) - 1,
     )
 
 
+def _snr_scale(snr, r, have, options):
+    """Sigma factor of each slot from its carrier-to-noise density (1 when off or absent)."""
+    if options.snr_reference_dbhz is None:
+        return 1.0
+    cn0 = np.where(have, snr[r], np.nan)
+    factor = np.sqrt(10.0 ** ((options.snr_reference_dbhz - cn0) / 10.0))
+    return np.where(np.isfinite(factor), np.maximum(factor, 1.0), 1.0)
+
+
+def _active(ok, m):
+    """(n, j): bias column j is estimated where its system has used rows and is not the
+    lowest system present (that one carries the receiver clock)."""
+    j = m.n_isb
+    if j == 0:
+        return np.zeros((len(ok), 0), bool)
+    onehot = m.system[..., None] == np.arange(j)  # (n, k, j)
+    present = (onehot & ok[..., None]).any(axis=1)
+    base_used = (ok & (m.system < 0)).any(axis=1)
+    first = np.argmax(present, axis=1)
+    lowest = np.zeros_like(present)
+    lowest[np.arange(len(ok)), first] = ~base_used & present.any(axis=1)
+    return present & ~lowest
+
+
 def _linearize(x, m, options):
-    """Residuals, weights, used slots, elevation, azimuth and design matrix at ``x`` (n, 4)."""
+    """Residuals, weights, used slots, elevation, azimuth, design matrix and active bias
+    columns at ``x`` (n, 4 + j)."""
     rx = x[:, None, :3]
     rng, _, los, _ = propagation.geometry(m.sat_pos, np.zeros_like(m.sat_pos), rx)
     near = np.linalg.norm(x[:, :3], axis=1) > NEAR_EARTH_M
-    el, az, delay = _model_terms(los, rx, m.sow, m.signal, options)
+    el, az, delay = _model_terms(los, rx, m.sow, m.signal, options, m.iono)
     delay = np.where(near[:, None], delay, 0.0)
-    v = m.pr - (rng + x[:, 3:4] - m.clk + delay)
-    w, ok = _weights(el, near, m.use, options)
+    w, ok = _weights(el, near, m, options)
     h = np.concatenate([-los, np.ones_like(rng)[..., None]], axis=-1)
-    return v, w, ok, el, az, h, near
+    active = _active(ok, m)
+    if m.n_isb:
+        ind = (m.system[..., None] == np.arange(m.n_isb)) & active[:, None, :]
+        h = np.concatenate([h, ind.astype(float)], axis=-1)
+        bias = np.einsum("nkj,nj->nk", ind, x[:, 4:])
+    else:
+        bias = 0.0
+    v = m.pr - (rng + x[:, 3:4] + bias - m.clk + delay)
+    return v, w, ok, el, az, h, near, active
+
+
+def _solve_normal(nmat, rhs, active, enough):
+    """Solve the stacked normal equations; inactive bias columns and epochs without
+    enough rows get an identity block (their step is zero)."""
+    size = nmat.shape[-1]
+    eye = np.eye(size)
+    free = np.concatenate([np.zeros((len(nmat), 4), bool), ~active], axis=1)
+    nmat = nmat + free[:, :, None] * eye
+    nmat[~enough] = eye
+    rhs = np.where(free | ~enough[:, None], 0.0, rhs)
+    return np.linalg.solve(nmat, rhs[..., None])[..., 0]
 
 
 def _iterate(x, m, options):
-    """Gauss-Newton on all epochs at once, from ``x`` (n, 4), on the padded measurements ``m``.
-
-    The returned residuals are evaluated at the final ``x``.
-    """
+    """Gauss-Newton on all epochs at once, from ``x`` (n, 4 + j), on the padded
+    measurements ``m``. The returned residuals are evaluated at the final ``x``."""
     done = np.zeros(len(x), bool)
     for _ in range(options.max_iterations):
-        v, w, ok, _, _, h, near = _linearize(x, m, options)
+        v, w, ok, _, _, h, near, active = _linearize(x, m, options)
         nmat, rhs = _normal(h, np.where(np.isfinite(v), w, 0.0), np.nan_to_num(v))
-        enough = ok.sum(axis=1) >= 4
-        nmat[~enough] = np.eye(4)
-        rhs[~enough] = 0.0
-        dx = np.linalg.solve(nmat, rhs[..., None])[..., 0]
+        enough = ok.sum(axis=1) >= 4 + active.sum(axis=1)
+        dx = _solve_normal(nmat, rhs, active, enough)
         dx[done] = 0.0
         x = x + dx
         done |= (np.abs(dx).max(axis=1) < 1e-4) & near
         if done[enough].all():
             break
-    v, w, ok, el, az, h, _ = _linearize(x, m, options)
-    return _Fit(x, v, w, ok, el, az, h, done)
+    v, w, ok, el, az, h, _, active = _linearize(x, m, options)
+    return _Fit(x, v, w, ok, el, az, h, done, active)
 
 
-def _w_test(h, w, v, ok):
+def _w_test(h, w, v, ok, active):
     """Normalised residuals ``v_i / sqrt(Q_vv,ii)`` with ``Q_vv = W^-1 - H N^-1 H^T``."""
     nmat, _ = _normal(h, w, v)
-    ninv = np.linalg.inv(nmat)
+    free = np.concatenate([np.zeros((len(nmat), 4), bool), ~active], axis=1)
+    ninv = np.linalg.inv(nmat + free[:, :, None] * np.eye(nmat.shape[-1]))
     hq = np.einsum("nki,nij,nkj->nk", h, ninv, h)
     qvv = np.where(ok, 1.0 / np.where(w > 0, w, 1.0) - hq, np.inf)
     return np.where(ok & (qvv > 1e-12), np.abs(v) / np.sqrt(np.abs(qvv)), 0.0)
 
 
-def _chi2_fail(w, v, ok, false_alarm):
-    dof = ok.sum(axis=1) - 4
+def _chi2_fail(w, v, ok, false_alarm, n_par):
+    dof = ok.sum(axis=1) - n_par
     chi2 = np.sum(np.where(ok, w * v**2, 0.0), axis=1)
     limit = chi2_ppf(1.0 - false_alarm, np.maximum(dof, 1))
     return (dof > 0) & (chi2 > limit)
@@ -293,19 +407,20 @@ def solve(epochs, options=SppOptions(), initial=None):
     obs = epochs.obs
     n = obs.n_epochs
     rows = padded_rows(obs.start)
-    padded = _pad(epochs, rows)
-    x0 = np.zeros((n, 4))
+    padded = _pad(epochs, rows, options)
+    x0 = np.zeros((n, 4 + padded.n_isb))
     if initial is not None:
         x0[:, :3] = initial
     fit = _iterate(x0, padded, options)
     status = np.where(fit.done, FixStatus.FIX, FixStatus.NOT_CONVERGED).astype(np.int8)
     excluded = np.zeros(n, np.int64)
-    fail = _chi2_fail(fit.w, fit.v, fit.ok, options.false_alarm)
+    n_excluded = np.zeros(n, np.int64)
+    fail = _chi2_fail(fit.w, fit.v, fit.ok, options.false_alarm, fit.n_par)
     status[fail] = FixStatus.FAULT_DETECTED
     if options.exclude_faults and fail.any():
-        fit, fixed, prn = _exclude(np.flatnonzero(fail), fit, padded, obs.prn, rows, options)
-        status[fixed], excluded[fixed] = FixStatus.FAULT_EXCLUDED, prn
-    no_fix = fit.ok.sum(axis=1) < 4
+        fit, fixed, prn, count = _exclude(np.flatnonzero(fail), fit, padded, obs.prn, rows, options)
+        status[fixed], excluded[fixed], n_excluded[fixed] = FixStatus.FAULT_EXCLUDED, prn, count
+    no_fix = fit.ok.sum(axis=1) < fit.n_par
     fit = fit._replace(ok=fit.ok & ~no_fix[:, None])
     n_used = fit.ok.sum(axis=1)
     status[no_fix] = FixStatus.NO_FIX
@@ -328,38 +443,59 @@ def solve(epochs, options=SppOptions(), initial=None):
         drift=drift,
         status=status,
         n_used=n_used,
-        pdop=np.where(no_fix, np.nan, _pdop(fit.h, fit.ok)),
+        pdop=np.where(no_fix, np.nan, _pdop(fit.h, fit.ok, fit.active)),
         residual_rms=np.where(no_fix, np.nan, rms),
         excluded_prn=excluded,
+        n_excluded=n_excluded,
+        isb=np.where(fit.active & ~no_fix[:, None], x[:, 4:], np.nan),
+        isb_systems=tuple(np.unique(systems.system_of(obs.prn)).tolist()[1:]),
         used=used,
         **per_row,
     )
 
 
 def _exclude(failed, fit, padded, prn, rows, options):
-    """Exclude the satellite with the largest w-statistic in failed epochs with >= 6 used.
+    """Exclude, one at a time and up to ``options.max_exclusions``, the satellite with the
+    largest w-statistic in failed epochs that keep two rows of redundancy.
 
-    Returns the fit with the epochs that pass after the exclusion replaced, those
-    epochs (int array) and the PRN excluded in each.
+    Returns the fit with the epochs that pass after the exclusions replaced, those epochs
+    (int array), the first PRN excluded in each and how many were excluded.
     """
-    candidates = failed[fit.ok[failed].sum(axis=1) >= 6]
-    if candidates.size == 0:
-        return fit, candidates, np.zeros(0, np.int64)
-    sub = fit.take(candidates)
-    worst = np.argmax(_w_test(sub.h, sub.w, sub.v, sub.ok), axis=1)
-    use = padded.use[candidates].copy()
-    use[np.arange(len(candidates)), worst] = False
-    again = _iterate(sub.x, padded.take(candidates, use), options)
-    passed = ~_chi2_fail(again.w, again.v, again.ok, options.false_alarm) & again.done
-    fixed = candidates[passed]
-    return fit.put(fixed, again.take(passed)), fixed, prn[rows[fixed, worst[passed]]]
+    done_k, done_prn, done_count = [], [], []
+    current = failed[fit.ok[failed].sum(axis=1) >= fit.n_par[failed] + 2]
+    sub = fit.take(current)
+    use = padded.use[current].copy()
+    first = np.zeros(len(current), np.int64)
+    for round_ in range(options.max_exclusions):
+        if current.size == 0:
+            break
+        worst = np.argmax(_w_test(sub.h, sub.w, sub.v, sub.ok, sub.active), axis=1)
+        use[np.arange(len(current)), worst] = False
+        if round_ == 0:
+            first = prn[rows[current, worst]]
+        again = _iterate(sub.x, padded.take(current, use), options)
+        passed = (
+            ~_chi2_fail(again.w, again.v, again.ok, options.false_alarm, again.n_par) & again.done
+        )
+        fit = fit.put(current[passed], again.take(passed))
+        done_k.append(current[passed])
+        done_prn.append(first[passed])
+        done_count.append(np.full(passed.sum(), round_ + 1))
+        more = ~passed & (again.ok.sum(axis=1) >= again.n_par + 2)
+        current, sub, use, first = current[more], again.take(more), use[more], first[more]
+    if not done_k:
+        return fit, np.zeros(0, np.int64), np.zeros(0, np.int64), np.zeros(0, np.int64)
+    return fit, np.concatenate(done_k), np.concatenate(done_prn), np.concatenate(done_count)
 
 
-def _pdop(h, ok):
+def _pdop(h, ok, active):
     """Position dilution of precision of the used, unweighted geometry."""
     nmat, _ = _normal(h, ok.astype(float), np.zeros(ok.shape))
-    good = ok.sum(axis=1) >= 4
-    nmat[~good] = np.eye(4)
+    good = ok.sum(axis=1) >= 4 + active.sum(axis=1)
+    size = nmat.shape[-1]
+    free = np.concatenate([np.zeros((len(nmat), 4), bool), ~active], axis=1)
+    nmat = nmat + free[:, :, None] * np.eye(size)
+    nmat[~good] = np.eye(size)
     q = np.linalg.inv(nmat)
     return np.where(good, np.sqrt(np.trace(q[:, :3, :3], axis1=1, axis2=2)), np.nan)
 

@@ -10,7 +10,9 @@ a missing or wrongly shaped array (an empty or transposed IMU array), NaN or inf
 in the IMU time or increments, IMU time that runs backwards, skips samples or is
 scaled wrongly (an interval outside 10 us - 1 s, or increments implying rates no IMU
 measures), epoch offsets out of range, duplicated or swapped epochs, a satellite number
-outside 1-32 or twice in one epoch, an IMU record outside every GNSS epoch.
+that is no GPS PRN 1-32 nor another system's number (:mod:`inins.core.satellites`:
+GLONASS 101-127, Galileo 201-236, BeiDou 301-363, ...) or twice in one epoch, an IMU
+record outside every GNSS epoch.
 
 Dropped and counted (the count is in :attr:`RecordedFlight.dropped`, which the
 commands print in their report and warnings): epochs with a non-finite time and their
@@ -23,10 +25,11 @@ from dataclasses import replace
 
 import numpy as np
 
+from inins.core import satellites
 from inins.exceptions import InputError
 
 GPS_PRN = (1, 32)
-"""Satellite numbers of GPS (the only system of the layout, version 1)."""
+"""Satellite numbers of GPS; other systems' numbers are those of :mod:`inins.core.satellites`."""
 IMU_INTERVAL_S = (1e-5, 1.0)
 """Median IMU interval accepted (100 kHz to 1 Hz): outside it the time is scaled wrongly."""
 MAX_RATE = {"imu/dtheta": (100.0, "rad/s"), "imu/dv": (2000.0, "m/s^2")}
@@ -239,14 +242,13 @@ def _checked_gnss(g, source, notes):
     counts = np.diff(start)
     keep_row = np.repeat(keep_epoch, counts)
     prn = cols["prn"]
-    bad_prn = keep_row & (
-        ~np.isfinite(prn) | (prn % 1 != 0) | (prn < GPS_PRN[0]) | (prn > GPS_PRN[1])
-    )
+    bad_prn = keep_row & ~satellites.is_valid(prn)
     if bad_prn.any():
         i, more = _rows(bad_prn)
         raise InputError(
             f"row {i}: satellite {_what(prn[i])} is not a GPS PRN "
-            f"({GPS_PRN[0]}-{GPS_PRN[1]}){more}",
+            f"({GPS_PRN[0]}-{GPS_PRN[1]}) nor another system's number (GLONASS 101-127, "
+            f"Galileo 201-236, BeiDou 301-363){more}",
             source=source,
             key="gnss/obs/prn",
         )
@@ -294,13 +296,15 @@ def _checked_gnss(g, source, notes):
             )
     # one measurement per satellite and epoch
     if m:
-        safe = np.clip(np.nan_to_num(prn), 0, 63).astype(np.int64)  # bad rows: dropped epochs
-        pairs = epoch_of_row.astype(np.int64) * 64 + safe
+        span = satellites.SPAN
+        safe = np.clip(np.nan_to_num(prn), 0, span - 1).astype(np.int64)  # bad: dropped epochs
+        pairs = epoch_of_row.astype(np.int64) * span + safe
         _, first, counted = np.unique(pairs[keep_row], return_index=True, return_counts=True)
         if np.any(counted > 1):
             row = int(np.flatnonzero(keep_row)[first[np.flatnonzero(counted > 1)[0]]])
             raise InputError(
-                f"row {row}: satellite G{int(prn[row]):02d} appears twice in epoch "
+                f"row {row}: satellite {satellites.LETTERS[int(prn[row]) // 100]}"
+                f"{int(prn[row]) % 100:02d} appears twice in epoch "
                 f"{int(epoch_of_row[row])}",
                 source=source,
                 key="gnss/obs/prn",
@@ -345,7 +349,7 @@ def _checked_ephemeris(eph, source, notes):
         if np.issubdtype(value.dtype, np.floating):
             ok &= np.isfinite(value)
     prn = eph["prn"]
-    ok &= (prn >= GPS_PRN[0]) & (prn <= GPS_PRN[1])
+    ok &= satellites.is_valid(prn) & ~np.isin(np.nan_to_num(prn) // 100, (1, 5))  # Keplerian
     if "sqrt_a" in names:
         ok &= np.nan_to_num(eph["sqrt_a"]) > 0.0
     if "e" in names:
@@ -355,7 +359,7 @@ def _checked_ephemeris(eph, source, notes):
         bad = np.flatnonzero(~ok)
         notes.append(
             f"gnss/ephemeris: {bad.size} of {len(eph)} ephemeris sets dropped (non-finite "
-            f"field, PRN outside {GPS_PRN[0]}-{GPS_PRN[1]} or impossible orbit; first row "
+            f"field, no GPS, Galileo, BeiDou or QZSS number, or impossible orbit; first row "
             f"{int(bad[0])})"
         )
         eph = eph[ok]

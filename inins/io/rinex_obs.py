@@ -15,6 +15,7 @@ RINEX 3 observation codes are reported under RINEX 2 names by
 
 import re
 from dataclasses import dataclass
+from pathlib import Path
 
 import numpy as np
 
@@ -84,22 +85,43 @@ def observable(obs, name):
     return np.full(len(obs.prn), np.nan)
 
 
-def _header_info(header, version, path):
+def _header_info(header, version, path, keep="G"):
     types, marker, interval, pos = [], "", np.nan, np.full(3, np.nan)
-    system = ""
+    system, per_system, channels = "", {}, {}
     for label, content, line in header:
         if label == "# / TYPES OF OBSERV" and version < 3:
             types += content[6:60].split()
         elif label == "SYS / # / OBS TYPES" and version >= 3:
             system = content[0] if content[0] != " " else system
-            if system == "G":
-                types += content[7:60].split()
+            if system in keep:
+                per_system.setdefault(system, []).extend(content[7:60].split())
+                if system == "G":
+                    types += content[7:60].split()
+        elif label == "GLONASS SLOT / FRQ #":
+            words = content[4:60].split()
+            for slot, k in zip(words[::2], words[1::2], strict=False):
+                try:
+                    channels[int(slot[1:])] = int(k)
+                except ValueError:
+                    raise InputError(
+                        f"unreadable GLONASS slot/channel {slot!r} {k!r}",
+                        source=str(path),
+                        line=line,
+                    ) from None
         elif label == "MARKER NAME":
             marker = content.strip()
         elif label == "INTERVAL":
             interval = _float(content[:10], path, line)
         elif label == "APPROX POSITION XYZ":
             pos = np.array([_float(content[14 * i : 14 * i + 14], path, line) for i in range(3)])
+    if keep != "G":
+        if version < 3:
+            per_system = dict.fromkeys(keep, types)
+        if not any(per_system.values()):
+            raise InputError(
+                f"no observation types of the systems {keep!r} in the header", source=str(path)
+            )
+        return per_system, marker, interval, pos, channels
     if not types:
         raise InputError("no GPS observation types in the header", source=str(path))
     return tuple(types), marker, interval, pos
@@ -158,7 +180,7 @@ def _epoch_v2(line, path, k):
         ) from None
 
 
-def _scan_v2(lines, k, n_types, path):
+def _scan_v2(lines, k, n_types, path, keep="G "):
     """RINEX 2 body: records of ceil(n_types / 5) lines of 80 columns per satellite."""
     per = (n_types + 4) // 5
     body, n = _Body(), len(lines)
@@ -194,8 +216,8 @@ def _scan_v2(lines, k, n_types, path):
                     source=str(path),
                     line=k + 1,
                 )
-            if sid[0] in "G ":
-                body.prn.append(sid[1:3])
+            if sid[0] in keep:
+                body.prn.append(sid)
                 body.text.append("".join(lines[k + j].ljust(80)[:80] for j in range(per)))
                 body.line.append(k + 1)
                 kept += 1
@@ -208,7 +230,7 @@ def _scan_v2(lines, k, n_types, path):
     return body, per * 80, offsets
 
 
-def _scan_v3(lines, k, n_types, path):
+def _scan_v3(lines, k, n_types, path, keep="G"):
     """RINEX 3 body: '>' epoch lines, one line per satellite ('G01' + 16-column fields)."""
     width = 16 * n_types
     body, n = _Body(), len(lines)
@@ -260,8 +282,8 @@ def _scan_v3(lines, k, n_types, path):
             raise _truncated(path, k, f"{nsat} satellite lines expected")
         kept = 0
         for j in range(k, k + nsat):
-            if lines[j][0] == "G":
-                body.prn.append(lines[j][1:3])
+            if lines[j][0] in keep:
+                body.prn.append(lines[j][:3])
                 body.text.append(lines[j][3:].ljust(width)[:width])
                 body.line.append(j + 1)
                 kept += 1
@@ -298,6 +320,16 @@ def _numbers(body, width, offsets, path):
         raise
 
 
+def _satellites(body, path):
+    """System letters (S1 array) and numbers of the satellite records."""
+    ids = np.array(body.prn, dtype="S3").view("S1").reshape(-1, 3)
+    try:
+        number = np.ascontiguousarray(ids[:, 1:3]).view("S2").ravel().astype(np.int64)
+    except ValueError:
+        raise InputError("unreadable satellite number", source=str(path)) from None
+    return ids[:, 0], number
+
+
 def _check_epoch_order(t, epoch_line, path):
     """Epochs must follow each other in time: a repeated or earlier epoch is refused."""
     step = np.diff(t)
@@ -313,13 +345,17 @@ def _check_epoch_order(t, epoch_line, path):
         )
 
 
-def read_obs(path):
+def read_obs(path, systems="G"):
     """Read a RINEX 2.11 or 3.x GPS observation file (GPS satellites only).
 
     Parameters
     ----------
     path : str or Path
         ``.YYo``, ``.rnx`` or either gzip-compressed.
+    systems : str
+        RINEX letters of the systems to keep: ``"G"`` (the default) reads GPS as it
+        always did; ``"GREC"`` (any of G R E C J) reads a mixed file
+        (:func:`read_mixed_obs`).
 
     Returns
     -------
@@ -331,6 +367,8 @@ def read_obs(path):
         Another version or file type, a file without GPS, a truncated epoch
         record or an unreadable number (file and line named).
     """
+    if systems != "G":
+        return read_mixed_obs(path, systems)
     lines = read_lines(path)
     header, k = split_header(lines, path)
     version, ftype, system = version_line(header, path)
@@ -351,10 +389,7 @@ def read_obs(path):
             line=len(lines),
         )
     values = _numbers(body, width, offsets, path)
-    try:
-        prn = np.array(body.prn, dtype="U2").astype(np.int64)
-    except ValueError:
-        raise InputError("unreadable satellite number", source=str(path)) from None
+    _, prn = _satellites(body, path)
     cal = np.array(body.cal, dtype=float).reshape(-1, 6)
     week, sow = gps_week_sow(*cal[:, :5].astype(np.int64).T, cal[:, 5])
     _check_epoch_order(np.asarray(week, float) * 604800.0 + sow, body.epoch_line, path)
@@ -373,3 +408,206 @@ def read_obs(path):
         values=values,
         line=np.array(body.line, np.int64),
     )
+
+
+RINEX3_SYSTEM_NAMES = {
+    "G": RINEX3_NAMES,
+    "J": RINEX3_NAMES,
+    "R": {
+        "C1": ("C1C",),
+        "P1": ("C1P",),
+        "P2": ("C2P",),
+        "D1": ("D1C", "D1P"),
+        "S1": ("S1C", "S1P"),
+        "L1": ("L1C", "L1P"),
+    },
+    "E": {
+        "C1": ("C1C", "C1X", "C1B"),
+        "D1": ("D1C", "D1X", "D1B"),
+        "S1": ("S1C", "S1X", "S1B"),
+        "L1": ("L1C", "L1X", "L1B"),
+    },
+    "C": {
+        "C1": ("C2I", "C1I", "C2X"),
+        "D1": ("D2I", "D1I", "D2X"),
+        "S1": ("S2I", "S1I", "S2X"),
+        "L1": ("L2I", "L1I", "L2X"),
+    },
+}
+"""Priority list per system: RINEX 3 codes (first the file has wins) for each RINEX 2
+name. Band 1 is GPS/QZSS L1 C/A, GLONASS G1 C/A (P1, P2: the P code on G1, G2),
+Galileo E1 (C, X, B: pilot, combined, data), BeiDou B1I (``2I`` since RINEX 3.02,
+``1I`` in 3.01). Galileo and BeiDou have no P1/P2: they are read single-frequency."""
+
+
+@dataclass(frozen=True)
+class MixedObservationFile:
+    """Observations of several systems read from a RINEX 2.11 or 3.0x file.
+
+    As :class:`ObservationFile`, with ``prn`` the satellite number of
+    :mod:`inins.core.satellites` (100 * system + number), ``types`` the union of the
+    systems' observation codes (a column is NaN on rows of a system without it),
+    ``system_types`` the codes of each system letter and ``glonass_channels`` the
+    header's GLONASS SLOT / FRQ # (slot -> channel; empty when absent).
+    """
+
+    path: str
+    version: float
+    marker: str
+    approx_pos_e: np.ndarray
+    interval: float
+    types: tuple
+    system_types: dict
+    glonass_channels: dict
+    week: np.ndarray
+    time: np.ndarray
+    flag: np.ndarray
+    start: np.ndarray
+    prn: np.ndarray
+    values: np.ndarray
+    line: np.ndarray
+
+
+def read_mixed_obs(path, systems="GREC"):
+    """Read the satellites of ``systems`` (RINEX letters) from a RINEX 2.11 or 3.0x file.
+
+    Raises
+    ------
+    InputError
+        Another version or type; a single-system file of a system not asked for; no
+        observation type of the systems asked; truncated or unreadable records.
+    """
+    from inins.core.satellites import LETTERS
+
+    unknown = set(systems) - set(LETTERS[:5])
+    if unknown:
+        raise InputError(f"unknown satellite systems {sorted(unknown)}", source=str(path))
+    lines = read_lines(path)
+    header, k = split_header(lines, path)
+    version, ftype, system = version_line(header, path)
+    single = "G" if system == " " else system
+    if ftype != "O" or not (2.0 <= version < 4.0) or (single != "M" and single not in systems):
+        raise InputError(
+            f"not an observation file of RINEX 2 or 3 with the systems {systems!r} "
+            f"(version {version}, type {ftype!r}, system {system!r})",
+            source=str(path),
+            line=1,
+        )
+    per_system, marker, interval, pos, channels = _header_info(header, version, path, systems)
+    keep = systems + (" " if "G" in systems else "")
+    if version < 3:
+        types = per_system[next(iter(per_system))]
+        body, width, offsets = _scan_v2(lines, k, len(types), path, keep)
+        union = tuple(types)
+        columns = None
+    else:
+        n_max = max(len(t) for t in per_system.values())
+        body, width, offsets = _scan_v3(lines, k, n_max, path, "".join(per_system))
+        union = tuple(dict.fromkeys(c for t in per_system.values() for c in t))
+        columns = {s: [union.index(c) for c in t] for s, t in per_system.items()}
+    if not body.cal:
+        raise InputError(
+            "no observation epoch after the header (a header-only file?)",
+            source=str(path),
+            line=len(lines),
+        )
+    parsed = _numbers(body, width, offsets, path)
+    letters, number = _satellites(body, path)
+    letters = np.where(letters == b" ", b"G", letters)
+    code = np.zeros(len(number), np.int64)
+    for i, letter in enumerate(LETTERS):
+        code[letters == letter.encode()] = i
+    if columns is None:
+        values = parsed
+    else:
+        values = np.full((len(number), len(union)), np.nan)
+        for s, cols in columns.items():
+            rows = np.flatnonzero(letters == s.encode())
+            values[np.ix_(rows, cols)] = parsed[rows][:, : len(cols)]
+    cal = np.array(body.cal, dtype=float).reshape(-1, 6)
+    week, sow = gps_week_sow(*cal[:, :5].astype(np.int64).T, cal[:, 5])
+    _check_epoch_order(np.asarray(week, float) * 604800.0 + sow, body.epoch_line, path)
+    return MixedObservationFile(
+        path=str(path),
+        version=version,
+        marker=marker,
+        approx_pos_e=pos,
+        interval=interval,
+        types=union,
+        system_types={s: tuple(t) for s, t in per_system.items()},
+        glonass_channels=channels,
+        week=np.asarray(week, np.int64),
+        time=np.asarray(sow, float),
+        flag=np.array(body.flag, np.int8),
+        start=np.concatenate([[0], np.cumsum(body.count, dtype=np.int64)]),
+        prn=code * 100 + number % 100,
+        values=values,
+        line=np.array(body.line, np.int64),
+    )
+
+
+def system_observable(obs, name):
+    """Column of RINEX 2 observable ``name`` for every row of a mixed file, shape (m,):
+    per system the first code of :data:`RINEX3_SYSTEM_NAMES` the system's header lists
+    (RINEX 2: the name itself). NaN on rows of systems without it."""
+    from inins.core.satellites import LETTERS
+
+    out = np.full(len(obs.prn), np.nan)
+    system = obs.prn // 100
+    for letter, types in obs.system_types.items():
+        rows = system == LETTERS.index(letter)
+        if not rows.any():
+            continue
+        names = RINEX3_SYSTEM_NAMES.get(letter, {}).get(name, ()) if obs.version >= 3 else ()
+        for code in (name, *names) if obs.version < 3 else names:
+            if code in types:
+                out[rows] = obs.values[rows, obs.types.index(code)]
+                break
+    return out
+
+
+def write_obs_v3(path, week, time, start, prn, columns, *, marker="INININS"):
+    """Write a RINEX 3.04 observation file (the body and the header lines a reader needs).
+
+    Parameters
+    ----------
+    path : str or Path
+    week, time, start : epoch GPS week, seconds of week (s) and row offsets
+    prn : ndarray of int64, (m,), satellite numbers of :mod:`inins.core.satellites`
+    columns : dict
+        System letter -> (codes tuple, values (m, n_codes) array; rows of other systems
+        ignored, NaN written blank).
+    """
+    from inins.core.satellites import LETTERS
+
+    header = [f"{'3.04':>9}{'':11}{'OBSERVATION DATA':20}{'M':20}RINEX VERSION / TYPE"]
+    header.append(f"{marker:60}MARKER NAME")
+    for letter, (codes, _) in columns.items():
+        for i in range(0, len(codes), 13):
+            lead = f"{letter}  {len(codes):3d}" if i == 0 else " " * 6
+            chunk = "".join(f" {c}" for c in codes[i : i + 13])
+            header.append(f"{lead}{chunk:54}SYS / # / OBS TYPES")
+    header.append(f"{'':60}END OF HEADER")
+    system = np.asarray(prn) // 100
+    text = {}
+    for letter, (_, values) in columns.items():
+        rows = np.flatnonzero(system == LETTERS.index(letter))
+        body = np.char.mod("%14.3f  ", values[rows])
+        body[~np.isfinite(values[rows])] = " " * 16
+        for r, line in zip(rows, ["".join(b).rstrip() for b in body], strict=True):
+            text[r] = f"{letter}{prn[r] % 100:02d}{line}"
+    cal = np.datetime64("1980-01-06T00:00:00", "ns") + (
+        np.asarray(week, np.int64) * 604800 * 10**9
+        + np.round(np.asarray(time) * 1e9).astype(np.int64)
+    ).astype("timedelta64[ns]")
+    out = list(header)
+    for k, stamp in enumerate(cal):
+        rows = [r for r in range(start[k], start[k + 1]) if r in text]
+        iso = str(stamp)
+        sec = float(iso[17:])
+        out.append(
+            f"> {iso[:4]} {iso[5:7]} {iso[8:10]} {iso[11:13]} {iso[14:16]}"
+            f"{sec:11.7f}  0{len(rows):3d}"
+        )
+        out += [text[r] for r in rows]
+    Path(path).write_text("\n".join(out) + "\n")

@@ -84,3 +84,34 @@ def gps_week_sow(year, month, day, hour, minute, second):
     week = days // 7
     sow = (days - 7 * week) * 86400.0 + np.asarray(hour) * 3600.0 + np.asarray(minute) * 60.0
     return week, sow + np.asarray(second, dtype=float)
+
+
+def read_track(path):
+    """A reference trajectory text file: rows ``[label] time X Y Z ...`` (s, ECEF m), such
+    as the smartLoc ``*_GT.txt`` (label ``point3``). Returns (time (n,), pos (n, 3)).
+
+    Raises
+    ------
+    InputError
+        Unreadable rows, fewer than two rows, or time not increasing (file and line named).
+    """
+    rows = []
+    for k, line in enumerate(read_lines(path)):
+        words = line.split()
+        if not words or words[0].startswith("#"):
+            continue
+        if not words[0].lstrip("+-").replace(".", "", 1).replace("e", "", 1).isdigit():
+            words = words[1:]
+        try:
+            rows.append([float(w) for w in words[:4]])
+        except ValueError:
+            raise InputError("unreadable reference row", source=str(path), line=k + 1) from None
+        if len(rows[-1]) < 4:
+            raise InputError("a reference row needs time X Y Z", source=str(path), line=k + 1)
+    data = np.array(rows).reshape(-1, 4)
+    if len(data) < 2:
+        raise InputError("fewer than two reference rows", source=str(path))
+    bad = np.flatnonzero(np.diff(data[:, 0]) <= 0)
+    if bad.size:
+        raise InputError("reference time not increasing", source=str(path), line=int(bad[0]) + 2)
+    return data[:, 0], data[:, 1:4]

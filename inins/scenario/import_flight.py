@@ -30,13 +30,36 @@ class Spp(Section):
     false_alarm: float = Field(
         1e-3, gt=0.0, lt=0.5, description="false-alarm probability of the residual test (1)"
     )
+    max_exclusions: int = Field(
+        1,
+        ge=0,
+        le=10,
+        description="satellites the residual test may exclude one after another in an "
+        "epoch (1: a station under open sky; several in a city) (1)",
+    )
+    snr_reference_dbhz: PositiveFloat | None = Field(
+        None,
+        le=70.0,
+        description="carrier-to-noise weighting: below this C/N0 a row's sigma grows as "
+        "10^((ref - C/N0) / 20); none: elevation weights only (dB-Hz)",
+    )
+    system_mask_deg: dict[Literal["G", "R", "E", "C"], NonNegFloat] = Field(
+        default_factory=dict,
+        description="elevation mask of a system instead of mask_deg, by RINEX letter (deg)",
+    )
+    system_sigma_scale: dict[Literal["G", "R", "E", "C"], PositiveFloat] = Field(
+        default_factory=dict,
+        description="pseudorange sigma of a system's rows as a multiple of sigma_zenith_m, "
+        "by RINEX letter (1)",
+    )
 
 
 class ImportFlightScenario(ScenarioModel):
     """Import a GNSS recording into the recorded-flight layout and check it by SPP."""
 
     format: Literal["rinex", "psins-tc"] = Field(
-        description="rinex: observation + navigation files (2.11 or 3.x, GPS); psins-tc: the "
+        description="rinex: observation + navigation files (2.11 or 3.x; systems as in "
+        "'systems'); psins-tc: the "
         "PSINS tightly coupled .mat file (imu, obss, ephs, t0)"
     )
     obs_file: ScenarioPath | None = Field(None, description="rinex: the observation file")
@@ -66,6 +89,34 @@ class ImportFlightScenario(ScenarioModel):
         lt=604800.0,
         description="GPS seconds of week of the IMU log's time 0 (s); needed with imu_log",
     )
+    systems: str = Field(
+        "G",
+        pattern="^[GREC]+$",
+        description="rinex: satellite systems to read and solve with, RINEX letters (G GPS, "
+        "R GLONASS, E Galileo, C BeiDou), e.g. GR; one receiver clock plus a bias per "
+        "further system",
+    )
+    extra_nav_files: list[ScenarioPath] = Field(
+        default_factory=list,
+        description="rinex: further navigation files (RINEX 2 .g GLONASS beside the GPS .n, "
+        "or RINEX 3/4 of any system)",
+    )
+    leap_seconds: int | None = Field(
+        None,
+        ge=0,
+        le=60,
+        description="GPS - UTC (s) for GLONASS epochs when a navigation header lacks LEAP "
+        "SECONDS (17 in 2016)",
+    )
+    reference_track: ScenarioPath | None = Field(
+        None,
+        description="a reference trajectory text file, rows [label] time X Y Z (s, ECEF m), "
+        "such as the smartLoc ground truth: horizontal errors of every fix against it",
+    )
+    reference_track_offset_s: float = Field(
+        0.0,
+        description="GPS seconds of week minus the reference file's time (s)",
+    )
     spp: Spp = Field(default_factory=Spp)
 
     @model_validator(mode="after")
@@ -76,6 +127,17 @@ class ImportFlightScenario(ScenarioModel):
                     raise KeyPathError((key,), "format rinex needs obs_file and nav_file")
         elif self.file is None:
             raise KeyPathError(("file",), "format psins-tc needs file")
+        if self.format != "rinex" and (self.systems != "G" or self.extra_nav_files):
+            raise KeyPathError(("systems",), "only RINEX files carry other systems")
+        if len(set(self.systems)) != len(self.systems):
+            raise KeyPathError(("systems",), f"a system given twice in {self.systems!r}")
+        for key in ("system_mask_deg", "system_sigma_scale"):
+            extra = set(getattr(self.spp, key)) - set(self.systems)
+            if extra:
+                raise KeyPathError(
+                    ("spp", key),
+                    f"system {sorted(extra)} is not enabled (systems: {self.systems})",
+                )
         if self.imu_log is not None and self.format != "rinex":
             raise KeyPathError(("imu_log",), "the PSINS tc file carries its own IMU")
         if (self.imu_log is None) != (self.imu_t0_sow is None):

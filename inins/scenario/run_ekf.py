@@ -19,6 +19,7 @@ from inins.exceptions import InputError
 from inins.scenario.base import ScenarioModel, ScenarioPath
 from inins.scenario.base import ScenarioSection as Section
 from inins.scenario.common import Imu, Site
+from inins.scenario.run_ekf_post import PostProcess
 from inins.scenario.types import NonNegFloat, PositiveFloat
 from inins.scenario.validation import KeyPathError
 
@@ -125,13 +126,17 @@ def _leg_key(key):
 class Constellation(Section):
     """Where the satellites come from."""
 
-    source: Literal["abpo", "walker"] = Field(
+    source: Literal["abpo", "walker", "mixed"] = Field(
         "abpo",
         description="abpo: the shipped broadcast navigation file data/abpo0080.15n.gz "
-        "(2015-01-08); walker: a nominal Walker 55 deg constellation",
+        "(2015-01-08); walker: a nominal Walker 55 deg constellation; mixed: GPS, GLONASS, "
+        "Galileo and BeiDou of the shipped smartLoc mixed RINEX 3 file (2016-06-06; the "
+        "simulated receiver has no inter-system bias: the filter has one receiver clock)",
     )
     start_hour_s: NonNegFloat = Field(
-        21600.0, lt=86400.0, description="GPS time of IMU t = 0: seconds into 2015-01-08 (s)"
+        21600.0,
+        lt=86400.0,
+        description="GPS time of IMU t = 0: seconds into 2015-01-08 (2016-06-06 for mixed) (s)",
     )
     per_plane: int = Field(5, ge=4, le=8, description="walker: satellites per plane (1)")
 
@@ -283,6 +288,9 @@ class FilterSettings(Section):
     turning_from_s: NonNegFloat = Field(
         0.0, description="start of the window of the heading-error RMS (s)"
     )
+    smoother: Literal["none", "rts"] = Field(
+        "none", description="rts: a Rauch-Tung-Striebel pass over the stored forward run"
+    )
 
     def to_si(self):
         """Keyword arguments in SI of :class:`inins.ekf.config.FilterConfig` (model and
@@ -335,9 +343,16 @@ class RunEkfScenario(ScenarioModel):
     gnss: Gnss | None = Field(None, description="simulated receiver (with flight)")
     data: Data | None = Field(None, description="a recording instead of flight and gnss")
     filter: FilterSettings = Field(default_factory=FilterSettings)
+    post: PostProcess | None = Field(
+        None, description="post-process a recorded drive loosely coupled (alone)"
+    )
 
     @model_validator(mode="after")
     def _one_source(self):
+        if self.post is not None:
+            if self.flight is not None or self.gnss is not None or self.data is not None:
+                raise KeyPathError(("post",), "post goes alone: no flight, gnss or data")
+            return self
         simulated = self.flight is not None or self.gnss is not None
         if simulated == (self.data is not None):
             raise KeyPathError(

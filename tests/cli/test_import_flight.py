@@ -33,7 +33,11 @@ def test_abpo_day_against_the_station_coordinates(tmp_path):
     assert len(flight.gnss.time) == 2727 and flight.imu is None
     np.testing.assert_allclose(flight.reference_pos_e, [4097216.6805, 4429119.0287, -2065771.3676])
     report = (tmp_path / "import-flight.txt").read_text()
-    assert "ionosphere-free P1/P2" in report and "G01" in report  # the excluded fault
+    assert "ionosphere-free P1/P2" in report
+    # the 46 C1-only rows (no ionosphere model in the header) are dropped and counted;
+    # with them, G01's uncorrected C1 rows after acquisition were the 5 "faults excluded"
+    assert r["single_frequency_rows_dropped"] == 46 and r["epochs_fault_excluded"] == 0
+    assert "46 single-frequency rows dropped" in report
 
 
 def test_psins_tc_drive(tmp_path):

@@ -6,8 +6,16 @@ functions never ask the kernels for another specialisation.
 """
 
 import numpy as np
+import pytest
 
-from inins.core import imu, pulses, strapdown
+from inins.core import imu, jit, pulses, strapdown
+
+
+@pytest.fixture(autouse=True)
+def _through_numba():
+    """The specialisations are numba's: load it (else the kernel library, which takes
+    calls of the library's own types, would leave the dispatchers uncompiled)."""
+    jit.activate()
 
 
 def test_strapdown_modes_and_options_share_one_specialisation():

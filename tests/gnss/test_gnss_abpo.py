@@ -2,11 +2,11 @@
 station coordinates in the RINEX header."""
 
 import numpy as np
-from conftest import code_observations
 
 from inins.core import earth
 from inins.gnss import measurements, spp
 from inins.gnss.spp import FixStatus
+from tests.gnss.conftest import code_observations
 
 
 def _errors(solution, truth):
@@ -78,3 +78,18 @@ def test_single_frequency_without_ionosphere_is_worse(abpo_obs, abpo_eph, abpo_s
         "j,nj->n", earth.mat_en(lla[0], lla[1])[:, 2], abpo_spp.pos - abpo_obs.approx_pos_e
     )
     assert abs(np.nanmean(up)) < 3.0  # iono-free: no large height bias
+
+
+def test_the_day_is_unchanged_by_the_multi_system_solver(abpo_spp):
+    """Positions of the GPS-only solver before the inter-system biases, the per-system
+    options and the successive exclusions were added (same data, same options): the mean
+    of all fixes and three single epochs, to 1 mm."""
+    pos = abpo_spp.pos[np.isfinite(abpo_spp.pos[:, 0])]
+    assert len(pos) == 2726
+    np.testing.assert_allclose(
+        pos.mean(axis=0), [4097217.4189, 4429119.3755, -2065771.7926], atol=1e-3
+    )
+    np.testing.assert_allclose(pos[0], [4097219.3967, 4429120.8913, -2065770.3306], atol=1e-3)
+    np.testing.assert_allclose(pos[1000], [4097217.1664, 4429121.4609, -2065771.1435], atol=1e-3)
+    np.testing.assert_allclose(pos[-1], [4097222.2641, 4429124.4380, -2065772.4903], atol=1e-3)
+    assert abpo_spp.isb.shape == (2727, 0) and abpo_spp.isb_systems == ()

@@ -1,0 +1,136 @@
+"""Vehicle aiding of the loosely coupled filter: ZUPT, ZARU, NHC (and the stationary detector).
+
+Measurements at a filter epoch, with the states as errors (estimate minus true,
+``C_est = (I - [phi x]) C``), the INS velocity ``v`` (NED) and ``C_bn = C_nb^T``:
+
+- ZUPT (zero velocity, while stationary): ``z = 0 = v_true``; ``y = -v_est``,
+  ``H = -I`` on the velocity error.
+- ZARU (zero angular rate, while stationary): the compensated gyro mean over the
+  epoch's IMU chunk minus the Earth rate in body axes, ``z = omega - C_bn w_ie``,
+  equals the residual gyro bias: ``H = +I`` on the gyro-bias states (the sensor
+  states are the quantities, not errors).
+- NHC (non-holonomic: no lateral or vertical velocity of the vehicle): with the
+  vehicle-to-IMU mounting ``C_vb`` (IMU body to vehicle axes), ``v_v = C_vb C_bn v``
+  has zero y and z. ``C_bn_est v_est = v_b + C_bn dv - C_bn [v x] phi``, so
+  ``y = -(C_vb C_bn_est v_est)_{y,z}``, ``H = -C_vb C_bn`` on velocity and
+  ``+C_vb C_bn [v x]`` on attitude (rows y, z). The lever arm between the IMU and
+  the point that does not slip (rear axle) is neglected: it adds ``omega x l``,
+  below 0.1 m/s for 1 m at 5 deg/s.
+- Odometer (wheel speed, where a column exists): the forward vehicle speed,
+  ``z = (C_vb C_bn v)_x``, rows as the NHC's for x; ``y = z - (C_vb C_bn_est v_est)_x``.
+
+Stationary detector (:func:`stationary`): over the ``window`` samples up to each
+epoch, the RMS deviation of the specific-force vector from its window mean,
+``sqrt(mean |f - mean f|^2)``, below ``accel_threshold`` (m/s^2), and the
+magnitude of the window-mean angular rate ``|mean omega|`` below ``gyro_threshold``
+(rad/s; the mean averages vibration and noise down, a turn stays). Defaults
+0.05 m/s^2 and 0.5 deg/s over 0.5 s. It cannot tell rest from motion at constant
+velocity without vibration (a simulated drive on a straight): there, give the
+stationary windows instead; a real car's vibration while rolling exceeds it.
+"""
+
+import math
+
+import numpy as np
+
+from inins.core import earth, jit
+from inins.ekf import kernels, step
+
+
+@jit.njit(cache=True)
+def vehicle_update(
+    x, P, quat, vel, lla, omega_mean, c_vb, stationary, odo, sig, threshold, acc_out
+):
+    """ZUPT + ZARU (when ``stationary``), NHC and odometer rows at one epoch; returns
+    the rows accepted.
+
+    ``sig``: [nhc, zupt, zaru, odometer] 1-sigma (m/s, m/s, rad/s, m/s); a value <= 0
+    turns that aid off; ``odo`` the odometer's forward speed (m/s, NaN: none).
+    ``acc_out`` (9,): accepted flags of rows NHC y, z, ZUPT N, E, D, ZARU x, y, z, odometer.
+    """
+    n = x.shape[0]
+    cq, cv, cl = np.empty(4), np.empty(3), np.empty(3)
+    step.correct(quat, vel, lla, x, cq, cv, cl)
+    c_nb = step.mat_from_quat(cq)
+    c_bn = c_nb.T
+    rows = 0
+    H = np.zeros((9, n))
+    y0, r = np.zeros(9), np.zeros(9)
+    acc_out.fill(False)
+    m = c_vb @ c_bn
+    vv = m @ cv
+    vx = np.zeros((3, 3))
+    vx[0, 1], vx[0, 2], vx[1, 0] = -cv[2], cv[1], cv[2]
+    vx[1, 2], vx[2, 0], vx[2, 1] = -cv[0], -cv[1], cv[0]
+    mv = m @ vx
+    if sig[0] > 0.0:
+        for i in (1, 2):
+            for j in range(3):
+                H[rows, 3 + j] = -m[i, j]
+                H[rows, 6 + j] = mv[i, j]
+            y0[rows] = -vv[i]
+            r[rows] = sig[0] ** 2
+            rows += 1
+    if stationary and sig[1] > 0.0:
+        for i in range(3):
+            H[rows, 3 + i] = -1.0
+            y0[rows] = -cv[i]
+            r[rows] = sig[1] ** 2
+            rows += 1
+    if stationary and sig[2] > 0.0:
+        w = earth.RATE
+        w_ie = np.array([w * math.cos(cl[0]), 0.0, -w * math.sin(cl[0])])
+        z = omega_mean - c_bn @ w_ie
+        for i in range(3):
+            H[rows, 12 + i] = 1.0
+            y0[rows] = z[i] - x[12 + i]
+            r[rows] = sig[2] ** 2
+            rows += 1
+    use_odo = sig[3] > 0.0 and math.isfinite(odo)
+    if use_odo:
+        for j in range(3):
+            H[rows, 3 + j] = -m[0, j]
+            H[rows, 6 + j] = mv[0, j]
+        y0[rows] = odo - vv[0]
+        r[rows] = sig[3] ** 2
+        rows += 1
+    if rows == 0:
+        return 0
+    acc = np.zeros(rows, np.bool_)
+    yy, ss = np.empty(rows), np.empty(rows)
+    count = kernels.sequential_update(
+        x, P, H[:rows].copy(), y0[:rows].copy(), r[:rows].copy(), threshold, acc, yy, ss
+    )
+    j = 0
+    if sig[0] > 0.0:
+        acc_out[0], acc_out[1] = acc[0], acc[1]
+        j = 2
+    if stationary and sig[1] > 0.0:
+        for i in range(3):
+            acc_out[2 + i] = acc[j + i]
+        j += 3
+    if stationary and sig[2] > 0.0:
+        for i in range(3):
+            acc_out[5 + i] = acc[j + i]
+        j += 3
+    if use_odo:
+        acc_out[8] = acc[j]
+    return count
+
+
+def stationary(dtheta, dv, dt, ends, window, accel_threshold=0.05, gyro_threshold=0.0087266):
+    """Stationary flag per epoch (module docstring): ``ends`` (m,) sample counts up to each
+    epoch; ``window`` samples before each end; thresholds m/s^2 and rad/s (0.5 deg/s).
+    Returns bool (m,)."""
+    f = dv / dt
+    w = dtheta / dt
+    c1 = np.concatenate([np.zeros((1, 3)), np.cumsum(f, axis=0)])
+    c2 = np.concatenate([[0.0], np.cumsum(np.sum(f * f, axis=1))])
+    cw = np.concatenate([np.zeros((1, 3)), np.cumsum(w, axis=0)])
+    hi = np.clip(np.asarray(ends, np.int64), 0, f.shape[0])
+    lo = np.maximum(hi - window, 0)
+    cnt = np.maximum(hi - lo, 1)
+    mean = (c1[hi] - c1[lo]) / cnt[:, None]
+    var = np.maximum((c2[hi] - c2[lo]) / cnt - np.sum(mean**2, axis=1), 0.0)
+    wmean = np.linalg.norm((cw[hi] - cw[lo]) / cnt[:, None], axis=1)
+    return (hi - lo >= window) & (np.sqrt(var) < accel_threshold) & (wmean < gyro_threshold)

@@ -1,0 +1,159 @@
+"""IMU-GNSS time mapping fitted before the run, from the turn rate seen by both.
+
+The IMU's yaw rate about the vertical, ``omega_D``, and the GNSS course rate,
+``d/dt atan2(v_E, v_N)`` (where the speed exceeds ``min_speed``), are the same
+signal on two time axes. In each window the lag ``L`` maximising their correlation
+coefficient (grid search at ``step``, refined by a parabola through the peak and its
+neighbours) is the GNSS time of an IMU instant minus that instant:
+``t_gnss = t_imu + L(t)``. A straight line ``L(t) = a + b (t - t_ref)`` through the
+window lags, weighted equally, gives the offset ``a`` at ``t_ref`` (stored on the IMU
+axis) and the rate error
+``b`` (a clock rate error of the IMU's time base: ``b = 1e-4`` is 100 ppm); their
+1-sigma are those of the least-squares line from the scatter of the window lags
+about it (with fewer than three windows: the mean lag, no rate, sigmas NaN).
+
+A bias of the method: the course is the direction of the velocity of the antenna,
+not of the vehicle's heading. A point a distance ``l`` ahead of the rear axle of a
+car slips by ``beta = atan(l omega / v)``, so the course rate is
+``omega + (l / v) omega'``: it leads the yaw rate by ``l / v`` (0.1 s for 1.5 m at
+15 m/s) and the fitted lag comes out that much late. On the lc-drive car the
+filter's offset state finds a residual 0.10-0.13 s of that sign (a line or a
+piecewise mapping alike), which this would explain (the antenna's distance from the
+rear axle is not in the data, so this is not verified).
+
+A constant residual offset is then a state of the loosely coupled filter
+(:mod:`inins.ekf.loose`, ``time_offset``): this fit takes out the gross offset and
+the rate, the state the rest with its Kalman 1-sigma.
+"""
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from inins.exceptions import InputError
+
+
+@dataclass(frozen=True)
+class ClockFit:
+    """``t_gnss = t_imu + offset + rate (t_imu - t_ref)`` (s); ``lags`` per window
+    (centre time, lag, correlation). ``piecewise``: the lag interpolated between the
+    window lags instead (held beyond the first and last), after dropping windows
+    whose lag is more than 3 robust sigma (1.4826 MAD) from the median of it and its
+    two neighbours."""
+
+    offset: float
+    offset_sigma: float
+    rate: float
+    rate_sigma: float
+    t_ref: float
+    lags: np.ndarray
+    piecewise: bool = False
+
+    def to_gnss(self, t_imu):
+        """GNSS time of IMU times (s)."""
+        t_imu = np.asarray(t_imu, float)
+        if self.piecewise:
+            keep = _inliers(self.lags[:, 1])
+            centre, lag = self.lags[keep, 0], self.lags[keep, 1]
+            return t_imu + np.interp(t_imu, centre - lag, lag)
+        return t_imu + self.offset + self.rate * (t_imu - self.t_ref)
+
+
+def _inliers(lag):
+    """Windows whose lag is within 3 robust sigma of the median of it and its neighbours."""
+    if lag.size < 3:
+        return np.ones(lag.size, bool)
+    local = np.array([np.median(lag[max(i - 1, 0) : i + 2]) for i in range(lag.size)])
+    dev = np.abs(lag - local)
+    scale = max(1.4826 * float(np.median(dev)), 1e-3)
+    return dev <= 3.0 * scale
+
+
+def course_rate(time, vel_ned, min_speed=3.0):
+    """GNSS course rate (rad/s) from NED velocities; zero where slower than ``min_speed``."""
+    speed = np.hypot(vel_ned[:, 0], vel_ned[:, 1])
+    course = np.unwrap(np.arctan2(vel_ned[:, 1], vel_ned[:, 0]))
+    rate = np.gradient(course, time)
+    rate[~(speed > min_speed)] = 0.0
+    return rate
+
+
+def _corr(a, b):
+    a = a - a.mean()
+    b = b - b.mean()
+    den = np.sqrt(np.dot(a, a) * np.dot(b, b))
+    return float(np.dot(a, b) / den) if den > 0 else 0.0
+
+
+def window_lag(t_imu, rate_imu, t_gnss, rate_gnss, lo, hi, search, step=0.01, grid=0.01):
+    """Lag (s) maximising the correlation over GNSS times ``[lo, hi)``; (lag, correlation)."""
+    g = np.arange(lo, hi, grid)
+    ref = np.interp(g, t_gnss, rate_gnss)
+    lags = np.arange(search[0], search[1] + 0.5 * step, step)
+    c = np.array([_corr(np.interp(g, t_imu + lag, rate_imu), ref) for lag in lags])
+    k = int(np.argmax(c))
+    if 0 < k < lags.size - 1:
+        y0, y1, y2 = c[k - 1], c[k], c[k + 1]
+        den = y0 - 2 * y1 + y2
+        shift = 0.5 * (y0 - y2) / den if den < 0 else 0.0
+        return float(lags[k] + shift * step), float(y1)
+    return float(lags[k]), float(c[k])
+
+
+def fit_clock(
+    t_imu, rate_imu, t_gnss, rate_gnss, windows, search=(-10.0, 10.0), min_corr=0.8, piecewise=False
+):
+    """Fit the time mapping over windows of GNSS time (module docstring).
+
+    Parameters
+    ----------
+    t_imu, rate_imu : ndarray (n,)
+        IMU times (its own axis, s) and yaw rate about the vertical (rad/s).
+    t_gnss, rate_gnss : ndarray (m,)
+        GNSS times and course rate (rad/s).
+    windows : sequence of (lo, hi)
+        GNSS-time windows (s), each with turns in it.
+    search : (float, float)
+        Lag range searched (s).
+    min_corr : float
+        Windows whose peak correlation is below are dropped.
+    piecewise : bool
+        Map by the window lags interpolated (:class:`ClockFit`) instead of the line.
+
+    Returns
+    -------
+    ClockFit
+    """
+    rows = []
+    for lo, hi in windows:
+        coarse, _ = window_lag(t_imu, rate_imu, t_gnss, rate_gnss, lo, hi, search, step=0.05)
+        fine, c = window_lag(
+            t_imu, rate_imu, t_gnss, rate_gnss, lo, hi, (coarse - 0.1, coarse + 0.1), step=0.002
+        )
+        if c >= min_corr:
+            rows.append((0.5 * (lo + hi), fine, c))
+    if not rows:
+        raise InputError(
+            "no window where the IMU turn rate and the GNSS course rate correlate "
+            f"(>= {min_corr}): cannot find the time mapping",
+            key="time_offset",
+        )
+    lags = np.array(rows)
+    t_ref = float(np.mean(lags[:, 0]))
+    if len(rows) < 3:
+        off = float(np.mean(lags[:, 1]))
+        return ClockFit(off, np.nan, 0.0, np.nan, t_ref - off, lags, piecewise)
+    A = np.column_stack([np.ones(len(rows)), lags[:, 0] - t_ref])
+    coef, *_ = np.linalg.lstsq(A, lags[:, 1], rcond=None)
+    res = lags[:, 1] - A @ coef
+    s2 = float(res @ res) / (len(rows) - 2)
+    cov = s2 * np.linalg.inv(A.T @ A)
+    return ClockFit(
+        float(coef[0]),
+        float(np.sqrt(cov[0, 0])),
+        float(coef[1]),
+        float(np.sqrt(cov[1, 1])),
+        t_ref - float(coef[0]),  # the reference instant on the IMU axis
+        lags,
+        piecewise,
+    )

@@ -1,0 +1,70 @@
+"""Time systems of the four constellations and their conversion to GPS time (one module).
+
+inins computes in GPS time, (week, seconds of week) (spec §6a). The others:
+
+- GST (Galileo System Time): steered to GPS time within tens of ns (the GGTO,
+  broadcast, is not applied: below 1 m and absorbed by the receiver's
+  inter-system bias); the RINEX navigation file gives the Galileo week in GPS
+  week numbering (RINEX 3.04 §6.8), so GST (week, sow) = GPST (week, sow).
+- BDT (BeiDou Time): started 2006-01-01 00:00:00 UTC, no leap seconds:
+  ``GPST = BDT + 14 s`` and BDT week 0 is GPS week 1356.
+- GLONASST: UTC(SU) + 3 h, with leap seconds. RINEX states GLONASS record
+  epochs in UTC (RINEX 2.11 §8, RINEX 3.04 Table A10), so
+  ``GPST = UTC + leap seconds`` with the leap seconds of the file header (17 s
+  from 2015-07-01 to 2016-12-31, 18 s after).
+"""
+
+import numpy as np
+
+from inins.gnss import gpstime
+from inins.gnss.systems import BEIDOU, GLONASS
+
+BDT_GPS_WEEK = 1356
+"""GPS week of BDT week 0."""
+BDT_GPS_SECONDS = 14.0
+"""GPST - BDT (s)."""
+MOSCOW_HOURS = 3
+"""GLONASST - UTC(SU) (h)."""
+
+
+def gps_from_bdt(week, sow):
+    """GPS (week, sow) of BDT (week, sow)."""
+    return gpstime.normalize(np.asarray(week) + BDT_GPS_WEEK, np.asarray(sow, float) + 14.0)
+
+
+def bdt_from_gps(week, sow):
+    """BDT (week, sow) of GPS (week, sow)."""
+    return gpstime.normalize(np.asarray(week) - BDT_GPS_WEEK, np.asarray(sow, float) - 14.0)
+
+
+def gps_from_utc(week, sow, leap_seconds):
+    """GPS (week, sow) of a UTC instant written as (week, sow) on the GPS week grid
+    (what a calendar date in UTC gives through :func:`inins.gnss.gpstime.from_calendar`)."""
+    return gpstime.normalize(week, np.asarray(sow, float) + leap_seconds)
+
+
+def gps_from_glonasst(week, sow, leap_seconds):
+    """GPS (week, sow) of a GLONASS time instant (UTC(SU) + 3 h) on the GPS week grid."""
+    return gps_from_utc(week, np.asarray(sow, float) - 3600.0 * MOSCOW_HOURS, leap_seconds)
+
+
+def system_from_gps(system, week, sow):
+    """(week, sow) in each row's own system time (BDT for BeiDou rows, GPST otherwise;
+    GLONASS ephemerides are kept in GPS time, converted when read).
+
+    Parameters
+    ----------
+    system : array_like of int, system index per row
+    week, sow : array_like, GPS time, broadcastable to ``system``
+    """
+    system, week, sow = np.broadcast_arrays(system, np.asarray(week, np.int64), sow)
+    bds = system == BEIDOU
+    if not bds.any():
+        return week, np.asarray(sow, float)
+    bw, bs = bdt_from_gps(week, sow)
+    return np.where(bds, bw, week), np.where(bds, bs, sow)
+
+
+def needs_leap_seconds(system):
+    """True for the systems whose RINEX epochs are UTC (GLONASS)."""
+    return np.asarray(system) == GLONASS

@@ -1,0 +1,252 @@
+"""Scenario section ``post:`` of ``inins run-ekf``: post-processing a drive.
+
+Loosely coupled filter on a GNSS solution file (RTKLIB ``.pos`` or a CSV with named
+columns) and an IMU log (CSV with rates), the IMU-GNSS time mapping, RTS smoothing,
+the outage protocol scored against a reference (the RTK-fixed epochs of the
+solution file). Lab units at this edge (deg, deg/h, ug, ppm); SI inside.
+"""
+
+from typing import Literal
+
+from pydantic import Field, model_validator
+
+from inins.scenario.base import InputFile
+from inins.scenario.base import ScenarioSection as Section
+from inins.scenario.types import NonNegFloat, PositiveFloat
+from inins.scenario.validation import KeyPathError
+
+AxisName = Literal["x", "-x", "y", "-y", "z", "-z"]
+
+
+class ImuLog(Section):
+    """IMU log: a CSV of rates, one sample a row, no header (columns by 0-based index), or
+    a 2-D array of increments in a .mat file."""
+
+    file: InputFile = Field(description="IMU file (.csv, .csv.gz or .mat), relative to this file")
+    format: Literal["csv", "mat"] = Field(
+        "csv",
+        description="csv: rates; mat: increments (rad, m/s) over each interval ending at "
+        "its time tag, in the array mat_variable",
+    )
+    mat_variable: str = Field("mimu", description="mat: the array's name")
+    accel_columns: tuple[int, int, int] = Field(
+        (0, 1, 2), description="0-based columns of the accelerometer x, y, z"
+    )
+    gyro_columns: tuple[int, int, int] = Field(
+        (3, 4, 5), description="0-based columns of the gyro x, y, z"
+    )
+    time_column: int = Field(6, ge=0, description="0-based column of the sample time")
+    time_scale_s: PositiveFloat = Field(
+        1e-3, description="seconds per unit of the time column (s); 1e-3 for a millisecond tick"
+    )
+    accel_unit: Literal["g", "mps2"] = Field(
+        "g", description="accelerometer unit (g: 9.80665 m/s^2)"
+    )
+    gyro_unit: Literal["dps", "rads"] = Field("dps", description="gyro unit: deg/s or rad/s")
+    axes: tuple[AxisName, AxisName, AxisName] = Field(
+        ("x", "y", "z"),
+        description="IMU axis giving body x (forward), y (right), z (down), e.g. [-x, y, -z]",
+    )
+    rate_hz: PositiveFloat = Field(
+        100.0, le=2000.0, description="uniform rate the rates are resampled to (Hz)"
+    )
+    odometer_column: int | None = Field(
+        None, ge=0, description="0-based column of a wheel-odometer forward speed, if any"
+    )
+    odometer_scale_mps: PositiveFloat = Field(
+        1.0, description="speed per unit of the odometer column (m/s)"
+    )
+
+
+class GnssFile(Section):
+    """GNSS solutions (or a reference INS's): RTKLIB .pos, a CSV with named columns, or
+    a 2-D array in a .mat file (columns by 0-based index)."""
+
+    file: InputFile = Field(description="solution file (.pos, .csv, .mat, optionally .gz)")
+    format: Literal["rtklib", "csv", "mat"] = Field("rtklib", description="file format")
+    mat_variable: str = Field("", description="mat: the array's name")
+    sigma_m: PositiveFloat | None = Field(
+        None, description="mat: position 1-sigma of every epoch (m), without sigma columns"
+    )
+    sigma_vel_mps: PositiveFloat | None = Field(
+        None, description="mat: velocity 1-sigma of every epoch (m/s)"
+    )
+    attitude_columns: dict[Literal["roll", "pitch", "yaw"], int] | None = Field(
+        None, description="mat: 0-based columns of a reference attitude (rad), for scoring"
+    )
+    yaw_sign: Literal[1, -1] = Field(
+        1, description="heading = yaw_sign * yaw (PSINS yaw is positive west: -1)"
+    )
+    columns: dict[str, str | int] = Field(
+        default_factory=dict,
+        description="csv: role -> column name (mat: 0-based index); roles time, lat, lon, "
+        "height (or x, y, z ECEF m), sigma_n, sigma_e, sigma_d (m), vel_n, vel_e, vel_d "
+        "or vel_u (m/s), sigma_vn, sigma_ve, sigma_vd, q",
+    )
+    angle_unit: Literal["deg", "rad"] = Field("deg", description="csv: unit of lat and lon")
+    time_scale_s: PositiveFloat = Field(
+        1.0, description="csv: seconds per unit of the time column (s)"
+    )
+    q_flags: list[int] = Field(
+        [1, 2], min_length=1, description="quality flags used (RTKLIB 1 fix, 2 float, 5 single)"
+    )
+    sigma_scale: dict[int, PositiveFloat] = Field(
+        default_factory=dict,
+        description="sigma multiplier per quality flag (1): e.g. {2: 3} inflates float epochs",
+    )
+    use_velocity: bool = Field(
+        False, description="update with the file's velocities too (where it has them)"
+    )
+
+
+class TimeMapping(Section):
+    """IMU time -> GNSS time: a line fitted to the turn-rate lag, then a state."""
+
+    fit: Literal["none", "turn_rate"] = Field(
+        "turn_rate",
+        description="turn_rate: lag of the IMU yaw rate against the GNSS course rate in "
+        "windows, a line (offset, rate) through them; none: IMU time is GNSS time minus "
+        "the first GNSS epoch plus offset_s",
+    )
+    model: Literal["line", "piecewise"] = Field(
+        "line",
+        description="turn_rate: a line through the window lags, or the lags interpolated "
+        "(outlier windows dropped) for a mapping that steps",
+    )
+    offset_s: float = Field(
+        0.0, description="fit none: GNSS time (from the first epoch) of IMU time 0 (s)"
+    )
+    window_s: PositiveFloat = Field(60.0, ge=10.0, description="turn_rate: window length (s)")
+    search_s: PositiveFloat = Field(10.0, le=600.0, description="turn_rate: lags searched, +-(s)")
+    state: bool = Field(True, description="estimate a residual constant offset as a state")
+    state_sigma_s: PositiveFloat = Field(0.05, le=10.0, description="its initial 1-sigma (s)")
+
+
+class Outages(Section):
+    """Simulated GNSS outages: periodic and/or explicit windows (GNSS time from the start)."""
+
+    every_s: PositiveFloat | None = Field(None, description="spacing of periodic outages (s)")
+    length_s: PositiveFloat | None = Field(None, description="length of each outage (s)")
+    first_s: NonNegFloat | None = Field(
+        None, description="start of the first, from the run start (s); default every_s"
+    )
+    windows: list[tuple[float, float]] = Field(
+        [], description="explicit windows [start, end) (s, from the run start)"
+    )
+
+    @model_validator(mode="after")
+    def _pair(self):
+        if (self.every_s is None) != (self.length_s is None):
+            raise KeyPathError(("length_s",), "periodic outages need both every_s and length_s")
+        return self
+
+
+class PostNoise(Section):
+    """Process noise (lab units)."""
+
+    arw_dps_rthz: NonNegFloat = Field(0.0038, le=10.0, description="gyro noise (deg/s/sqrt(Hz))")
+    vrw_ug_rthz: NonNegFloat = Field(70.0, le=1e5, description="accel noise (ug/sqrt(Hz))")
+    gyro_bias_walk_dps_rthz: NonNegFloat = Field(
+        3.8e-5, le=1.0, description="gyro bias random walk (deg/s/sqrt(Hz))"
+    )
+    accel_bias_walk_ug_rthz: NonNegFloat = Field(
+        7.0, le=1e5, description="accel bias random walk (ug/sqrt(Hz))"
+    )
+    factor: PositiveFloat = Field(
+        3.0, le=100.0, description="multiplier on all densities (unmodelled errors; 1)"
+    )
+
+
+class PostSigma(Section):
+    """Initial 1-sigma (lab units)."""
+
+    position_m: PositiveFloat = Field(0.05, description="position, each axis (m)")
+    velocity_mps: PositiveFloat = Field(0.05, description="velocity, each axis (m/s)")
+    tilt_deg: PositiveFloat = Field(1.0, description="roll, pitch (deg)")
+    heading_deg: PositiveFloat = Field(5.0, description="heading (deg)")
+    accel_bias_ug: PositiveFloat = Field(1e4, description="accelerometer bias (ug)")
+    gyro_bias_dps: PositiveFloat = Field(0.1, description="gyro bias (deg/s)")
+
+
+class Stationary(Section):
+    """Stationary detector on the IMU (inins.ekf.aiding): both below their thresholds."""
+
+    accel_mps2: PositiveFloat = Field(
+        0.05, description="RMS deviation of the specific force from its window mean (m/s^2)"
+    )
+    gyro_dps: PositiveFloat = Field(0.5, description="mean angular-rate magnitude (deg/s)")
+    window_s: PositiveFloat = Field(0.5, description="window before each epoch (s)")
+
+
+class Aiding(Section):
+    """Vehicle constraints (0 = off)."""
+
+    nhc_sigma_mps: NonNegFloat = Field(
+        0.0, le=10.0, description="NHC: lateral and vertical vehicle velocity 1-sigma (m/s)"
+    )
+    odometer_sigma_mps: NonNegFloat = Field(
+        0.0, le=10.0, description="odometer forward speed 1-sigma (m/s); needs imu.odometer_column"
+    )
+    zupt_sigma_mps: NonNegFloat = Field(
+        0.0, le=10.0, description="ZUPT while stationary: velocity 1-sigma (m/s)"
+    )
+    zaru_sigma_dps: NonNegFloat = Field(
+        0.0, le=10.0, description="ZARU while stationary: angular-rate 1-sigma (deg/s)"
+    )
+    mounting_deg: tuple[float, float, float] = Field(
+        (0.0, 0.0, 0.0), description="roll, pitch, yaw of the IMU body in the vehicle axes (deg)"
+    )
+    stationary: Stationary = Field(default_factory=Stationary)
+    stationary_windows_s: list[tuple[float, float]] | None = Field(
+        None, description="stationary windows from the run start (s), instead of the detector"
+    )
+
+
+class PostProcess(Section):
+    """Post-processing of a recorded drive with the loosely coupled filter."""
+
+    coupling_mode: Literal["loose"] = Field(
+        "loose", description="loose: GNSS solutions as the measurement (tight: use filter/data)"
+    )
+    imu: ImuLog = Field(description="the IMU log")
+    gnss: GnssFile = Field(description="the GNSS solution file")
+    time: TimeMapping = Field(default_factory=TimeMapping)
+    lever_arm_m: tuple[float, float, float] = Field(
+        (0.0, 0.0, 0.0), description="antenna minus IMU, body axes (m), each within 100 m"
+    )
+    static_window_s: tuple[float, float] = Field(
+        (1.0, 30.0), description="standing still, from the first GNSS epoch (s): levelling"
+    )
+    motion_speed_mps: PositiveFloat = Field(
+        3.0, description="GNSS speed above which the motion gives the initial heading (m/s)"
+    )
+    init: Literal["motion", "reference"] = Field(
+        "motion",
+        description="motion: level on static_window_s, heading from the first motion; "
+        "reference: attitude and velocity of the file's first epoch (gnss.attitude_columns)",
+    )
+    init_heading_error_deg: float = Field(
+        0.0, description="reference init: heading error added on purpose (deg), a convergence test"
+    )
+    score_from_s: NonNegFloat = Field(
+        0.0, description="attitude scored against the reference from this time on (s)"
+    )
+    noise: PostNoise = Field(default_factory=PostNoise)
+    initial_sigma: PostSigma = Field(default_factory=PostSigma)
+    misalignments: bool = Field(False, description="24 states (+ misalignments) instead of 15")
+    feedback: bool = Field(True, description="FB (fed back, reset) or FF")
+    gate_probability: float = Field(
+        1.0, gt=0.5, le=1.0, description="chi-square(1) gate per scalar row (1: no gate)"
+    )
+    smoother: Literal["rts", "none"] = Field("rts", description="backward RTS pass")
+    aiding: Aiding = Field(default_factory=Aiding)
+    outages: Outages = Field(default_factory=Outages)
+    reference_q: int = Field(
+        1, description="quality flag of the epochs the outages are scored against (1: fix)"
+    )
+
+    @model_validator(mode="after")
+    def _window(self):
+        if not self.static_window_s[1] > self.static_window_s[0] + 5.0:
+            raise KeyPathError(("static_window_s",), "needs end > start + 5 s")
+        return self
