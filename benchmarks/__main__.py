@@ -77,6 +77,8 @@ TARGETS = (  # (figure path, relation, target, what)
     ("bench_ekf_post.hour_loose_total_s", "<", 0.5, "loose + RTS one hour, s"),
     ("bench_ekf_post.stream_4h_peak_rss_mb", "<", 1024.0, "loose + RTS 4-h peak RSS, MB"),
     ("bench_ekf_post.hour_tight_total_s", "<", 2.0, "tight EKF2-FB + RTS one hour, s"),
+    ("commands.calibrate_imu_1h_1khz.warm_s", "<", 2.0, "calibrate-imu 24-pos + rates 1 h, s"),
+    ("commands.calibrate_imu_xsens.warm_s", "<", 1.0, "calibrate-imu table-free Xsens, s"),
 )
 MODULES = (
     "bench_strapdown",
@@ -242,6 +244,23 @@ def _import_log(outdir):
     return figures
 
 
+def _calibrate_imu(outdir):
+    """calibrate-imu: the discrete method on one hour of 1 kHz (24 positions and rate
+    tests, a table-data file written by simulate-table), and the table-free method on
+    the Xsens log (51,175 samples)."""
+    out = Path(outdir) / "calimu"
+    scenarios = HERE / "scenarios"
+    _command("simulate-table", str(scenarios / "calimu-24pos-1h-1khz.yaml"), "-o", str(out))
+    shutil.copy(scenarios / "calibrate-imu-1h.yaml", out / "calibrate.yaml")
+    xsens = ROOT / "configs" / "calibrate-imu" / "xsens-real.yaml"
+    return {
+        "calibrate_imu_1h_1khz": _command(
+            "calibrate-imu", str(out / "calibrate.yaml"), "-o", str(out / "c")
+        ),
+        "calibrate_imu_xsens": _command("calibrate-imu", str(xsens), "-o", str(out / "x")),
+    }
+
+
 def main():
     parser = argparse.ArgumentParser(prog="python -m benchmarks")
     parser.add_argument("--quick", action="store_true", help="skip the 24 h runs")
@@ -257,6 +276,7 @@ def main():
         figures["commands"] = _table_commands(outdir, not args.quick)
         figures["commands"]["align_ett_10min"] = _align_ett(outdir)
         figures["commands"]["import_log_rlg_excerpt"] = _import_log(outdir)
+        figures["commands"].update(_calibrate_imu(outdir))
         figures["commands"]["simulate_table_fixed_cost"] = _fixed_cost(
             outdir, 3 if args.quick else 5, compare=not args.quick
         )

@@ -117,6 +117,13 @@ COMMANDS = (
         "terms fitted with intervals, and the sensor error-model blocks for simulate-table, "
         "run-ekf and Kalibr.",
     ),
+    CommandSpec(
+        "calibrate-imu",
+        "Calibration of every error term of both triads (biases, scale factors, "
+        "misalignments, g-sensitivity): multi-position and rate tests on a table, or "
+        "table-free; the schedule checked by a planner first; compensation file and "
+        "calibration certificate.",
+    ),
 )
 """The five commands of spec §1 and import-log, in the order ``inins --help`` lists them."""
 

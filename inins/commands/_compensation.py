@@ -1,0 +1,62 @@
+"""Compensation files (written by ``inins calibrate-imu``) for any command that reads raw
+increments: ``compensation_terms(path)`` gives the terms, and
+:func:`inins.calibration.imu_model.compensate` applies them to raw increments.
+
+A command that takes ``compensation: FILE`` (import-log, calibrate-bias, run-ekf) calls
+``compensation_terms(scenario.compensation, unit_name, serial)`` and compensates each
+chunk of increments it reads: ``dtheta, dv = imu_model.compensate(dtheta, dv, dt, terms)``.
+"""
+
+import numpy as np
+
+from inins.calibration import imu_model
+from inins.core.units import ARCSEC, DPH, G0, PPM, UG
+from inins.exceptions import InputError
+from inins.scenario.calibrate_imu import CompensationFile
+
+
+def compensation_terms(path, unit_name=None, serial=None):
+    """The :class:`~inins.calibration.imu_model.ImuTerms` (SI) of a compensation file.
+
+    Raises
+    ------
+    InputError
+        The file is unreadable, not a compensation file, of another format version,
+        or made for another unit (when ``unit_name`` / ``serial`` are given), naming
+        the file and key.
+    """
+    from inins.io.rawlog import read_compensation
+
+    comp = read_compensation(path, CompensationFile)
+    want = (unit_name, serial)
+    have = (comp.unit.name, comp.unit.serial)
+    if any(w is not None and w != h for w, h in zip(want, have, strict=True)):
+        raise InputError(
+            f"made for unit {have[0]} serial {have[1]}, not {unit_name} serial {serial} "
+            "(unit.name, unit.serial)",
+            source=str(path),
+            key="unit",
+        )
+    return terms_from_compensation(comp)
+
+
+def terms_from_compensation(comp):
+    """:class:`~inins.calibration.imu_model.ImuTerms` (SI) of a validated
+    :class:`~inins.scenario.calibrate_imu.CompensationFile`."""
+    c = comp.imu
+    values = {}
+    for i, a in enumerate("xyz"):
+        values[f"bg_{a}"] = c.gyro_bias_dph[i] * DPH
+        values[f"sg_{a}"] = c.gyro_scale_ppm[i] * PPM
+        values[f"ba_{a}"] = c.accel_bias_ug[i] * UG
+        values[f"sa_{a}"] = c.accel_scale_ppm[i] * PPM
+    for k, v in c.gyro_misalignment_arcsec.items():
+        values[f"mg_{k}"] = v * ARCSEC
+    for k, v in c.accel_misalignment_arcsec.items():
+        values[f"ma_{k}"] = v * ARCSEC
+    if c.gyro_g_sensitivity_dph_per_g is not None:
+        mat = np.asarray(c.gyro_g_sensitivity_dph_per_g, float)
+        if mat.shape != (3, 3):
+            raise InputError("needs 3 rows of 3 numbers", key="imu.gyro_g_sensitivity_dph_per_g")
+        values.update(zip(imu_model.G_SENS_TERMS, mat.ravel() * DPH / G0, strict=True))
+    return imu_model.ImuTerms(values)

@@ -1,0 +1,268 @@
+"""inins calibrate-imu through the CLI: shipped scenarios, planner, compensation file,
+certificate, bad input."""
+
+import json
+import shutil
+import subprocess
+from pathlib import Path
+
+import numpy as np
+import pytest
+import yaml
+from typer.testing import CliRunner
+
+from inins.cli import app
+
+CONFIGS = Path(__file__).parents[2] / "configs"
+DEFAULT = CONFIGS / "calibrate-imu" / "default.yaml"
+RATE = 50  # Hz: the shipped schedule at a quarter of its rate (the same white-noise sigma)
+
+
+def run(*args):
+    return CliRunner().invoke(app, ["calibrate-imu", *map(str, args)])
+
+
+@pytest.fixture(scope="module")
+def default_run(tmp_path_factory):
+    out = tmp_path_factory.mktemp("calimu")
+    result = run(DEFAULT, "-o", out, "--plot", "--set", f"simulate.imu.sample_rate_hz={RATE}")
+    assert result.exit_code == 0, result.output
+    return out
+
+
+def test_default_gives_every_term_with_sigma_and_expanded_uncertainty(default_run):
+    summary = json.loads((default_run / "summary.json").read_text())
+    res = summary["results"]
+    for name, unit in (("bg_x", "dph"), ("sa_y", "ppm"), ("mg_zy", "arcsec"), ("ba_z", "ug")):
+        value = res[f"discrete_{name}_{unit}"]
+        sigma = res[f"discrete_{name}_sigma_{unit}"]
+        assert res[f"discrete_{name}_u_{unit}"] == pytest.approx(2 * sigma)
+        assert abs(value - summary["truth"][f"discrete_{name}_{unit}"]) < 4 * sigma
+    assert summary["verdict"] == "pass" if "verdict" in summary else True
+    report = (default_run / "calibrate-imu.txt").read_text()
+    assert "residuals per interval" in report and "compensation file" in report
+    assert "rate-x+" in report and "U (k=2)" in report
+
+
+def test_plot_writes_figures_certificate_and_compensation(default_run):
+    assert (default_run / "calibrate-imu-residuals.png").stat().st_size > 1000
+    page = (default_run / "calibrate-imu-certificate.html").read_text()
+    assert "data:image/png;base64," in page and "RLG-NAV" in page and "SIM-0001" in page
+    assert "<script" not in page and "http" not in page.replace("http-equiv", "")
+    comp = yaml.safe_load((default_run / "calibrate-imu-compensation.yaml").read_text())
+    assert comp["format"] == "inins-compensation" and comp["unit"]["serial"] == "SIM-0001"
+    assert len(comp["imu"]["gyro_misalignment_arcsec"]) == 6
+
+
+def test_compensated_rerun_finds_what_is_left(default_run, tmp_path):
+    # the compensation file applied to the same (simulated) log: the terms left are
+    # zero within their uncertainty; the mounting is not compensated and stays
+    comp = default_run / "calibrate-imu-compensation.yaml"
+    data = yaml.safe_load(DEFAULT.read_text())
+    data.pop("checks")
+    data["compensation"] = str(comp)
+    data["simulate"]["imu"]["sample_rate_hz"] = RATE
+    scen = tmp_path / "again.yaml"
+    scen.write_text(yaml.safe_dump(data))
+    result = run(scen, "-o", tmp_path / "out")
+    assert result.exit_code == 0, result.output
+    res = json.loads((tmp_path / "out" / "summary.json").read_text())["results"]
+    first = json.loads((default_run / "summary.json").read_text())["results"]
+    for key, value in res.items():
+        if not key.startswith("discrete_") or "_sigma_" in key or "_u_" in key:
+            continue
+        name = key.removeprefix("discrete_")
+        if name.startswith(("mount", "chi2", "dof", "intervals", "holds", "spins")):
+            continue
+        unit = name.rsplit("_", 1)[1]
+        sigma = res[key.replace(f"_{unit}", f"_sigma_{unit}")]
+        # same data, same noise: the left-over is the rounding of the file's digits
+        assert abs(value) < 1e-3 * sigma, (key, value, sigma)
+    assert res["discrete_mount_x_arcsec"] == pytest.approx(first["discrete_mount_x_arcsec"])
+
+
+def test_compensation_of_another_unit_is_refused(default_run, tmp_path):
+    comp = yaml.safe_load((default_run / "calibrate-imu-compensation.yaml").read_text())
+    comp["unit"]["serial"] = "OTHER-7"
+    path = tmp_path / "other.yaml"
+    path.write_text(yaml.safe_dump(comp))
+    result = run(DEFAULT, "-o", tmp_path / "o", "--set", f"compensation={path}")
+    assert result.exit_code == 2
+    assert "other.yaml" in result.output and "OTHER-7" in result.output
+
+
+def test_compensation_of_another_version_is_refused(default_run, tmp_path):
+    comp = yaml.safe_load((default_run / "calibrate-imu-compensation.yaml").read_text())
+    comp["version"] = 2
+    path = tmp_path / "v2.yaml"
+    path.write_text(yaml.safe_dump(comp))
+    result = run(DEFAULT, "-o", tmp_path / "o", "--set", f"compensation={path}")
+    assert result.exit_code == 2
+    assert "v2.yaml" in result.output and "version" in result.output
+
+
+def test_plan_only_reports_sigma_without_data(tmp_path):
+    result = run(DEFAULT, "-o", tmp_path, "--set", "plan.only=true", "--set", "checks=[]")
+    assert result.exit_code == 0, result.output
+    res = json.loads((tmp_path / "summary.json").read_text())["results"]
+    assert res["plan_inseparable"] == 0
+    assert res["plan_sg_z_sigma_ppm"] > 0
+
+
+def test_schedule_that_cannot_separate_is_refused_naming_the_terms(tmp_path):
+    # only the level positions (outer pitch 0) and no rate test: exit 2, naming terms
+    data = yaml.safe_load(DEFAULT.read_text())
+    motion = data["simulate"]["motion"]
+    data["simulate"]["motion"] = [m for m in motion[:12] if m.get("axis") != "pitch"]
+    data.pop("checks")
+    path = tmp_path / "level.yaml"
+    path.write_text(yaml.safe_dump(data))
+    result = run(path, "-o", tmp_path / "o")
+    assert result.exit_code == 2, result.output
+    assert "cannot separate" in result.output and "sa_x" in result.output
+    assert "estimate" in result.output
+    # told to estimate the separable combinations instead, it runs
+    result = run(path, "-o", tmp_path / "o2", "--set", "plan.allow_combinations=true")
+    assert result.exit_code == 0, result.output
+
+
+def test_xsens_real_log_runs_and_passes_its_checks(tmp_path):
+    result = run(CONFIGS / "calibrate-imu" / "xsens-real.yaml", "-o", tmp_path)
+    assert result.exit_code == 0, result.output
+    res = json.loads((tmp_path / "summary.json").read_text())["results"]
+    assert res["table_free_static_intervals"] == 38
+    assert res["table_free_gravity_norm_rms_after_mps2"] < 2e-3
+    # the compensation file is written on every run, --plot or not
+    comp = yaml.safe_load((tmp_path / "calibrate-imu-compensation.yaml").read_text())
+    assert comp["method"] == "table-free" and comp["unit"]["name"] == "Xsens"
+
+
+def test_saturated_counts_are_refused_naming_file_and_line(tmp_path):
+    rows = np.column_stack([np.arange(2000) * 0.01, np.full((2000, 3), 33000.0)])
+    rows[700, 2] = 65535.0
+    acc, gyro = tmp_path / "acc.txt", tmp_path / "gyro.txt"
+    np.savetxt(acc, rows)
+    np.savetxt(gyro, rows)
+    scen = tmp_path / "s.yaml"
+    scen.write_text(f"methods: [table-free]\nlog: {{accel_file: {acc}, gyro_file: {gyro}}}\n")
+    result = run(scen, "-o", tmp_path / "o")
+    assert result.exit_code == 2
+    assert "acc.txt:701" in result.output and "saturated" in result.output
+
+
+def test_too_few_positions_are_refused(tmp_path):
+    rows = np.column_stack([np.arange(6000) * 0.01, np.full((6000, 3), 33000.0)])
+    rows[:, 1:] += np.random.default_rng(0).normal(0, 2, (6000, 3))
+    acc, gyro = tmp_path / "acc.txt", tmp_path / "gyro.txt"
+    np.savetxt(acc, rows)
+    np.savetxt(gyro, rows)
+    scen = tmp_path / "s.yaml"
+    scen.write_text(f"methods: [table-free]\nlog: {{accel_file: {acc}, gyro_file: {gyro}}}\n")
+    result = run(scen, "-o", tmp_path / "o")
+    assert result.exit_code == 2
+    assert "static intervals usable" in result.output and "table_free.detector" in result.output
+
+
+def test_unknown_key_and_two_sources_are_bad_input(tmp_path):
+    result = run(DEFAULT, "-o", tmp_path, "--set", "plan.bogus=1")
+    assert result.exit_code == 2 and "bogus" in result.output
+    result = run(DEFAULT, "-o", tmp_path, "--set", "data=x.h5")
+    assert result.exit_code == 2 and "exactly one of" in result.output
+
+
+CHROMIUM = shutil.which("chromium") or shutil.which("chromium-browser")
+
+
+def test_certificate_renders_in_headless_chromium(default_run, tmp_path):
+    if CHROMIUM is None:
+        pytest.skip(
+            "certificate rendering skipped: no chromium on this machine (install "
+            "Debian's chromium package; .ci/run does)"
+        )
+    shot = tmp_path / "certificate.png"
+    page = default_run / "calibrate-imu-certificate.html"
+    out = subprocess.run(
+        [
+            CHROMIUM,
+            "--headless",
+            "--no-sandbox",
+            "--disable-gpu",
+            "--disable-background-networking",
+            "--disable-component-update",
+            "--disable-sync",
+            "--no-first-run",
+            "--enable-logging=stderr",
+            "--v=0",
+            f"--screenshot={shot}",
+            "--window-size=1000,1400",
+            page.as_uri(),
+        ],
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
+    assert shot.is_file() and shot.stat().st_size > 5000, out.stderr[-2000:]
+    console = [line for line in out.stderr.splitlines() if "CONSOLE" in line]
+    assert console == [], console
+
+
+def test_static_log_planner_says_what_it_can_and_cannot_give(tmp_path):
+    # the schedule of the real RLG log: one position, attitude from the unit itself
+    scen = CONFIGS / "calibrate-imu" / "rlg-static-plan.yaml"
+    result = run(scen, "-o", tmp_path, "--plot")
+    assert result.exit_code == 0, result.output
+    assert "Calibration plan" in (tmp_path / "calibrate-imu-certificate.html").read_text()
+    assert "nothing estimated" in (tmp_path / "calibrate-imu-compensation.yaml").read_text()
+    res = json.loads((tmp_path / "summary.json").read_text())["results"]
+    assert res["plan_ba_z_sigma_ug"] > 0  # the vertical accelerometer bias: separable
+    for name in ("ba_x_sigma_ug", "ba_y_sigma_ug", "bg_x_sigma_dph", "mount_z_sigma_arcsec"):
+        assert res[f"plan_{name}"] is None, name
+    report = (tmp_path / "calibrate-imu.txt").read_text()
+    # accelerometer bias against tilt: 1 ug is 0.206 arcsec of tilt (1 / g)
+    assert "+1 ba_x[ug] +0.206 mount_y[arcsec]" in report
+    # asked for every term without leave to estimate combinations: refused, exit 2
+    result = run(
+        scen,
+        "-o",
+        tmp_path / "all",
+        "--set",
+        "plan.allow_combinations=false",
+        "--set",
+        "estimate=[accel_bias, gyro_bias, accel_scale, gyro_scale, mount]",
+    )
+    assert result.exit_code == 2
+    assert "cannot separate" in result.output and "sg_x" in result.output
+
+
+def test_data_file_with_the_wrong_imu_axes_is_refused(tmp_path):
+    # the schedule written by simulate-table, read back as a data file: the nominal IMU
+    # axes are the scenario's to give; wrong ones are bad input, right ones calibrate
+    sim = yaml.safe_load(DEFAULT.read_text())["simulate"]
+    sim["imu"]["sample_rate_hz"] = 20
+    (tmp_path / "sim.yaml").write_text(yaml.safe_dump(sim))
+    out = CliRunner().invoke(
+        app, ["simulate-table", str(tmp_path / "sim.yaml"), "-o", str(tmp_path)]
+    )
+    assert out.exit_code == 0, out.output
+    scen = tmp_path / "cal.yaml"
+    scen.write_text("data: simulate-table.h5\nimu_axes: [right, forward, up]\n")
+    result = run(scen, "-o", tmp_path / "bad")
+    assert result.exit_code == 2
+    assert "imu_axes" in result.output and "check the IMU axes" in result.output
+    scen.write_text("data: simulate-table.h5\nimu_axes: [forward, right, down]\n")
+    result = run(scen, "-o", tmp_path / "good")
+    assert result.exit_code == 0, result.output
+    res = json.loads((tmp_path / "good" / "summary.json").read_text())["results"]
+    assert abs(res["discrete_sg_z_ppm"] - 8.0) < 4 * res["discrete_sg_z_sigma_ppm"]
+
+
+def test_positions_not_found_are_bad_input(tmp_path):
+    result = run(
+        CONFIGS / "calibrate-imu" / "xsens-real.yaml",
+        "-o",
+        tmp_path,
+        "--set",
+        "table_free.use_positions=[0, 40]",
+    )
+    assert result.exit_code == 2
+    assert "table_free.use_positions" in result.output and "38 static intervals" in result.output
