@@ -137,19 +137,7 @@ def read_recording(scenario):
         doppler_l1=observable(obs_file, "D1"),
         snr=observable(obs_file, "S1"),
     )
-    carrier = observable(obs_file, "L1") * measurements.LAMBDA_L1
-    gnss = flight_layout.GnssRecord(
-        week=obs.week,
-        time=obs.time,
-        start=obs.start,
-        prn=obs.prn,
-        pseudorange=obs.pseudorange,
-        signal=obs.signal,
-        range_rate=obs.range_rate,
-        sigma=obs.sigma,
-        snr=obs.snr,
-        carrier=carrier,
-    )
+    gnss = _gnss_record(obs, observable(obs_file, "L1") * measurements.LAMBDA_L1)
     flight = RecordedFlight(
         gnss=gnss,
         ephemeris=nav.records,
@@ -162,6 +150,22 @@ def read_recording(scenario):
         iono_beta=nav.iono_beta,
     )
     return flight, obs_file.approx_pos_e
+
+
+def _gnss_record(obs, carrier):
+    """The recorded-flight GNSS datasets of observations ``obs`` with ``carrier`` (m)."""
+    return flight_layout.GnssRecord(
+        week=obs.week,
+        time=obs.time,
+        start=obs.start,
+        prn=obs.prn,
+        pseudorange=obs.pseudorange,
+        signal=obs.signal,
+        range_rate=obs.range_rate,
+        sigma=obs.sigma,
+        snr=obs.snr,
+        carrier=carrier,
+    )
 
 
 def imu_from_log(path, progress=None):
@@ -284,18 +288,7 @@ def _read_multi(scenario):
         channel=channel,
     )
     wavelength = systems_mod.l1_wavelength(obs.prn, channel)
-    gnss = flight_layout.GnssRecord(
-        week=obs.week,
-        time=obs.time,
-        start=obs.start,
-        prn=obs.prn,
-        pseudorange=obs.pseudorange,
-        signal=obs.signal,
-        range_rate=obs.range_rate,
-        sigma=obs.sigma,
-        snr=obs.snr,
-        carrier=system_observable(obs_file, "L1") * wavelength,
-    )
+    gnss = _gnss_record(obs, system_observable(obs_file, "L1") * wavelength)
     names = ", ".join(p.name for p in (scenario.nav_file, *scenario.extra_nav_files))
     flight = RecordedFlight(
         gnss=gnss,

@@ -2,9 +2,10 @@
 
 ``python -m inins.commands.warmup`` (``make kernels``, run by ``make demo``, ``make
 test`` and ``make bench``): each kernel module's ``warm_up()`` compiles its one
-specialisation into numba's on-disk cache, and short runs of run-ekf and
-observability compile the EKF, GNSS and observability kernels the way their
-commands call them; later processes load them instead of compiling. Then the
+specialisation into numba's on-disk cache, and short runs of shipped scenarios
+(run-ekf tight and loose with smoothing and aiding, observability, a GLONASS
+import-flight, calibrate-imu, noise) compile the kernels the way their commands
+call them; later processes load them instead of compiling. Then the
 kernels a short run needs are compiled ahead of time into the kernel library
 (:mod:`inins.core.jit`), which a run loads without numba.
 """
@@ -22,6 +23,11 @@ SHORT_RUNS = (  # (command, shipped scenario (folder, name), --set overrides)
     ("run-ekf", ("paper003", "ekf1-ff"), _WAIT),
     ("observability", ("observability", "default"), ()),
     ("observability", ("observability", "ekf26-bank-turns"), ()),
+    ("run-ekf", ("run-ekf", "lc-drive-15s-aided"), ()),  # loose, RTS smoother, aiding
+    ("import-flight", ("import-flight", "smartloc-gps-glonass"), ()),  # GLONASS orbits
+    ("calibrate-imu", ("calibrate-imu", "default"), ()),
+    ("calibrate-imu", ("calibrate-imu", "table-free-mems"), ()),
+    ("noise", ("noise", "simulated-hold"), ()),
 )
 """Runs (no output written) whose kernels have no ``warm_up()`` of their own."""
 
