@@ -27,6 +27,15 @@ SOURCES = (  # names a docstring may cite -> the text their entry starts with
     ("RINEX", "**RINEX**"),
     ("WGS84", "**WGS 84**"),
     ("IEEE Std 952", "**IEEE Std 952-1997**"),
+    ("Greenhall", "**Greenhall & Riley 2003**"),
+    ("SP 1065", "**NIST SP 1065**"),
+    ("Stable32", "**Stable32**"),
+    ("Tedaldi", "**Tedaldi et al. 2014**"),
+    ("Rauch-Tung-Striebel", "**Rauch, Tung & Striebel 1965**"),
+    ("Galileo OS SIS ICD", "**Galileo OS SIS ICD**"),
+    ("BDS-SIS-ICD", "**BDS-SIS-ICD**"),
+    ("GLONASS ICD", "**GLONASS ICD**"),
+    ("Kalibr", "**Kalibr**"),
 )
 
 
