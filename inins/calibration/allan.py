@@ -144,56 +144,59 @@ def _phase_pass(a, b, ref, phase, tail, block, fill, means, sqs):
 
     ``a`` (p, ka) and ``b`` (p, kb) are the chunk's columns (k = ka + kb channels);
     their running sum less ``ref`` per sample, continued from ``phase`` (updated in
-    place), is the phase. ``tail`` (k, h): the last h phase points before the chunk.
+    place), is the phase. ``tail`` (h, k): the last h phase points before the chunk.
     Block sums and sums of squares (less ``ref``) of ``fill[1]`` samples go to
     ``means``/``sqs`` (one row per completed block), the open block in ``block`` (2, k)
-    and ``fill[0]``. Returns the buffer (k, h + p) of tail and new phase, the number of
-    completed blocks and the first row holding a non-finite number (-1 if none).
+    and ``fill[0]``. Returns the buffer (h + p, k) of tail and new phase (one row per
+    point, the channels side by side, as the difference kernel reads them), the number
+    of completed blocks and the first row holding a non-finite number (-1 if none).
+    One pass over the rows, every channel per row; each channel's sums in the same order
+    as channel by channel.
     """
     p, ka = a.shape
     k = ka + b.shape[1]
-    h = tail.shape[1]
-    buf = np.empty((k, h + p))
+    h = tail.shape[0]
+    buf = np.empty((h + p, k))
+    buf[:h] = tail
     bad = p
     block_n = fill[1]
+    x = phase.copy()
+    s1 = block[0].copy()
+    s2 = block[1].copy()
+    f = fill[0]
     done = 0
-    for c in range(k):
-        for j in range(h):
-            buf[c, j] = tail[c, j]
-        x = phase[c]
-        r = ref[c]
-        s1 = block[0, c]
-        s2 = block[1, c]
-        f = fill[0]
-        done = 0
-        for i in range(p):
-            v = (a[i, c] if c < ka else b[i, c - ka]) - r
+    for i in range(p):
+        for c in range(k):
+            v = (a[i, c] if c < ka else b[i, c - ka]) - ref[c]
             if not math.isfinite(v) and i < bad:
                 bad = i
-            x += v
-            buf[c, h + i] = x
-            s1 += v
-            s2 += v * v
-            f += 1
-            if f == block_n:
-                means[done, c] = s1
-                sqs[done, c] = s2
-                s1 = 0.0
-                s2 = 0.0
-                f = 0
-                done += 1
-        phase[c] = x
-        block[0, c] = s1
-        block[1, c] = s2
-    fill[0] = (fill[0] + p) % block_n
+            x[c] += v
+            buf[h + i, c] = x[c]
+            s1[c] += v
+            s2[c] += v * v
+        f += 1
+        if f == block_n:
+            for c in range(k):
+                means[done, c] = s1[c]
+                sqs[done, c] = s2[c]
+                s1[c] = 0.0
+                s2[c] = 0.0
+            f = 0
+            done += 1
+    phase[:] = x
+    block[0] = s1
+    block[1] = s2
+    fill[0] = f
     return buf, done, (bad if bad < p else -1)
 
 
 @jit.njit(cache=True, nogil=True)
 def _difference_sums(buf, first, ms, sums, terms):
     """Add ``(x_j - 2 x_{j-M} + x_{j-2M})^2`` over the points j >= max(first, 2M) of
-    buf (k, n) to ``sums`` (q, k), their count to ``terms`` (q,), for each M of ``ms``."""
-    k, n = buf.shape
+    buf (n, k) to ``sums`` (q, k), their count to ``terms`` (q,), for each M of ``ms``.
+    All k channels of a point at once (contiguous in a row of buf); each channel's sum
+    is added in the order of j, as one channel at a time would."""
+    n, k = buf.shape
     q = ms.shape[0]
     if q == 0:
         return
@@ -203,25 +206,24 @@ def _difference_sums(buf, first, ms, sums, terms):
         if j0 < n:
             terms[e] += n - j0
         top = max(top, 2 * ms[e])
-    total = np.zeros(q)
-    for c in range(k):
-        row = buf[c]
-        total[:] = 0.0
-        # the points where some stride still lacks a whole window: one stride at a time
+    total = np.zeros((q, k))
+    # the points where some stride still lacks a whole window: one stride at a time
+    for e in range(q):
+        mm = ms[e]
+        for j in range(max(first, 2 * mm), min(n, max(first, top))):
+            for c in range(k):
+                d = buf[j, c] - 2.0 * buf[j - mm, c] + buf[j - 2 * mm, c]
+                total[e, c] += d * d
+    # then every stride at each point, one pass over the rows
+    for j in range(max(first, top), n):
         for e in range(q):
             mm = ms[e]
-            for j in range(max(first, 2 * mm), min(n, max(first, top))):
-                d = row[j] - 2.0 * row[j - mm] + row[j - 2 * mm]
-                total[e] += d * d
-        # then every stride at each point, one pass over the row
-        for j in range(max(first, top), n):
-            x = row[j]
-            for e in range(q):
-                mm = ms[e]
-                d = x - 2.0 * row[j - mm] + row[j - 2 * mm]
-                total[e] += d * d
-        for e in range(q):
-            sums[e, c] += total[e]
+            for c in range(k):
+                d = buf[j, c] - 2.0 * buf[j - mm, c] + buf[j - 2 * mm, c]
+                total[e, c] += d * d
+    for e in range(q):
+        for c in range(k):
+            sums[e, c] += total[e, c]
 
 
 # --------------------------------------------------------------------------- streaming
@@ -267,7 +269,7 @@ class AllanAccumulator:
         ]
         self._big = np.array([big for _, big in plan], dtype=np.int64)
         self._hold = [2 * int(self._big[idx].max()) if idx.size else 0 for idx in self._by_level]
-        self._tail = [np.zeros((self.k, 0)) for _ in range(self.levels)]
+        self._tail = [np.zeros((0, self.k)) for _ in range(self.levels)]
         self._count = [0] * self.levels
         self._sums = np.zeros((self.ms.size, self.k))
         self._terms = np.zeros(self.ms.size, dtype=np.int64)
@@ -293,7 +295,7 @@ class AllanAccumulator:
         nb = (self._fill[0] + p) // self._fill[1] + 1
         means, sqs = np.zeros((nb, self.k)), np.zeros((nb, self.k))
         if self.n == 0:
-            self._tail[0] = np.zeros((self.k, 1))  # x_0 = 0
+            self._tail[0] = np.zeros((1, self.k))  # x_0 = 0
         tail = self._tail[0]
         buf, done, bad = _phase_pass(
             a,
@@ -312,7 +314,7 @@ class AllanAccumulator:
         self.n += p
         level = 0
         while True:
-            h = tail.shape[1]
+            h = tail.shape[0]
             idx = self._by_level[level]
             if idx.size:
                 sums = np.zeros((idx.size, self.k))
@@ -325,24 +327,24 @@ class AllanAccumulator:
                 for e, big in zip(idx, bigs, strict=True):
                     if self._id_n[e] <= self.id_points:
                         start = h + (-c) % big
-                        take = buf[:, start::big][:, : self.id_points + 1 - self._id_n[e]]
-                        if take.shape[1]:
-                            self._idx[e].append(take.T.copy())
-                            self._id_n[e] += take.shape[1]
+                        take = buf[start::big][: self.id_points + 1 - self._id_n[e]]
+                        if take.shape[0]:
+                            self._idx[e].append(take.copy())
+                            self._id_n[e] += take.shape[0]
             c = self._count[level]
             hold = max(self._hold[level], 2)
-            self._tail[level] = buf[:, -hold:].copy()
-            self._count[level] = c + buf.shape[1] - h
+            self._tail[level] = buf[-hold:].copy()
+            self._count[level] = c + buf.shape[0] - h
             level += 1
             if level >= self.levels:
                 break
-            up = buf[:, h + c % 2 :: 2]
-            if up.shape[1] == 0:
+            up = buf[h + c % 2 :: 2]
+            if up.shape[0] == 0:
                 break
             tail = self._tail[level]
-            if tail.shape[0] != self.k:
-                tail = np.zeros((self.k, 0))
-            buf = np.concatenate([tail, up], axis=1)
+            if tail.shape[1] != self.k:
+                tail = np.zeros((0, self.k))
+            buf = np.concatenate([tail, up], axis=0)
         return -1 if bad < 0 else bad
 
     def blocks(self):
