@@ -368,10 +368,11 @@ class AllanAccumulator:
         alpha = np.zeros((self.ms.size, self.k), dtype=np.int64)
         for a in range(self.ms.size):
             x = np.vstack(self._idx[a]) if self._idx[a] else np.zeros((0, self.k))
-            y = np.diff(x, axis=0)
+            # one contiguous row per channel: np.dot of a strided column is ~20x slower
+            y = np.ascontiguousarray(np.diff(x, axis=0).T)
             for c in range(self.k):
                 alpha[a, c] = (
-                    autocorr_alpha(y[:, c], "frequency") if y.shape[0] >= ID_MIN_POINTS else _NO_ID
+                    autocorr_alpha(y[c], "frequency") if y.shape[1] >= ID_MIN_POINTS else _NO_ID
                 )
         alpha = _fill_alpha(alpha)
         ms, var, alpha = self.ms[keep], var[keep], alpha[keep]
