@@ -139,7 +139,7 @@ def _level(m, offsets):
 
 
 @jit.njit(cache=True, nogil=True)
-def _phase_pass(a, b, ref, phase, tail, block, fill, means, sqs):
+def _phase_pass(a, b, ref, phase, tail, block, fill, means, sqs, out):
     """Level 0 of the streaming Allan variance over a chunk of increments.
 
     ``a`` (p, ka) and ``b`` (p, kb) are the chunk's columns (k = ka + kb channels);
@@ -147,7 +147,8 @@ def _phase_pass(a, b, ref, phase, tail, block, fill, means, sqs):
     place), is the phase. ``tail`` (h, k): the last h phase points before the chunk.
     Block sums and sums of squares (less ``ref``) of ``fill[1]`` samples go to
     ``means``/``sqs`` (one row per completed block), the open block in ``block`` (2, k)
-    and ``fill[0]``. Returns the buffer (h + p, k) of tail and new phase (one row per
+    and ``fill[0]``. Returns the buffer (h + p, k) of tail and new phase (the first
+    rows of ``out``, reused from call to call: no fresh pages to fault in; one row per
     point, the channels side by side, as the difference kernel reads them), the number
     of completed blocks and the first row holding a non-finite number (-1 if none).
     One pass over the rows, every channel per row; each channel's sums in the same order
@@ -156,7 +157,7 @@ def _phase_pass(a, b, ref, phase, tail, block, fill, means, sqs):
     p, ka = a.shape
     k = ka + b.shape[1]
     h = tail.shape[0]
-    buf = np.empty((h + p, k))
+    buf = out[: h + p]
     buf[:h] = tail
     bad = p
     block_n = fill[1]
@@ -280,6 +281,7 @@ class AllanAccumulator:
         self._fill = np.array([0, max(int(block_n), 1)], dtype=np.int64)
         self._blocks, self._squares = [], []
         self.n = 0
+        self._buffers = {}
 
     def add(self, increments, more=None):
         """Add a chunk of increments, shape (p, k) (rad or m/s), or its first columns
@@ -307,6 +309,7 @@ class AllanAccumulator:
             self._fill,
             means,
             sqs,
+            self._buffer(0, tail.shape[0] + p),
         )
         if done:
             self._blocks.append(means[:done] / self.tau0)
@@ -344,8 +347,18 @@ class AllanAccumulator:
             tail = self._tail[level]
             if tail.shape[1] != self.k:
                 tail = np.zeros((0, self.k))
-            buf = np.concatenate([tail, up], axis=0)
+            buf = self._buffer(level, tail.shape[0] + up.shape[0])[: tail.shape[0] + up.shape[0]]
+            buf[: tail.shape[0]] = tail
+            buf[tail.shape[0] :] = up
         return -1 if bad < 0 else bad
+
+    def _buffer(self, level, rows):
+        """A (>= rows, k) work buffer for one level, kept between chunks (a fresh one
+        of this size per chunk costs its page faults: tens of ns per row)."""
+        have = self._buffers.get(level)
+        if have is None or have.shape[0] < rows:
+            have = self._buffers[level] = np.empty((rows, self.k))
+        return have
 
     def blocks(self):
         """Block means of the rate (nb, k) and the standard deviation of the increments
