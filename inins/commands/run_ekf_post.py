@@ -30,6 +30,7 @@ from inins.ekf.tight_store import TightStore
 from inins.exceptions import InputError
 from inins.io import scratch
 from inins.io import solution_files as sf
+from inins.io import solution_layout
 from inins.results import CommandResult, Series, format_table
 
 RESULT_NAMES = (
@@ -69,9 +70,12 @@ RESULT_NAMES = (
 """Results of a ``post:`` run (null where not applicable)."""
 
 
-def _read_gnss(g):
+def read_post_gnss(g):
+    """The :class:`~inins.io.solution_files.SolutionFile` of a ``post.gnss`` section."""
     if g.format == "rtklib":
         sol = sf.read_rtklib_pos(g.file)
+    elif g.format == "recorded":
+        sol = solution_layout.read_recorded_solution(g.file)
     elif g.format == "mat":
         cols = {k: int(v) for k, v in g.columns.items()}
         sol = sf.read_solution_mat(
@@ -80,6 +84,34 @@ def _read_gnss(g):
     else:
         sol = sf.read_solution_csv(g.file, g.columns, g.angle_unit, g.time_scale_s)
     return sol
+
+
+def read_post_imu(i):
+    """The :class:`~inins.io.solution_files.ImuRates` of a ``post.imu`` section."""
+    if i.format == "recorded":
+        return solution_layout.read_recorded_imu(i.file)
+    elif i.format == "mat":
+        return sf.read_imu_increments_mat(
+            i.file,
+            i.mat_variable,
+            i.gyro_columns,
+            i.accel_columns,
+            i.time_column,
+            i.axes,
+        )
+    else:
+        return sf.read_imu_rates_csv(
+            i.file,
+            i.accel_columns,
+            i.gyro_columns,
+            i.time_column,
+            i.time_scale_s,
+            i.accel_unit,
+            i.gyro_unit,
+            i.axes,
+            i.odometer_column,
+            i.odometer_scale_mps,
+        )
 
 
 def _reference_attitude(g):
@@ -114,7 +146,7 @@ def run(scenario, seed, *, sink=None, progress=None):
     """Post-process the scenario's drive (module docstring)."""
     p = scenario.post
     g = p.gnss
-    full = _read_gnss(g)
+    full = read_post_gnss(g)
     keep = np.isin(full.q, g.q_flags)
     if not keep.any():
         raise InputError(
@@ -124,28 +156,7 @@ def run(scenario, seed, *, sink=None, progress=None):
         )
     sol = full.select(keep)
     scale = np.array([g.sigma_scale.get(int(q), 1.0) for q in sol.q])
-    if p.imu.format == "mat":
-        imu = sf.read_imu_increments_mat(
-            p.imu.file,
-            p.imu.mat_variable,
-            p.imu.gyro_columns,
-            p.imu.accel_columns,
-            p.imu.time_column,
-            p.imu.axes,
-        )
-    else:
-        imu = sf.read_imu_rates_csv(
-            p.imu.file,
-            p.imu.accel_columns,
-            p.imu.gyro_columns,
-            p.imu.time_column,
-            p.imu.time_scale_s,
-            p.imu.accel_unit,
-            p.imu.gyro_unit,
-            p.imu.axes,
-            p.imu.odometer_column,
-            p.imu.odometer_scale_mps,
-        )
+    imu = read_post_imu(p.imu)
     ref_att = _reference_attitude(g)
     if ref_att is not None:
         ref_att = ref_att[keep]
