@@ -28,9 +28,8 @@ from inins.core.units import DEG, UG
 from inins.ekf import loose, outages, smoother, sources, timeoffset
 from inins.ekf.tight_store import TightStore
 from inins.exceptions import InputError
-from inins.io import scratch
+from inins.io import scratch, solution_layout
 from inins.io import solution_files as sf
-from inins.io import solution_layout
 from inins.results import CommandResult, Series, format_table
 
 RESULT_NAMES = (

@@ -11,8 +11,8 @@ from pydantic import Field, model_validator
 
 from inins.scenario.base import ScenarioModel, ScenarioPath
 from inins.scenario.base import ScenarioSection as Section
-from inins.scenario.types import NonNegFloat, PositiveFloat
 from inins.scenario.run_ekf_post import GnssFile, ImuLog
+from inins.scenario.types import NonNegFloat, PositiveFloat
 from inins.scenario.validation import KeyPathError
 
 
