@@ -548,6 +548,8 @@ def _track_ned(result):
     """SPP positions as north, east, down (m) from the reference position (or the first
     fix), the origin's name, and the fix mask."""
     ds = result.datasets
+    if "spp/pos_e" not in ds:
+        raise Skipped("no SPP solution (a solution-file import): no track to draw")
     pos = ds["spp/pos_e"].data
     fixed = np.isfinite(pos[:, 0])
     if not fixed.any():
