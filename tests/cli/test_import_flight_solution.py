@@ -136,3 +136,15 @@ def test_bad_solution_file_exit_2_nothing_written(tmp_path, kind, expect):
     if kind in ("backwards", "sigma", "column"):
         assert re.search(r"sol\.pos:\d+", out.stderr), out.stderr
     assert not (tmp_path / "o").exists() or list((tmp_path / "o").iterdir()) == []
+
+
+def test_recorded_flight_reader_refuses_a_solution_file(tmp_path):
+    """The two layouts stay apart: run-ekf's raw-observation reader (recorded-flight,
+    version 1, unchanged) names the file and '/' for a recorded-solution file."""
+    from inins.exceptions import InputError
+    from inins.io.flight_layout import read_flight
+
+    out = invoke("import-flight", _import_scenario(tmp_path), "-o", tmp_path / "imp")
+    assert out.exit_code == 0, out.output
+    with pytest.raises(InputError, match="not a recorded-flight file"):
+        read_flight(tmp_path / "imp" / "import-flight.h5")
