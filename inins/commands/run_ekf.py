@@ -15,7 +15,9 @@ from dataclasses import replace
 
 import numpy as np
 
+from inins.calibration.imu_model import compensate
 from inins.commands import figures, run_ekf_post, run_ekf_report
+from inins.commands._compensation import scenario_terms
 from inins.core import rotation, strapdown
 from inins.core.units import ARCSEC, DEG, DPH
 from inins.ekf import flight as fl
@@ -200,6 +202,10 @@ def _recorded(scenario, store=None):
     imu = rec.imu
     dt = float(np.median(np.diff(imu.time)))
     sources.check_imu_time(imu.time, dt, str(d.file))
+    terms = scenario_terms(scenario)
+    if terms is not None:
+        dth_c, dv_c = compensate(imu.dtheta, imu.dv, dt, terms)
+        imu = replace(imu, dtheta=dth_c, dv=dv_c)
     start = recorded.prepare(
         imu.time,
         imu.dtheta,
