@@ -1,0 +1,150 @@
+"""``compensation: FILE`` (a calibrate-imu compensation file) applied to raw data by
+import-log, calibrate-bias and run-ekf: the errors it estimated are removed, the
+refusals name the file and key."""
+
+import json
+
+import h5py
+import numpy as np
+import pytest
+import yaml
+from typer.testing import CliRunner
+
+from inins.cli import app
+from inins.commands._compensation import CompensatedRecord, compensation_terms
+from inins.core.units import ARCSEC, DPH, PPM, UG
+from inins.io.rawlog import compensation_text
+from inins.io.tabledata import read_table_data
+from tests.helpers import CONFIGS
+
+RATE = 50  # Hz: the shipped 24-position + rate-test schedule at a quarter of its rate
+MG = ("xy", "xz", "yx", "yz", "zx", "zy")
+
+
+def invoke(*args):
+    return CliRunner().invoke(app, [*map(str, args)])
+
+
+def comp_file(path, gyro_bias_dph=(0, 0, 0), accel_bias_ug=(0, 0, 0), serial="SIM-0001", **imu):
+    """A compensation file with the given terms (the layout calibrate-imu writes)."""
+    payload = {
+        "format": "inins-compensation",
+        "version": 1,
+        "unit": {"name": "RLG-NAV", "serial": serial},
+        "method": "test",
+        "imu": {"gyro_bias_dph": list(gyro_bias_dph), "accel_bias_ug": list(accel_bias_ug), **imu},
+    }
+    path.write_text(compensation_text(payload))
+    return path
+
+
+@pytest.fixture(scope="module")
+def lab(tmp_path_factory):
+    """The shipped calibrate-imu schedule simulated with its errors, and once without
+    any (same motion): the true increments; calibrate-imu on the first."""
+    root = tmp_path_factory.mktemp("comp")
+    setup = yaml.safe_load((CONFIGS / "calibrate-imu" / "default.yaml").read_text())
+    sim = setup["simulate"]
+    sim["imu"]["sample_rate_hz"] = RATE
+    (root / "raw.yaml").write_text(yaml.safe_dump({**sim, "seed": 11}))
+    for s in ("gyro", "accel"):
+        for k in ("bias_dph", "scale_ppm", "misalignment_arcsec", "arw_deg_rth", "bias_ug"):
+            sim["imu"][s].pop(k, None)
+        sim["imu"][s].pop("vrw_ug_rthz", None)
+    (root / "true.yaml").write_text(yaml.safe_dump({**sim, "seed": 11}))
+    for name in ("raw", "true"):
+        done = invoke("simulate-table", root / f"{name}.yaml", "-o", root / name)
+        assert done.exit_code == 0, done.output
+    cal = root / "cal.yaml"
+    cal.write_text(
+        yaml.safe_dump({"unit": setup["unit"], "data": str(root / "raw" / "simulate-table.h5")})
+    )
+    done = invoke("calibrate-imu", cal, "-o", root / "cal")
+    assert done.exit_code == 0, done.output
+    res = json.loads((root / "cal" / "summary.json").read_text())["results"]
+    return root, res
+
+
+def _fit(record, true_record):
+    """Per triad, the bias b (SI) and the matrix E with ``d - d_true = b dt + E d_true``,
+    least squares over the sums of every step of the schedule (holds and rotations)."""
+    rows = {"g": ([], []), "a": ([], [])}
+    for step in record.steps:
+        k0, k1 = step.start_index, step.stop_index
+        if k1 <= k0:
+            continue
+        (dth, dv), (tth, tdv) = record.imu(k0, k1), true_record.imu(k0, k1)
+        for key, d, t in (("g", dth, tth), ("a", dv, tdv)):
+            rows[key][0].append([(k1 - k0) * record.dt, *t.sum(0)])
+            rows[key][1].append((d - t).sum(0))
+    out = {}
+    for key, (design, rhs) in rows.items():
+        sol = np.linalg.lstsq(np.array(design), np.array(rhs), rcond=None)[0]
+        out[key] = sol[0], sol[1:].T  # b (3,), E (3, 3) with E[i, j] on d_true[j]
+    return out
+
+
+@pytest.mark.slow
+def test_compensated_increments_lose_the_calibrated_errors(lab, tmp_path):
+    root, res = lab
+    raw = read_table_data(root / "raw" / "simulate-table.h5")
+    true = read_table_data(root / "true" / "simulate-table.h5")
+    terms = compensation_terms(root / "cal" / "calibrate-imu-compensation.yaml", "RLG-NAV")
+    before = _fit(raw, true)
+    after = _fit(CompensatedRecord.wrap(raw, terms), true)
+    # the simulated errors through the file's keys: the fit of the raw data finds them
+    # (this holds the file's sign conventions to the simulator's, misalignments too)
+    sim = yaml.safe_load((root / "raw.yaml").read_text())["imu"]
+    g, a = sim["gyro"], sim["accel"]
+    true_terms = compensation_terms(
+        comp_file(
+            tmp_path / "truth.yaml",
+            g["bias_dph"],
+            a["bias_ug"],
+            gyro_scale_ppm=g["scale_ppm"],
+            accel_scale_ppm=a["scale_ppm"],
+            gyro_misalignment_arcsec=g["misalignment_arcsec"],
+            accel_misalignment_arcsec=a["misalignment_arcsec"],
+        )
+    )
+    sig_bg = np.array([res[f"discrete_bg_{a}_sigma_dph"] for a in "xyz"]) * DPH
+    sig_ba = np.array([res[f"discrete_ba_{a}_sigma_ug"] for a in "xyz"]) * UG
+    sig_sg = np.array([res[f"discrete_sg_{a}_sigma_ppm"] for a in "xyz"]) * PPM
+    sig_sa = np.array([res[f"discrete_sa_{a}_sigma_ppm"] for a in "xyz"]) * PPM
+    sig_mg = max(res[f"discrete_mg_{k}_sigma_arcsec"] for k in MG) * ARCSEC
+    sig_ma = max(res[f"discrete_ma_{k}_sigma_arcsec"] for k in ("yx", "zx", "zy")) * ARCSEC
+    b_g, e_g = before["g"]
+    b_a, e_a = before["a"]
+    np.testing.assert_array_less(np.abs(b_g - true_terms.gyro_bias()), 4 * sig_bg)
+    np.testing.assert_array_less(np.abs(b_a - true_terms.accel_bias()), 4 * sig_ba)
+    m_g, m_a = true_terms.gyro_matrix() - np.eye(3), true_terms.accel_matrix() - np.eye(3)
+    np.testing.assert_array_less(np.abs(np.diag(e_g - m_g)), 4 * sig_sg)
+    np.testing.assert_array_less(np.abs(np.diag(e_a - m_a)), 4 * sig_sa)
+    assert np.abs(e_g - m_g).max() < 4 * max(sig_mg, sig_sg.max())
+    assert np.abs(e_a - m_a).max() < 4 * max(sig_ma, sig_sa.max())
+    np.testing.assert_array_less(5 * sig_ba, np.abs(b_a))  # errors well above the noise
+    np.testing.assert_array_less(5 * sig_bg[:2], np.abs(b_g[:2]))
+    np.testing.assert_array_less(5 * sig_sg, np.abs(np.diag(e_g)))
+    # compensated: what is left is zero within the calibration's uncertainty
+    b_g, e_g = after["g"]
+    b_a, e_a = after["a"]
+    np.testing.assert_array_less(np.abs(b_g), 4 * sig_bg)
+    np.testing.assert_array_less(np.abs(b_a), 4 * sig_ba)
+    np.testing.assert_array_less(np.abs(np.diag(e_g)), 4 * sig_sg)
+    np.testing.assert_array_less(np.abs(np.diag(e_a)), 4 * sig_sa)
+    assert np.abs(e_g - np.diag(np.diag(e_g))).max() < 4 * sig_mg
+    assert np.abs(e_a - np.diag(np.diag(e_a))).max() < 4 * sig_ma
+    print(
+        "bias before/after (deg/h, ug):",
+        before["g"][0] / DPH,
+        b_g / DPH,
+        before["a"][0] / UG,
+        b_a / UG,
+    )
+    print(
+        "scale before/after (ppm):",
+        np.diag(before["g"][1]) / PPM,
+        np.diag(e_g) / PPM,
+        np.diag(before["a"][1]) / PPM,
+        np.diag(e_a) / PPM,
+    )
