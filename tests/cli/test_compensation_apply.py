@@ -4,7 +4,6 @@ refusals name the file and key."""
 
 import json
 
-import h5py
 import numpy as np
 import pytest
 import yaml
