@@ -2,13 +2,16 @@
 import-log, calibrate-bias and run-ekf: the errors it estimated are removed, the
 refusals name the file and key."""
 
+import hashlib
 import json
 
+import h5py
 import numpy as np
 import pytest
 import yaml
 from typer.testing import CliRunner
 
+from inins.calibration import imu_model
 from inins.cli import app
 from inins.commands._compensation import CompensatedRecord, compensation_terms
 from inins.core.units import ARCSEC, DPH, PPM, UG
@@ -223,3 +226,37 @@ def test_run_ekf_refuses_a_compensation_for_a_simulated_flight(tmp_path):
         f"compensation={comp}",
     )
     assert done.exit_code == 2 and "compensation" in done.output
+
+
+def test_import_log_stores_compensated_increments_with_the_file_named(tmp_path):
+    # the RLG excerpt (pulse counts): with a compensation file the stored increments
+    # are float64 SI, equal to the file's compensation of the plain import's, and the
+    # hold's mean rate and specific force move by minus the file's biases
+    plain = invoke("import-log", "-o", tmp_path / "plain")
+    assert plain.exit_code == 0, plain.output
+    comp = comp_file(
+        tmp_path / "c.yaml", (0.5, -0.3, 0.2), (100.0, -50.0, 80.0), gyro_scale_ppm=[20, 0, -10]
+    )
+    done = invoke("import-log", "-o", tmp_path / "c", "--set", f"compensation={comp}")
+    assert done.exit_code == 0, done.output
+    a = read_table_data(tmp_path / "plain" / "import-log.h5")
+    b = read_table_data(tmp_path / "c" / "import-log.h5")
+    terms = compensation_terms(comp)
+    (th_a, dv_a), (th_b, dv_b) = a.imu(), b.imu()
+    want_th, want_dv = imu_model.compensate(th_a, dv_a, a.dt, terms)
+    np.testing.assert_allclose(th_b, want_th, rtol=0, atol=1e-18)
+    np.testing.assert_allclose(dv_b, want_dv, rtol=0, atol=1e-15)
+    T = a.n_samples * a.dt
+    shift_g = (th_b.sum(0) - th_a.sum(0)) / T / DPH
+    assert np.abs(shift_g - [-0.5, 0.3, -0.2]).max() < 1e-3  # scale part: 20 ppm of 15 deg/h
+    shift_a = (dv_b.sum(0) - dv_a.sum(0)) / T / UG
+    assert np.abs(shift_a - [-100.0, 50.0, -80.0]).max() < 1e-6
+    with h5py.File(tmp_path / "c" / "import-log.h5") as f:
+        assert f["imu/dtheta"].dtype == np.float64
+        assert f["import"].attrs["compensation_file"] == "c.yaml"
+        assert (
+            f["import"].attrs["compensation_sha256"]
+            == hashlib.sha256(comp.read_bytes()).hexdigest()
+        )
+    with h5py.File(tmp_path / "plain" / "import-log.h5") as f:
+        assert f["imu/dtheta"].dtype == np.int32 and "compensation_file" not in f["import"].attrs
