@@ -4,8 +4,8 @@ RTK-fixed epochs; and bad input (exit 2, one message naming file and line or key
 nothing written)."""
 
 import gzip
-import os
 import json
+import os
 
 import h5py
 import numpy as np
