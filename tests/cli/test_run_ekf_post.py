@@ -5,7 +5,6 @@ nothing written)."""
 
 import gzip
 import json
-import os
 
 import h5py
 import numpy as np
@@ -268,10 +267,7 @@ def test_fog_mems_attitude_against_the_fog(tmp_path):
     assert abs(r["post_gyro_bias_y_dph"] + 213.6) < 5
 
 
-@pytest.mark.skipif(
-    not os.environ.get("ININS_LONG"),
-    reason="two lc-drive post runs (about 40 s), with and without compensation: ININS_LONG=1",
-)
+@pytest.mark.slow
 def test_compensation_file_moves_the_post_bias_estimates_by_its_biases(tmp_path):
     """compensation: FILE on post's IMU log: increments less (50, -50, 30) deg/h and
     (1000, -1000, 500) ug; the final bias estimates move by minus those (measured:
