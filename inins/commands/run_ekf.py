@@ -52,7 +52,7 @@ def run(scenario, seed, *, sink=None, progress=None):
         result, info = _recorded(scenario, store)
     else:
         result, info = _simulated(scenario, seed, progress, store)
-    smoothed = run_ekf_post.tight_smoothed(result, store)
+    smoothed = run_ekf_post.tight_smoothed(result, store, scenario.filter.outages_s)
     summary = result.summary()
     if result.heading_error.size and np.any(result.time >= scenario.filter.turning_from_s):
         window = result.summary(window=(scenario.filter.turning_from_s, math.inf))
@@ -288,6 +288,7 @@ RESULT_NAMES = (
 )
 """Every result a run gives (null where not applicable: no truth, no recording, EKF1)."""
 RESULT_NAMES += run_ekf_post.TIGHT_SMOOTH_NAMES  # null unless filter.smoother: rts
+RESULT_NAMES += run_ekf_post.TIGHT_OUTAGE_NAMES  # null without truth and outages_s
 TRUTH_NAMES = ("gyro_bias_z_est_dph", "mg_yz_est_arcsec", "mg_zy_est_arcsec")
 
 
