@@ -8,6 +8,8 @@ initial attitude is the gyrocompass result of the sensor errors on the ground.
 Recorded: :func:`inins.io.flight_layout.read_flight` (import-flight output) or
 :func:`inins.io.psins_tc.read_psins_tc` (the .mat directly); levelling on the static
 window and the velocity-heading initialisation (:func:`inins.ekf.sources.velocity_heading`).
+With ``compensation: FILE`` the recorded increments (and post's uniform-grid ones) are
+compensated by :func:`inins.calibration.imu_model.compensate` before the filter.
 """
 
 import math
