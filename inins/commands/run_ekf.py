@@ -8,6 +8,8 @@ initial attitude is the gyrocompass result of the sensor errors on the ground.
 Recorded: :func:`inins.io.flight_layout.read_flight` (import-flight output) or
 :func:`inins.io.psins_tc.read_psins_tc` (the .mat directly); levelling on the static
 window and the velocity-heading initialisation (:func:`inins.ekf.sources.velocity_heading`).
+With ``compensation: FILE`` the recorded increments (and post's uniform-grid ones) are
+compensated by :func:`inins.calibration.imu_model.compensate` before the filter.
 """
 
 import math
@@ -15,7 +17,9 @@ from dataclasses import replace
 
 import numpy as np
 
+from inins.calibration.imu_model import compensate
 from inins.commands import figures, run_ekf_post, run_ekf_report
+from inins.commands._compensation import scenario_terms
 from inins.core import rotation, strapdown
 from inins.core.units import ARCSEC, DEG, DPH
 from inins.ekf import flight as fl
@@ -200,6 +204,10 @@ def _recorded(scenario, store=None):
     imu = rec.imu
     dt = float(np.median(np.diff(imu.time)))
     sources.check_imu_time(imu.time, dt, str(d.file))
+    terms = scenario_terms(scenario)
+    if terms is not None:
+        dth_c, dv_c = compensate(imu.dtheta, imu.dv, dt, terms)
+        imu = replace(imu, dtheta=dth_c, dv=dv_c)
     start = recorded.prepare(
         imu.time,
         imu.dtheta,

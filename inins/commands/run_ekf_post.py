@@ -23,6 +23,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from inins.calibration.imu_model import compensate
+from inins.commands._compensation import scenario_terms
 from inins.core import earth, error_model, rotation, strapdown
 from inins.core.units import DEG, UG
 from inins.ekf import loose, outages, smoother, sources, timeoffset
@@ -208,6 +210,9 @@ def run(scenario, seed, *, sink=None, progress=None):
         )
     dth, grid = _uniform(tig, imu.gyro, dt, t0, t1)
     dvv, _ = _uniform(tig, imu.accel, dt, t0, t1)
+    terms = scenario_terms(scenario)
+    if terms is not None:
+        dth, dvv = compensate(dth, dvv, dt, terms)
     # 4. initial attitude
     first = int(np.searchsorted(tg, t0))
     lla0 = sol.lla[min(first, len(tg) - 1)]
