@@ -254,9 +254,20 @@ def _finite(block, keys, source):
         )
 
 
-def _increments(block, cols, sensor, pw, dt, mat_bl, keys, source):
-    """Body-frame increments of a block: int64 counts or SI floats, and SI floats."""
-    values = block.values[:, cols]
+def _axis_map(mat_bl):
+    """The signed permutation ``mat_bl`` as (log column, sign) per body axis."""
+    return [(int(np.flatnonzero(row)[0]), float(row[np.flatnonzero(row)[0]])) for row in mat_bl]
+
+
+def _increments(block, c0, sensor, pw, dt, mat_bl, keys, source):
+    """Body-frame increments of a block: int64 counts or SI floats, and SI floats.
+
+    ``mat_bl`` is a signed permutation, so each body axis is one log column times a
+    sign (and the scale): done element-wise, bit for bit what ``values @ mat.T`` gives
+    (its two other terms are exact zeros; the sum starts at +0, so a zero comes out +0).
+    """
+    values = block.values[:, c0 : c0 + 3]
+    axes = _axis_map(mat_bl)
     if sensor.counts:
         frac = values != np.rint(values)
         if frac.any():
@@ -264,13 +275,18 @@ def _increments(block, cols, sensor, pw, dt, mat_bl, keys, source):
             raise InputError(
                 f"{_row(block, r)}got {values[r, j]}; expected an integer pulse count",
                 source=source,
-                key=keys[cols[j]],
+                key=keys[c0 + j],
                 line=block.line(r),
             )
-        stored = values.astype(np.int64) @ np.rint(mat_bl).astype(np.int64).T
+        stored = np.empty(values.shape, dtype=np.int64)
+        for i, (j, sign) in enumerate(axes):
+            np.multiply(values[:, j], sign, out=stored[:, i], casting="unsafe")
         return stored, stored * (np.abs(mat_bl) @ pw)
     scale = sensor.factor * (dt if sensor.quantity == "rate" else 1.0)
-    si = values @ (mat_bl.T * scale)
+    si = np.empty(values.shape)
+    for i, (j, sign) in enumerate(axes):
+        np.multiply(values[:, j], sign * scale, out=si[:, i])
+    si += 0.0
     return si, si
 
 
@@ -317,8 +333,7 @@ class LogReader:
         cfg, res, keys = self.cfg, self.resolved, self._keys
         source = str(cfg.path)
         has_time = cfg.time is not None
-        gcols = [int(has_time) + j for j in range(3)]
-        acols = [int(has_time) + 3 + j for j in range(3)]
+        g0, a0 = int(has_time), int(has_time) + 3
         timecheck = _TimeCheck(source, "log.columns.time")
         n, start = 0, time.perf_counter()
         for block in self._blocks():
@@ -345,10 +360,10 @@ class LogReader:
             if has_time:
                 timecheck(block, t, dt)
             stored_g, dtheta = _increments(
-                block, gcols, cfg.gyro, res.gyro_pw, dt, cfg.mat_bl, keys, source
+                block, g0, cfg.gyro, res.gyro_pw, dt, cfg.mat_bl, keys, source
             )
             stored_a, dv = _increments(
-                block, acols, cfg.accel, res.accel_pw, dt, cfg.mat_bl, keys, source
+                block, a0, cfg.accel, res.accel_pw, dt, cfg.mat_bl, keys, source
             )
             for name, stored, sensor in (
                 ("dtheta", stored_g, cfg.gyro),
@@ -359,10 +374,11 @@ class LogReader:
                         f"{name} counts overflow int32 in the rows from {block.where(0)}",
                         source=source,
                     )
-            angles = block.values[:, acols[-1] + 1 :] * cfg.angle_scale
-            k = np.arange(n, n + len(block.values))
+            angles = block.values[:, a0 + 3 :] * cfg.angle_scale
+            if not has_time:  # the end of each sample interval
+                t = np.arange(n + 1, n + 1 + len(block.values)) * dt
             yield LogChunk(
-                TableChunk(n, dtheta, dv, t if has_time else (k + 1) * dt, angles),
+                TableChunk(n, dtheta, dv, t, angles),
                 stored_g.astype(np.int32) if cfg.gyro.counts else stored_g,
                 stored_a.astype(np.int32) if cfg.accel.counts else stored_a,
             )
