@@ -1,6 +1,7 @@
 """``inins calibrate-bias``: gyro-bias calibration on a rate table (spec §4, paper 000).
 
-Loads the table record (a data file, or the ``simulate:`` section in memory), runs
+Loads the table record (a data file, or the ``simulate:`` section in memory), applies
+the ``compensation:`` file to its increments as they are read (when given), runs
 :func:`inins.calibration.bias.calibrate_bias` and builds the flat results, truth,
 datasets and text report from its outcome.
 """
@@ -9,6 +10,7 @@ import numpy as np
 
 from inins.calibration import bias, budget, ett, three_axis
 from inins.commands import figures
+from inins.commands._compensation import CompensatedRecord, scenario_terms
 from inins.commands._table import load_record, read_ett_result, table_estimate
 from inins.commands.calibrate_bias_report import (
     AXES,
@@ -36,6 +38,7 @@ FIGURES = {
 def run(scenario, seed, *, sink=None, progress=None):
     """Calibrate from the scenario's data file or its in-memory simulation."""
     record, sensor = load_record(scenario.data, scenario.simulate, seed)
+    record = CompensatedRecord.wrap(record, scenario_terms(scenario))
     settings = method_settings(scenario, sensor, _ett(scenario, record))
     labels = scenario.sequence.vertical_labels
     found = three_axis.calibrate_three_axis(

@@ -188,10 +188,22 @@ def observability_sigma(result, path):
             axes.flat[k - ncols].set_xlabel("time (s)")
     for ax in axes[-1]:
         ax.set_xlabel("time (s)")
+    from inins.observability.analysis import PRACTICAL_RATIO
+
     combos = list(info.get("combinations", []))
-    lines = ["every state observable"] if not combos else ["unobservable:", *combos[:3]]
+    lines = (
+        ["full rank (observable in principle)"] if not combos else ["unobservable:", *combos[:3]]
+    )
     if len(combos) > 3:
         lines.append(f"and {len(combos) - 3} more (see the report)")
+    poor = [n for i, n in enumerate(names) if sigma[-1, i] > PRACTICAL_RATIO * sigma[0, i]]
+    if poor:
+        more = f" and {len(poor) - 8} more" if len(poor) > 8 else ""
+        lines.append(
+            f"poorly observable (sigma above {PRACTICAL_RATIO:g} of the prior at the end): "
+            + ", ".join(poor[:8])
+            + more
+        )
     fig.suptitle(
         f"covariance analysis, model {info['model']} (shaded: {band_text})\n" + "\n".join(lines),
         fontsize=9,
@@ -548,6 +560,8 @@ def _track_ned(result):
     """SPP positions as north, east, down (m) from the reference position (or the first
     fix), the origin's name, and the fix mask."""
     ds = result.datasets
+    if "spp/pos_e" not in ds:
+        raise Skipped("no SPP solution (a solution-file import): no track to draw")
     pos = ds["spp/pos_e"].data
     fixed = np.isfinite(pos[:, 0])
     if not fixed.any():

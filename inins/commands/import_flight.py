@@ -13,6 +13,7 @@ track, and the error against a known position when the scenario gives one.
 import numpy as np
 
 from inins.commands import figures
+from inins.commands.run_ekf_post import read_post_gnss, read_post_imu
 from inins.core import earth
 from inins.core.units import DEG
 from inins.exceptions import InputError
@@ -20,7 +21,7 @@ from inins.gnss import broadcast, ephemeris, glonass, measurements, spp
 from inins.gnss import systems as systems_mod
 from inins.gnss.spp import FixStatus
 from inins.gnss.systems import LETTERS, NAMES, rinex_name
-from inins.io import flight_layout
+from inins.io import flight_layout, solution_layout
 from inins.io.flight_checks import checked_flight
 from inins.io.flight_layout import ImuRecord, RecordedFlight
 from inins.io.psins_tc import read_psins_tc
@@ -40,6 +41,8 @@ FIGURES = {
 
 def run(scenario, seed, *, sink=None, progress=None):
     """Read the recording, solve every epoch, and describe both; ``seed`` is unused."""
+    if scenario.format == "solution":
+        return run_solution(scenario)
     flight, approx_pos_e = read_recording(scenario)
     reference = _reference(scenario, approx_pos_e)
     changes = {"reference_pos_e": reference}
@@ -78,6 +81,59 @@ def run(scenario, seed, *, sink=None, progress=None):
         attrs={"": flight_layout.flight_attrs(flight), "spp": {"ionosphere": iono}},
         report=report(scenario, flight, epochs, check, iono),
         warnings=(*flight.dropped, *check.warnings),
+    )
+
+
+def run_solution(scenario):
+    """Join a GNSS solution file to an IMU log in the recorded-solution layout
+    (:mod:`inins.io.solution_layout`); both files read and checked by
+    :mod:`inins.io.solution_files` (unknown columns, time not increasing, sigma <= 0:
+    the file and line named). The IMU keeps its own time axis: run-ekf's ``post.time``
+    maps it to GNSS time, as from the source files. Refused: IMU and GNSS spans that
+    cannot overlap (the IMU log shorter than a tenth of the GNSS span, or the other way,
+    so no mapping of the IMU tick onto GNSS time would cover the drive)."""
+    sol = read_post_gnss(scenario.solution_gnss)
+    imu = read_post_imu(scenario.solution_imu)
+    span_g = float(sol.time[-1] - sol.time[0])
+    span_i = float(imu.time[-1] - imu.time[0])
+    if span_g <= 0.0 or span_i < 0.1 * span_g or span_g < 0.1 * span_i:
+        raise InputError(
+            f"no overlap possible: IMU log spans {span_i:.1f} s, GNSS solutions {span_g:.1f} s",
+            source=str(scenario.solution_imu.file),
+            key="solution_imu",
+        )
+    if scenario.imu_t0_sow is not None:
+        week_s = np.mod(sol.time, 604800.0)
+        t0, t1 = scenario.imu_t0_sow, scenario.imu_t0_sow + span_i
+        if week_s[-1] < t0 or week_s[0] > t1:
+            raise InputError(
+                f"no overlap: IMU {t0:.3f}-{t1:.3f} s of week, GNSS "
+                f"{week_s[0]:.3f}-{week_s[-1]:.3f} s of week",
+                source=str(scenario.solution_gnss.file),
+                key="imu_t0_sow",
+            )
+    datasets = {
+        path: Series(value, unit, "", description)
+        for path, (value, unit, description) in solution_layout.solution_arrays(sol, imu).items()
+    }
+    results = dict.fromkeys(RESULT_NAMES)
+    results |= {"epochs": len(sol), "imu_samples": int(imu.time.size)}
+    fixed = int(np.count_nonzero(sol.q == 1))
+    report = (
+        f"GNSS solutions: {len(sol)} epochs over {span_g:.1f} s ({fixed} with Q = 1), "
+        f"from {scenario.solution_gnss.file}\n"
+        f"IMU log: {imu.time.size} samples over {span_i:.1f} s (its own time axis), "
+        f"from {scenario.solution_imu.file}\n"
+        "Written in the recorded-solution layout: run-ekf post.imu/post.gnss "
+        "format: recorded reads it.\n"
+    )
+    return CommandResult(
+        command="import-flight",
+        results=results,
+        datasets=datasets,
+        attrs={"": solution_layout.solution_attrs(sol, imu)},
+        report=report,
+        warnings=(),
     )
 
 

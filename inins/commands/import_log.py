@@ -5,7 +5,11 @@ check of every hold (spec §3).
 into the table-data layout (:mod:`inins.io.tabledata`) while block statistics are
 kept (:class:`inins.calibration.stationary.BlockStats`); the holds come from the
 scenario, from the table angles, or the whole log is one; each is checked by
-:func:`inins.calibration.stationary.check_holds`. Scenario keys:
+:func:`inins.calibration.stationary.check_holds`. With ``compensation: FILE`` (a
+calibrate-imu compensation file) the increments are compensated as they are formed
+and stored as float64 SI increments instead of pulse counts (the layout allows
+either; the compensated increments are no longer whole pulses), the file's name and
+SHA-256 under the ``import`` attributes. Scenario keys:
 :mod:`inins.scenario.import_log`.
 """
 
@@ -14,7 +18,9 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from inins.calibration import stationary
+from inins.calibration.imu_model import compensate
 from inins.commands import figures
+from inins.commands._compensation import compensation_provenance, scenario_terms
 from inins.commands.import_log_report import hold_numbers, report
 from inins.core.records import Step, StepKind
 from inins.exceptions import InputError
@@ -87,11 +93,12 @@ def run(scenario, seed, *, sink=None, progress=None):
     ``seed`` is unused (nothing is random).
     """
     cfg = import_settings(scenario)
+    terms = scenario_terms(scenario)
     sink = NullSink() if sink is None else sink
     reader = LogReader(cfg)
     res, g = reader.resolved, len(cfg.gimbals)
     weights = tuple(
-        None if not sensor.counts else np.abs(cfg.mat_bl) @ pw
+        None if not sensor.counts or terms is not None else np.abs(cfg.mat_bl) @ pw
         for sensor, pw in ((cfg.gyro, res.gyro_pw), (cfg.accel, res.accel_pw))
     )
     tabledata.declare(sink, g, weights, encoder=reader.n_angles > 0)
@@ -99,15 +106,17 @@ def run(scenario, seed, *, sink=None, progress=None):
     for part in reader.chunks(progress):
         if stats is None:
             stats = stationary.BlockStats.start(reader.dt, cfg.check.block_s, reader.n_angles)
-        tabledata.append_chunk(
-            sink,
-            part.table,
-            stored=(part.stored_dtheta, part.stored_dv),
-            encoder=reader.n_angles > 0,
-        )
-        stats.add(part.table.dtheta, part.table.dv, part.table.encoder)
+        table, stored = part.table, (part.stored_dtheta, part.stored_dv)
+        if terms is not None:
+            dth, dv = compensate(table.dtheta, table.dv, reader.dt, terms)
+            table, stored = replace(table, dtheta=dth, dv=dv), (dth, dv)
+        tabledata.append_chunk(sink, table, stored=stored, encoder=reader.n_angles > 0)
+        stats.add(table.dtheta, table.dv, table.encoder)
     log = LogRun(res, reader.extent, stats.finish())
-    return _result(cfg, log)
+    result = _result(cfg, log)
+    if scenario.compensation is not None:
+        result.attrs["import"].update(compensation_provenance(scenario.compensation))
+    return result
 
 
 def _result(cfg, log):

@@ -8,6 +8,8 @@ initial attitude is the gyrocompass result of the sensor errors on the ground.
 Recorded: :func:`inins.io.flight_layout.read_flight` (import-flight output) or
 :func:`inins.io.psins_tc.read_psins_tc` (the .mat directly); levelling on the static
 window and the velocity-heading initialisation (:func:`inins.ekf.sources.velocity_heading`).
+With ``compensation: FILE`` the recorded increments (and post's uniform-grid ones) are
+compensated by :func:`inins.calibration.imu_model.compensate` before the filter.
 """
 
 import math
@@ -15,7 +17,9 @@ from dataclasses import replace
 
 import numpy as np
 
+from inins.calibration.imu_model import compensate
 from inins.commands import figures, run_ekf_post, run_ekf_report
+from inins.commands._compensation import scenario_terms
 from inins.core import rotation, strapdown
 from inins.core.units import ARCSEC, DEG, DPH
 from inins.ekf import flight as fl
@@ -50,7 +54,7 @@ def run(scenario, seed, *, sink=None, progress=None):
         result, info = _recorded(scenario, store)
     else:
         result, info = _simulated(scenario, seed, progress, store)
-    smoothed = run_ekf_post.tight_smoothed(result, store)
+    smoothed = run_ekf_post.tight_smoothed(result, store, scenario.filter.outages_s)
     summary = result.summary()
     if result.heading_error.size and np.any(result.time >= scenario.filter.turning_from_s):
         window = result.summary(window=(scenario.filter.turning_from_s, math.inf))
@@ -200,6 +204,10 @@ def _recorded(scenario, store=None):
     imu = rec.imu
     dt = float(np.median(np.diff(imu.time)))
     sources.check_imu_time(imu.time, dt, str(d.file))
+    terms = scenario_terms(scenario)
+    if terms is not None:
+        dth_c, dv_c = compensate(imu.dtheta, imu.dv, dt, terms)
+        imu = replace(imu, dtheta=dth_c, dv=dv_c)
     start = recorded.prepare(
         imu.time,
         imu.dtheta,
@@ -282,6 +290,7 @@ RESULT_NAMES = (
 )
 """Every result a run gives (null where not applicable: no truth, no recording, EKF1)."""
 RESULT_NAMES += run_ekf_post.TIGHT_SMOOTH_NAMES  # null unless filter.smoother: rts
+RESULT_NAMES += run_ekf_post.TIGHT_OUTAGE_NAMES  # null without truth and outages_s
 TRUTH_NAMES = ("gyro_bias_z_est_dph", "mg_yz_est_arcsec", "mg_zy_est_arcsec")
 
 

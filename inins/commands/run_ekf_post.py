@@ -23,12 +23,14 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from inins.calibration.imu_model import compensate
+from inins.commands._compensation import scenario_terms
 from inins.core import earth, error_model, rotation, strapdown
 from inins.core.units import DEG, UG
 from inins.ekf import loose, outages, smoother, sources, timeoffset
 from inins.ekf.tight_store import TightStore
 from inins.exceptions import InputError
-from inins.io import scratch
+from inins.io import scratch, solution_layout
 from inins.io import solution_files as sf
 from inins.results import CommandResult, Series, format_table
 
@@ -69,9 +71,12 @@ RESULT_NAMES = (
 """Results of a ``post:`` run (null where not applicable)."""
 
 
-def _read_gnss(g):
+def read_post_gnss(g):
+    """The :class:`~inins.io.solution_files.SolutionFile` of a ``post.gnss`` section."""
     if g.format == "rtklib":
         sol = sf.read_rtklib_pos(g.file)
+    elif g.format == "recorded":
+        sol = solution_layout.read_recorded_solution(g.file)
     elif g.format == "mat":
         cols = {k: int(v) for k, v in g.columns.items()}
         sol = sf.read_solution_mat(
@@ -80,6 +85,34 @@ def _read_gnss(g):
     else:
         sol = sf.read_solution_csv(g.file, g.columns, g.angle_unit, g.time_scale_s)
     return sol
+
+
+def read_post_imu(i):
+    """The :class:`~inins.io.solution_files.ImuRates` of a ``post.imu`` section."""
+    if i.format == "recorded":
+        return solution_layout.read_recorded_imu(i.file)
+    elif i.format == "mat":
+        return sf.read_imu_increments_mat(
+            i.file,
+            i.mat_variable,
+            i.gyro_columns,
+            i.accel_columns,
+            i.time_column,
+            i.axes,
+        )
+    else:
+        return sf.read_imu_rates_csv(
+            i.file,
+            i.accel_columns,
+            i.gyro_columns,
+            i.time_column,
+            i.time_scale_s,
+            i.accel_unit,
+            i.gyro_unit,
+            i.axes,
+            i.odometer_column,
+            i.odometer_scale_mps,
+        )
 
 
 def _reference_attitude(g):
@@ -114,7 +147,7 @@ def run(scenario, seed, *, sink=None, progress=None):
     """Post-process the scenario's drive (module docstring)."""
     p = scenario.post
     g = p.gnss
-    full = _read_gnss(g)
+    full = read_post_gnss(g)
     keep = np.isin(full.q, g.q_flags)
     if not keep.any():
         raise InputError(
@@ -124,28 +157,7 @@ def run(scenario, seed, *, sink=None, progress=None):
         )
     sol = full.select(keep)
     scale = np.array([g.sigma_scale.get(int(q), 1.0) for q in sol.q])
-    if p.imu.format == "mat":
-        imu = sf.read_imu_increments_mat(
-            p.imu.file,
-            p.imu.mat_variable,
-            p.imu.gyro_columns,
-            p.imu.accel_columns,
-            p.imu.time_column,
-            p.imu.axes,
-        )
-    else:
-        imu = sf.read_imu_rates_csv(
-            p.imu.file,
-            p.imu.accel_columns,
-            p.imu.gyro_columns,
-            p.imu.time_column,
-            p.imu.time_scale_s,
-            p.imu.accel_unit,
-            p.imu.gyro_unit,
-            p.imu.axes,
-            p.imu.odometer_column,
-            p.imu.odometer_scale_mps,
-        )
+    imu = read_post_imu(p.imu)
     ref_att = _reference_attitude(g)
     if ref_att is not None:
         ref_att = ref_att[keep]
@@ -198,6 +210,9 @@ def run(scenario, seed, *, sink=None, progress=None):
         )
     dth, grid = _uniform(tig, imu.gyro, dt, t0, t1)
     dvv, _ = _uniform(tig, imu.accel, dt, t0, t1)
+    terms = scenario_terms(scenario)
+    if terms is not None:
+        dth, dvv = compensate(dth, dvv, dt, terms)
     # 4. initial attitude
     first = int(np.searchsorted(tg, t0))
     lla0 = sol.lla[min(first, len(tg) - 1)]
@@ -737,6 +752,80 @@ TIGHT_SMOOTH_NAMES = (
 """Results of ``filter.smoother: rts`` in the tight mode (null without it)."""
 
 
+TIGHT_OUTAGE_NAMES = (
+    "outages_scored",
+    "outage_fwd_drift_hor_rms_m",
+    "outage_fwd_drift_3d_rms_m",
+    "outage_fwd_heading_end_rms_deg",
+    "outage_sm_drift_hor_rms_m",
+    "outage_sm_drift_3d_rms_m",
+    "outage_sm_heading_end_rms_deg",
+)
+"""Outage scores of a tight run against truth (``filter.outages_s`` on a simulated flight;
+``sm``: with ``filter.smoother: rts``; null otherwise)."""
+
+
+def tight_outages(result, sm, windows):
+    """Outage protocol of a tight run (:func:`inins.ekf.outages.score`): per window of
+    ``filter.outages_s`` (the filter coasts there: no GNSS measurement is used) the
+    maximum horizontal and 3D drift against truth and the heading error at its last
+    epoch; the RMS of those over the windows, forward and (``sm`` given) smoothed.
+
+    Truth is the forward output minus its recorded error (position ``nav_error[:, 0:3]``,
+    heading ``heading_error``); the smoothed heading error is the smoothed minus the
+    forward heading plus the forward error. Returns ``(results, report)``; nulls and no
+    text without truth or windows."""
+    out = dict.fromkeys(TIGHT_OUTAGE_NAMES)
+    if not windows or result.nav_error.shape[0] != result.time.size or result.time.size == 0:
+        return out, ""
+    true_lla = error_model.lla_offset(result.lla, -result.nav_error[:, 0:3])
+    fwd_yaw = rotation.euler_from_mat(rotation.mat_from_quat(result.quat_nb))[:, 2]
+    true_yaw = fwd_yaw - result.heading_error
+
+    def yaw_mat(yaw):
+        zero = np.zeros_like(yaw)
+        return rotation.mat_from_euler(zero, zero, yaw)
+
+    ref = yaw_mat(true_yaw)
+    fwd = outages.score(result.time, result.lla, yaw_mat(fwd_yaw), true_lla, ref, windows)
+    out.update(
+        outages_scored=int(fwd.window.shape[0]),
+        outage_fwd_drift_hor_rms_m=fwd.rms_horizontal,
+        outage_fwd_drift_3d_rms_m=fwd.rms_3d,
+        outage_fwd_heading_end_rms_deg=fwd.rms_heading / DEG,
+    )
+    lines = [f"\n\nOutages ({fwd.window.shape[0]}, no GNSS measurement used), against truth:"]
+    lines.append(
+        "  window (s)        fwd hor / 3D max (m)  heading end (deg)"
+        + ("   sm hor / 3D max (m)  heading end (deg)" if sm is not None else "")
+    )
+    smd = None
+    if sm is not None:
+        sm_yaw = rotation.euler_from_mat(rotation.mat_from_quat(sm.quat))[:, 2]
+        smd = outages.score(result.time, sm.lla, yaw_mat(sm_yaw), true_lla, ref, windows)
+        out.update(
+            outage_sm_drift_hor_rms_m=smd.rms_horizontal,
+            outage_sm_drift_3d_rms_m=smd.rms_3d,
+            outage_sm_heading_end_rms_deg=smd.rms_heading / DEG,
+        )
+    for k, (a, b) in enumerate(fwd.window):
+        row = (
+            f"  [{a:7.1f}, {b:7.1f})  {fwd.max_horizontal[k]:9.3f} / {fwd.max_3d[k]:9.3f}"
+            f"  {fwd.heading_end[k] / DEG:17.4f}"
+        )
+        if smd is not None:
+            row += (
+                f"   {smd.max_horizontal[k]:9.3f} / {smd.max_3d[k]:9.3f}"
+                f"  {smd.heading_end[k] / DEG:17.4f}"
+            )
+        lines.append(row)
+    rms = f"  RMS of the maxima: forward {fwd.rms_horizontal:.3f} m horizontal"
+    if smd is not None:
+        rms += f", smoothed {smd.rms_horizontal:.3f} m"
+    lines.append(rms)
+    return out, "\n".join(lines)
+
+
 @dataclass(frozen=True)
 class TightSmoothed:
     """What the smoother adds to a tight run's results, datasets and report."""
@@ -751,12 +840,15 @@ def tight_store(filter_settings):
     return TightStore() if filter_settings.smoother == "rts" else None
 
 
-def tight_smoothed(result, store):
-    """Smooth a tight run recorded in ``store`` (None: nulls)."""
+def tight_smoothed(result, store, windows=()):
+    """Smooth a tight run recorded in ``store`` (None: nulls); score the outage
+    ``windows`` (s) against truth, forward and smoothed (:func:`tight_outages`)."""
     out = dict.fromkeys(TIGHT_SMOOTH_NAMES)
     if store is None:
-        return TightSmoothed(out, {}, "")
+        scores, text = tight_outages(result, None, windows)
+        return TightSmoothed(out | scores, {}, text)
     sm = smoother.smooth(store.run())
+    scores, text = tight_outages(result, sm, windows)
     fwd_h = np.hypot(result.sigma[:, 0], result.sigma[:, 1])
     sm_h = np.hypot(sm.sigma[:, 0], sm.sigma[:, 1])
     diff = error_model.position_error_ned(result.lla, sm.lla)
@@ -788,4 +880,4 @@ def tight_smoothed(result, store):
             else f"; smoothed position error RMS {out['smoothed_pos_err_rms_m']:.3g} m"
         )
     )
-    return TightSmoothed(out, datasets, report)
+    return TightSmoothed(out | scores, datasets, report + text)

@@ -98,7 +98,10 @@ def truth_table(results, truth):
     for name, true in truth.items():
         value = results.get(name)
         err = None if value is None or true is None else value - true
-        rows.append([name, number(value, ".5g", "n/a"), number(true, ".5g"), number(err, "+.3g")])
+        why = "n/a (not estimated by this model)" if value is None else NO_TRUTH
+        rows.append(
+            [name, number(value, ".5g", "n/a"), number(true, ".5g"), number(err, "+.3g", why)]
+        )
     return [
         "",
         "results against the truth",

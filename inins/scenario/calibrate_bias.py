@@ -145,6 +145,16 @@ class CalibrateBiasScenario(TableSource):
     noise: NoiseSettings = Field(default_factory=NoiseSettings)
     mount_detection: MountDetection = Field(default_factory=MountDetection)
     uncertainty: StatedErrorSettings = Field(default_factory=StatedErrorSettings)
+    compensation: InputFile | None = Field(
+        None,
+        description="a compensation file (written by calibrate-imu) applied to the table "
+        "data's increments before the methods run; relative to this scenario file",
+    )
+    compensation_serial: str | None = Field(
+        None,
+        description="serial of the unit in the data: a compensation file made for "
+        "another serial is refused",
+    )
     gyro_bias_z_dph: float = Field(
         0.0,
         description="vertical gyro bias taken as known (deg/h); 000 calibrates the horizontal ones",

@@ -11,6 +11,7 @@ from pydantic import Field, model_validator
 
 from inins.scenario.base import ScenarioModel, ScenarioPath
 from inins.scenario.base import ScenarioSection as Section
+from inins.scenario.run_ekf_post import GnssFile, ImuLog
 from inins.scenario.types import NonNegFloat, PositiveFloat
 from inins.scenario.validation import KeyPathError
 
@@ -57,10 +58,18 @@ class Spp(Section):
 class ImportFlightScenario(ScenarioModel):
     """Import a GNSS recording into the recorded-flight layout and check it by SPP."""
 
-    format: Literal["rinex", "psins-tc"] = Field(
+    format: Literal["rinex", "psins-tc", "solution"] = Field(
         description="rinex: observation + navigation files (2.11 or 3.x; systems as in "
         "'systems'); psins-tc: the "
-        "PSINS tightly coupled .mat file (imu, obss, ephs, t0)"
+        "PSINS tightly coupled .mat file (imu, obss, ephs, t0); solution: a GNSS solution "
+        "file (solution_gnss) joined to an IMU log (solution_imu), written in the "
+        "recorded-solution layout that run-ekf's post: section reads"
+    )
+    solution_gnss: GnssFile | None = Field(
+        None, description="solution: the GNSS solution file, as run-ekf's post.gnss"
+    )
+    solution_imu: ImuLog | None = Field(
+        None, description="solution: the IMU log, as run-ekf's post.imu"
     )
     obs_file: ScenarioPath | None = Field(None, description="rinex: the observation file")
     nav_file: ScenarioPath | None = Field(None, description="rinex: the navigation file")
@@ -121,6 +130,22 @@ class ImportFlightScenario(ScenarioModel):
 
     @model_validator(mode="after")
     def _files(self):
+        if self.format == "solution":
+            for key in ("solution_gnss", "solution_imu"):
+                if getattr(self, key) is None:
+                    raise KeyPathError(
+                        (key,), "format solution needs solution_gnss and solution_imu"
+                    )
+            for key in ("obs_file", "nav_file", "file", "imu_log", "reference_track"):
+                if getattr(self, key) is not None:
+                    raise KeyPathError((key,), "format solution reads only its two files")
+            if self.solution_gnss.format == "recorded" or self.solution_imu.format == "recorded":
+                raise KeyPathError(("format",), "format solution reads source files, not recorded")
+            return self
+        if self.solution_gnss is not None or self.solution_imu is not None:
+            raise KeyPathError(
+                ("solution_gnss",), "solution_gnss/solution_imu need format: solution"
+            )
         if self.format == "rinex":
             for key in ("obs_file", "nav_file"):
                 if getattr(self, key) is None:

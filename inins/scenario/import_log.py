@@ -29,7 +29,7 @@ import numpy as np
 from pydantic import Field, model_validator
 
 from inins.core.units import ARCSEC, DEG, DPH, DPS
-from inins.scenario.base import ScenarioModel, ScenarioPath
+from inins.scenario.base import InputFile, ScenarioModel, ScenarioPath
 from inins.scenario.base import ScenarioSection as Section
 from inins.scenario.types import NonNegFloat, PositiveFloat
 from inins.scenario.validation import KeyPathError
@@ -317,6 +317,17 @@ class ImportLogScenario(ScenarioModel):
     """Import a lab IMU log (CSV, HDF5 or PSINS text) into the table-data layout."""
 
     log: Log
+    compensation: InputFile | None = Field(
+        None,
+        description="a compensation file (written by calibrate-imu) applied to the "
+        "increments as they are formed; the output then stores float increments (SI), "
+        "not pulse counts, and names the file in its provenance",
+    )
+    compensation_serial: str | None = Field(
+        None,
+        description="serial of the unit in the log: a compensation file made for another "
+        "serial is refused",
+    )
     gyro: LogGyro = Field(default_factory=LogGyro)
     accel: LogAccel = Field(default_factory=LogAccel)
     body_axes: list[AxisSign] = Field(

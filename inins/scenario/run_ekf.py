@@ -16,7 +16,7 @@ from pydantic import Field, model_validator
 from inins.core import flight as core_flight
 from inins.core.units import ARCSEC, DEG, DEG_RTH, DPH, UG, UG_RTHZ
 from inins.exceptions import InputError
-from inins.scenario.base import ScenarioModel, ScenarioPath
+from inins.scenario.base import InputFile, ScenarioModel, ScenarioPath
 from inins.scenario.base import ScenarioSection as Section
 from inins.scenario.common import Imu, Site
 from inins.scenario.run_ekf_post import PostProcess
@@ -346,9 +346,24 @@ class RunEkfScenario(ScenarioModel):
     post: PostProcess | None = Field(
         None, description="post-process a recorded drive loosely coupled (alone)"
     )
+    compensation: InputFile | None = Field(
+        None,
+        description="a compensation file (written by calibrate-imu) applied to the "
+        "recorded IMU increments (data, or post's IMU log) before the filter; relative to "
+        "this scenario file; not with a simulated flight",
+    )
+    compensation_serial: str | None = Field(
+        None,
+        description="serial of the recorded unit: a compensation file made for another "
+        "serial is refused",
+    )
 
     @model_validator(mode="after")
     def _one_source(self):
+        if self.compensation is not None and self.flight is not None:
+            raise KeyPathError(
+                ("compensation",), "applies to recorded data (data or post), not a simulated flight"
+            )
         if self.post is not None:
             if self.flight is not None or self.gnss is not None or self.data is not None:
                 raise KeyPathError(("post",), "post goes alone: no flight, gnss or data")

@@ -23,10 +23,11 @@ class ImuLog(Section):
     a 2-D array of increments in a .mat file."""
 
     file: InputFile = Field(description="IMU file (.csv, .csv.gz or .mat), relative to this file")
-    format: Literal["csv", "mat"] = Field(
+    format: Literal["csv", "mat", "recorded"] = Field(
         "csv",
         description="csv: rates; mat: increments (rad, m/s) over each interval ending at "
-        "its time tag, in the array mat_variable",
+        "its time tag, in the array mat_variable; recorded: the IMU of a recorded-solution "
+        "file (import-flight format: solution; columns, units and axes already applied)",
     )
     mat_variable: str = Field("mimu", description="mat: the array's name")
     accel_columns: tuple[int, int, int] = Field(
@@ -63,7 +64,11 @@ class GnssFile(Section):
     a 2-D array in a .mat file (columns by 0-based index)."""
 
     file: InputFile = Field(description="solution file (.pos, .csv, .mat, optionally .gz)")
-    format: Literal["rtklib", "csv", "mat"] = Field("rtklib", description="file format")
+    format: Literal["rtklib", "csv", "mat", "recorded"] = Field(
+        "rtklib",
+        description="file format; recorded: the solution epochs of a recorded-solution file "
+        "(import-flight format: solution)",
+    )
     mat_variable: str = Field("", description="mat: the array's name")
     sigma_m: PositiveFloat | None = Field(
         None, description="mat: position 1-sigma of every epoch (m), without sigma columns"

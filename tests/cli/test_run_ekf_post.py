@@ -265,3 +265,38 @@ def test_fog_mems_attitude_against_the_fog(tmp_path):
     r = results(tmp_path)
     assert abs(r["post_gyro_bias_x_dph"] - 158.9) < 5
     assert abs(r["post_gyro_bias_y_dph"] + 213.6) < 5
+
+
+@pytest.mark.slow
+def test_compensation_file_moves_the_post_bias_estimates_by_its_biases(tmp_path):
+    """compensation: FILE on post's IMU log: increments less (50, -50, 30) deg/h and
+    (1000, -1000, 500) ug; the final bias estimates move by minus those (measured:
+    within 0.5 ug and 0.04 deg/h), the forward drift RMS stays (6.625 -> 6.626 m)."""
+    from inins.io.rawlog import compensation_text
+
+    comp = tmp_path / "c.yaml"
+    comp.write_text(
+        compensation_text(
+            {
+                "format": "inins-compensation",
+                "version": 1,
+                "unit": {"name": "MEMS", "serial": "lc"},
+                "imu": {"gyro_bias_dph": [50.0, -50.0, 30.0], "accel_bias_ug": [1e3, -1e3, 500]},
+            }
+        )
+    )
+    sets = ("--set", "checks=[]")
+    assert run(RUN / "lc-drive-15s.yaml", "-o", tmp_path / "a", *sets).exit_code == 0
+    out = run(
+        RUN / "lc-drive-15s.yaml", "-o", tmp_path / "b", *sets, "--set", f"compensation={comp}"
+    )
+    assert out.exit_code == 0, out.output
+    a, b = results(tmp_path / "a"), results(tmp_path / "b")
+    for axis, ug, dph in zip("xyz", (1e3, -1e3, 500), (50.0, -50.0, 30.0), strict=True):
+        assert b[f"post_accel_bias_{axis}_ug"] - a[f"post_accel_bias_{axis}_ug"] == pytest.approx(
+            -ug, abs=5.0
+        )
+        assert b[f"post_gyro_bias_{axis}_dph"] - a[f"post_gyro_bias_{axis}_dph"] == pytest.approx(
+            -dph, abs=0.5
+        )
+    assert b["post_fwd_drift_hor_rms_m"] == pytest.approx(a["post_fwd_drift_hor_rms_m"], rel=0.02)

@@ -113,7 +113,11 @@ def test_sigma_figure_groups_states_and_shades_segments(bank_turns, tmp_path):
         bands = [p for p in ax.patches if isinstance(p, Rectangle | Polygon)]
         bands += [c for c in ax.collections if isinstance(c, PolyCollection)]
         assert 1 <= len(bands) <= 40  # the six turns, not 315 segment boundaries
-    assert "every state observable" in fig._suptitle.get_text()
+    title = fig._suptitle.get_text()
+    assert "full rank" in title
+    # bg_z ends near its prior (0.98): the title must not call it observable without saying so
+    poorly = title.split("poorly observable")[1]
+    assert "bg_z" in poorly and "dr_N" not in poorly
     plt.close(fig)
 
 

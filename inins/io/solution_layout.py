@@ -1,0 +1,139 @@
+"""The recorded-solution layout: a GNSS solution file joined to an IMU log (HDF5).
+
+``import-flight`` with ``format: solution`` writes it; ``run-ekf``'s ``post:`` section
+reads it back (``imu.format: recorded`` and ``gnss.format: recorded``), so a drive
+imported once runs through the loosely coupled filter exactly as from its source files.
+A layout of its own (``layout`` = ``"inins-recorded-solution"``, ``layout_version`` 1)
+beside the recorded-flight layout of :mod:`inins.io.flight_layout`, whose raw-observation
+files are unchanged (their version stays 1 and they read as before). Datasets, SI:
+
+``solution/time`` (m,) s, ``solution/lla`` (m, 3) rad, rad, m, ``solution/sigma_ned``
+(m, 3) m, ``solution/vel_ned`` (m, 3) m/s (NaN: none), ``solution/sigma_vel`` (m, 3)
+m/s, ``solution/q`` (m,) quality flag, ``solution/line`` (m,) 1-based line of the
+source; ``imu/time`` (n,) s on the log's own axis, ``imu/gyro`` (n, 3) rad/s,
+``imu/accel`` (n, 3) m/s^2 in body axes (forward, right, down), ``imu/odometer`` (n,)
+m/s when the log has one. Attribute ``source_solution`` and ``source_imu``: the files
+they came from (messages of later checks name them with the row).
+"""
+
+from pathlib import Path
+
+import h5py
+import numpy as np
+
+from inins.exceptions import InputError
+from inins.io.solution_files import ImuRates, SolutionFile
+
+LAYOUT = "inins-recorded-solution"
+LAYOUT_VERSION = 1
+
+SOLUTION = (
+    ("time", "s", "GNSS time of each solution epoch"),
+    ("lla", "rad, rad, m", "latitude, longitude, ellipsoidal height"),
+    ("sigma_ned", "m", "position 1-sigma north, east, down"),
+    ("vel_ned", "m/s", "velocity north, east, down (NaN: not in the file)"),
+    ("sigma_vel", "m/s", "velocity 1-sigma north, east, down"),
+    ("q", "", "quality flag (RTKLIB Q: 1 fix, 2 float, 5 single)"),
+    ("line", "", "1-based line of the epoch in the source file"),
+)
+IMU = (
+    ("time", "s", "sample time on the IMU log's own axis"),
+    ("gyro", "rad/s", "angular rate, body axes"),
+    ("accel", "m/s^2", "specific force, body axes"),
+)
+
+
+def solution_arrays(sol, imu):
+    """``{path: (value, unit, description)}`` of the layout (module docstring)."""
+    out = {f"solution/{k}": (np.asarray(getattr(sol, k)), u, d) for k, u, d in SOLUTION}
+    out |= {f"imu/{k}": (np.asarray(getattr(imu, k)), u, d) for k, u, d in IMU}
+    if imu.odometer is not None:
+        out["imu/odometer"] = (np.asarray(imu.odometer), "m/s", "odometer speed")
+    return out
+
+
+def solution_attrs(sol, imu):
+    """Root attributes of the layout."""
+    return {
+        "layout": LAYOUT,
+        "layout_version": LAYOUT_VERSION,
+        "source_solution": str(sol.path),
+        "source_imu": str(imu.path),
+    }
+
+
+def _open(path):
+    path = Path(path)
+    try:
+        f = h5py.File(path, "r")
+    except OSError as exc:
+        raise InputError(f"not a readable HDF5 file: {exc}", source=str(path)) from exc
+    if f.attrs.get("layout") != LAYOUT:
+        got = f.attrs.get("layout")
+        f.close()
+        raise InputError(
+            f"not a recorded-solution file (layout attribute {got!r}, expected {LAYOUT!r}; "
+            "write one with import-flight format: solution)",
+            source=str(path),
+            key="/",
+        )
+    version = f.attrs.get("layout_version")
+    if version != LAYOUT_VERSION:
+        f.close()
+        shown = version.item() if isinstance(version, np.generic) else version
+        raise InputError(
+            f"layout_version {shown!r} is not {LAYOUT_VERSION}, the version this inins reads",
+            source=str(path),
+            key="/layout_version",
+        )
+    return f
+
+
+def _get(f, key, path):
+    if key not in f:
+        raise InputError("dataset missing", source=str(path), key=key)
+    value = np.asarray(f[key][()])
+    if value.dtype.kind not in "fiu":
+        raise InputError("not numbers", source=str(path), key=key)
+    nan_ok = key in ("solution/vel_ned", "solution/sigma_vel")
+    if not nan_ok and not np.all(np.isfinite(value)):
+        raise InputError("not finite numbers", source=str(path), key=key)
+    return value
+
+
+def read_recorded_solution(path):
+    """The :class:`SolutionFile` of a recorded-solution file (``path`` named as its source)."""
+    with _open(path) as f:
+        v = {k: _get(f, f"solution/{k}", path) for k, _, _ in SOLUTION}
+    m = v["time"].shape[0]
+    if any(v[k].shape != (m, 3) for k in ("lla", "sigma_ned", "vel_ned", "sigma_vel")):
+        raise InputError("solution datasets of different lengths", source=str(path), key="solution")
+    if m == 0 or np.any(np.diff(v["time"]) <= 0):
+        raise InputError(
+            "solution/time empty or not increasing", source=str(path), key="solution/time"
+        )
+    if np.any(v["sigma_ned"] <= 0):
+        raise InputError("position sigma <= 0", source=str(path), key="solution/sigma_ned")
+    return SolutionFile(
+        str(path),
+        v["time"],
+        v["lla"],
+        v["sigma_ned"],
+        v["vel_ned"],
+        v["sigma_vel"],
+        v["q"].astype(int),
+        v["line"].astype(int),
+    )
+
+
+def read_recorded_imu(path):
+    """The :class:`ImuRates` of a recorded-solution file."""
+    with _open(path) as f:
+        v = {k: _get(f, f"imu/{k}", path) for k, _, _ in IMU}
+        odo = _get(f, "imu/odometer", path) if "imu/odometer" in f else None
+    n = v["time"].shape[0]
+    if v["gyro"].shape != (n, 3) or v["accel"].shape != (n, 3):
+        raise InputError("imu datasets of different lengths", source=str(path), key="imu")
+    if n < 2 or np.any(np.diff(v["time"]) <= 0):
+        raise InputError("imu/time too short or not increasing", source=str(path), key="imu/time")
+    return ImuRates(str(path), v["time"], v["gyro"], v["accel"], odo)
