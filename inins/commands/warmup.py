@@ -8,6 +8,10 @@ import-flight, calibrate-imu, noise) compile the kernels the way their commands
 call them; later processes load them instead of compiling. Then the
 kernels a short run needs are compiled ahead of time into the kernel library
 (:mod:`inins.core.jit`), which a run loads without numba.
+
+``--library-only`` runs just what the kernel library needs (the modules'
+``warm_up()`` and the observability runs, which compile its ``aot`` kernels) and
+builds it, skipping the other short runs (for a test of the library).
 """
 
 import importlib
@@ -30,6 +34,8 @@ SHORT_RUNS = (  # (command, shipped scenario (folder, name), --set overrides)
     ("noise", ("noise", "simulated-hold"), ()),
 )
 """Runs (no output written) whose kernels have no ``warm_up()`` of their own."""
+LIBRARY_RUNS = ("observability",)
+"""Commands whose short runs compile ``aot`` kernels of the library (``--library-only``)."""
 
 
 class CompileNotice:
@@ -67,8 +73,11 @@ class CompileNotice:
             )
 
 
-def warm_up(progress=None):
-    """Compile (or load from the cache) every kernel; ``progress(text)`` per step."""
+def warm_up(progress=None, library_only=False):
+    """Compile (or load from the cache) every kernel; ``progress(text)`` per step.
+
+    ``library_only``: only the kernels of the kernel library (:data:`LIBRARY_RUNS`).
+    """
     jit.activate()
     for name in MODULES:
         if progress is not None:
@@ -79,15 +88,21 @@ def warm_up(progress=None):
     from inins.io.resources import config_path
 
     for command, (folder, name), overrides in SHORT_RUNS:
+        if library_only and command not in LIBRARY_RUNS:
+            continue
         if progress is not None:
             progress(f"{command} {folder}/{name}")
         execute(find_command(command), config_path(folder, name), overrides, seed=0)
 
 
-def main():
+def main(argv=None):
+    args = sys.argv[1:] if argv is None else argv
+    unknown = [arg for arg in args if arg != "--library-only"]
+    if unknown:
+        sys.exit(f"warm-up: unknown argument {unknown[0]!r} (takes only --library-only)")
     start = time.perf_counter()
     print("numerical kernels: compiling, or loading numba's cache ...", flush=True)
-    warm_up(lambda step: print(f"  {step}", flush=True))
+    warm_up(lambda step: print(f"  {step}", flush=True), library_only="--library-only" in args)
     print(f"numerical kernels ready ({time.perf_counter() - start:.1f} s)", flush=True)
     usable, reason = jit.library_status()
     if usable:
