@@ -37,7 +37,7 @@ test: lint kernels
 	$(BIN)/python -m pytest -n auto --dist loadscope
 
 # More examples of the property tests (tests/cli/test_fuzz.py), random seed:
-# FUZZ_EXAMPLES per test (make test runs 250 of each, derandomized).
+# FUZZ_EXAMPLES per test (make test runs 150 of each, derandomized).
 FUZZ_EXAMPLES ?= 5000
 fuzz: $(STAMP)
 	ININS_FUZZ_EXAMPLES=$(FUZZ_EXAMPLES) $(BIN)/python -m pytest tests/cli/test_fuzz.py tests/cli/test_fuzz_flight.py -q

@@ -8,6 +8,10 @@ import-flight, calibrate-imu, noise) compile the kernels the way their commands
 call them; later processes load them instead of compiling. Then the
 kernels a short run needs are compiled ahead of time into the kernel library
 (:mod:`inins.core.jit`), which a run loads without numba.
+
+``--library-only`` runs just what the kernel library needs (the modules'
+``warm_up()`` and the observability runs, which compile its ``aot`` kernels) and
+builds it, skipping the other short runs (for a test of the library).
 """
 
 import importlib
@@ -30,6 +34,8 @@ SHORT_RUNS = (  # (command, shipped scenario (folder, name), --set overrides)
     ("noise", ("noise", "simulated-hold"), ()),
 )
 """Runs (no output written) whose kernels have no ``warm_up()`` of their own."""
+LIBRARY_RUNS = ("observability",)
+"""Commands whose short runs compile ``aot`` kernels of the library (``--library-only``)."""
 
 
 class CompileNotice:
@@ -67,28 +73,57 @@ class CompileNotice:
             )
 
 
-def warm_up(progress=None):
-    """Compile (or load from the cache) every kernel; ``progress(text)`` per step."""
+def warm_up(progress=None, part="all"):
+    """Compile (or load from the cache) every kernel; ``progress(text)`` per step.
+
+    ``part``: ``"library"`` the kernels of the kernel library (the modules'
+    ``warm_up()`` and the short runs of :data:`LIBRARY_RUNS`), ``"rest"`` the other
+    short runs, ``"all"`` both.
+    """
     jit.activate()
-    for name in MODULES:
-        if progress is not None:
-            progress(name)
-        importlib.import_module(name).warm_up()
+    if part in ("library", "all"):
+        for name in MODULES:
+            if progress is not None:
+                progress(name)
+            importlib.import_module(name).warm_up()
     from inins.commands import find_command
     from inins.commands.execute import execute
     from inins.io.resources import config_path
 
     for command, (folder, name), overrides in SHORT_RUNS:
+        if part != "all" and (command in LIBRARY_RUNS) != (part == "library"):
+            continue
         if progress is not None:
             progress(f"{command} {folder}/{name}")
         execute(find_command(command), config_path(folder, name), overrides, seed=0)
 
 
-def main():
+def main(argv=None):
+    """Compile the library's kernels, build the kernel library, then (unless
+    ``--library-only``) compile the other kernels through the remaining short runs.
+
+    The library is built before those runs: a kernel the library holds may gain a
+    second specialisation in them (a loose-coupling kernel calls the strapdown with
+    read-only arrays), and the library takes one.
+    """
+    args = sys.argv[1:] if argv is None else argv
+    unknown = [arg for arg in args if arg != "--library-only"]
+    if unknown:
+        sys.exit(f"warm-up: unknown argument {unknown[0]!r} (takes only --library-only)")
     start = time.perf_counter()
     print("numerical kernels: compiling, or loading numba's cache ...", flush=True)
-    warm_up(lambda step: print(f"  {step}", flush=True))
+    warm_up(_echo, part="library")
+    _library()
+    if "--library-only" not in args:
+        warm_up(_echo, part="rest")
     print(f"numerical kernels ready ({time.perf_counter() - start:.1f} s)", flush=True)
+
+
+def _echo(step):
+    print(f"  {step}", flush=True)
+
+
+def _library():
     usable, reason = jit.library_status()
     if usable:
         print(f"kernel library up to date ({reason})")

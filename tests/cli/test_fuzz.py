@@ -9,7 +9,7 @@ as bytes (truncated). Runs are in-process through the CLI's exception-to-exit-co
 mapping (:func:`inins.cli._runner.guarded`) at 2 Hz with a stated limit of 40,000
 samples, so each takes well under a second.
 
-``make test`` runs :data:`EXAMPLES` (250) examples of each test, 500 in all,
+``make test`` runs :data:`EXAMPLES` (150) examples of each test, 300 in all,
 derandomized (the same every run);
 ``make fuzz`` sets ``ININS_FUZZ_EXAMPLES`` for more, with a random seed.
 """
@@ -30,8 +30,8 @@ from inins.commands import budget, find_command
 from inins.commands.execute import execute
 
 ROOT = Path(__file__).resolve().parents[2]
-EXAMPLES = int(os.environ.get("ININS_FUZZ_EXAMPLES", "250"))
-"""Examples of each of the two property tests (500 in all by default)."""
+EXAMPLES = int(os.environ.get("ININS_FUZZ_EXAMPLES", "150"))
+"""Examples of each of the two property tests (300 in all; ``make fuzz``: 5000 each)."""
 RANDOM = "ININS_FUZZ_EXAMPLES" in os.environ
 FAST = {"imu.sample_rate_hz": 2, "output.truth_rate_hz": 2}
 SCENARIOS = [
