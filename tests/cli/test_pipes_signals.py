@@ -61,21 +61,26 @@ def test_a_run_into_a_closed_pipe_completes_its_files(tmp_path):
 @pytest.mark.parametrize("sig", [signal.SIGHUP, signal.SIGTERM])
 def test_sighup_like_sigterm_leaves_nothing(tmp_path, sig):
     out = tmp_path / "o"
+    long_flight = (  # an hour's flight: seconds of work, so the signal finds it running
+        *("--set", "flight.legs=[{kind: wait, duration_s: 3600}]"),
+        *("--set", "filter.turning_from_s=0"),
+    )
     p = subprocess.Popen(
-        [*INS, "run-ekf", str(CONFIGS / "run-ekf" / "default.yaml"), "-o", str(out)],
+        [*INS, "run-ekf", str(CONFIGS / "run-ekf" / "default.yaml"), *long_flight, "-o", str(out)],
         stdout=subprocess.PIPE,
         stderr=subprocess.PIPE,
         text=True,
     )
-    deadline = time.monotonic() + 120
-    while not out.exists() and time.monotonic() < deadline:  # the run has started
+    for _ in range(600):  # a hang guard by poll count: the run has made its folder
+        if out.exists() or p.poll() is not None:
+            break
         time.sleep(0.2)
-    time.sleep(1.0)
+    assert p.poll() is None, "the run ended before it could be interrupted"
     p.send_signal(sig)
     _, err = p.communicate(timeout=120)
     assert p.returncode == 130, err
     assert "interrupted" in err
-    assert [q.name for q in out.iterdir()] == [] if out.exists() else True
+    assert not out.exists() or [q.name for q in out.iterdir()] == []
 
 
 def test_ctrl_c_stops_check_and_lists_the_finished(tmp_path):
