@@ -190,26 +190,3 @@ class ProgressBar:
             self._task = self._progress.add_task(f"{self._label}: {self._phase}", total=total)
         self._last = done
         self._progress.update(self._task, completed=done, total=total)
-
-
-def kernels_compiled() -> bool:
-    """True if numba's cache holds the compiled kernels (so a run starts at once).
-
-    Looks where numba caches them by default, next to the modules, or under
-    ``NUMBA_CACHE_DIR``; a cache elsewhere reads as not compiled (the notice is then
-    shown once too often, never missing).
-    """
-    import os
-    from pathlib import Path
-
-    import inins
-
-    roots = [Path(inins.__file__).parent / "core" / "__pycache__"]
-    if os.environ.get("NUMBA_CACHE_DIR"):
-        roots.append(Path(os.environ["NUMBA_CACHE_DIR"]))
-    return any(
-        next(root.rglob("strapdown._navigate-*.nbi"), None) for root in roots if root.is_dir()
-    )
-
-
-COMPILE_NOTICE = "compiling numerical kernels (first run only, ~30 s)"

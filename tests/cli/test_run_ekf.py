@@ -59,6 +59,9 @@ def test_ff_keeps_no_corrections(tmp_path):
     r = results(tmp_path)
     assert r["fb_heading_correction_deg"] == 0.0
     assert r["mg_yz_est_arcsec"] is None  # EKF1 has no misalignment states
+    report = (tmp_path / "run-ekf.txt").read_text()  # a simulated flight: truth is known
+    row = next(line for line in report.splitlines() if line.startswith("mg_yz_est_arcsec"))
+    assert "n/a (not estimated by this model)" in row and "without truth" not in row
 
 
 def test_walker_constellation_and_outage(tmp_path):
