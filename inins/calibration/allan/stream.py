@@ -260,7 +260,8 @@ class AllanAccumulator:
         start = h + pending
         have = self._buffers.get(level)
         if have is None or have.shape[0] < start + rows:
-            size = start + rows if have is None else max(start + rows, 2 * have.shape[0])
+            # while points gather (small chunks): room for a whole batch at once
+            size = start + rows if not pending else max(start + rows, h + self.batch_rows + rows)
             grown = np.empty((size, self.k))
             if pending:
                 grown[:start] = have[:start]
