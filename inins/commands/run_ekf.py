@@ -27,7 +27,7 @@ from inins.ekf import recorded, sources
 from inins.ekf.config import Coupling, FilterConfig, InitialSigma, Model, clock_psd
 from inins.ekf.filter import run_filter
 from inins.exceptions import InputError
-from inins.gnss import broadcast, constellation, ephemeris, gpstime, measurements
+from inins.gnss import broadcast, constellation, ephemeris, glonass, gpstime, measurements
 from inins.io.flight_layout import read_flight
 from inins.io.resources import configs_root
 from inins.io.rinex_nav import read_nav, read_navigation
@@ -76,10 +76,12 @@ def run(scenario, seed, *, sink=None, progress=None):
     )
 
 
-def filter_config(f, dt, lever, dither_window):
+def filter_config(f, dt, lever, dither_window, systems="G"):
     """:class:`FilterConfig` from the scenario's filter section (its SI keywords,
-    :meth:`inins.scenario.run_ekf.FilterSettings.to_si`)."""
+    :meth:`inins.scenario.run_ekf.FilterSettings.to_si`) and the systems it takes
+    (:func:`filter_systems`)."""
     si = f.to_si()
+    si["systems"] = systems
     bias_psd, drift_psd = clock_psd(si.pop("clock_h0"), si.pop("clock_h_2"))
     return FilterConfig(
         Model(si.pop("model")),
@@ -92,6 +94,28 @@ def filter_config(f, dt, lever, dither_window):
         dither_window=dither_window,
         **si,
     )
+
+
+def filter_systems(f, available, key):
+    """The systems the filter takes: ``filter.systems``, or every one ``available``
+    (letters, GPS first); a system given that the data do not have is bad input."""
+    have = "".join(x for x in "GREC" if x in available)
+    if f.systems is None:
+        return have or "G"
+    missing = [x for x in f.systems if x not in have]
+    if missing:
+        raise InputError(
+            f"system {''.join(missing)} is not in the {key} (it has {have or 'none'})",
+            key="filter.systems",
+        )
+    return f.systems
+
+
+def _take_systems(nav, systems):
+    """A mixed Navigation restricted to ``systems`` (letters)."""
+    keep = np.isin(nav.kepler.prn // 100, ["GREC".index(x) for x in systems])
+    glo = nav.glonass if "R" in systems else glonass.empty()
+    return broadcast.Navigation(kepler=nav.kepler.take(keep), glonass=glo)
 
 
 def _ephemeris(c, duration):
@@ -129,12 +153,20 @@ def _simulated(scenario, seed, progress=None, store=None):
     truth = fl.Dithered(base, dither)
     window = scenario.filter.dither_window
     window = fl.dither_window(dither, dt) if window == "auto" else window
-    config = _checked(lambda: filter_config(scenario.filter, dt, gs.lever_arm_m, window), "gnss")
     eph, week, sow0 = _ephemeris(gs.constellation, plan.duration)
+    mixed = isinstance(eph, broadcast.Navigation)
+    available = "".join("GRECJS"[k] for k in eph.systems) if mixed else "G"
+    systems = filter_systems(scenario.filter, available, "constellation")
+    if mixed:
+        eph = _take_systems(eph, systems)
+    config = _checked(
+        lambda: filter_config(scenario.filter, dt, gs.lever_arm_m, window, systems), "gnss"
+    )
     rx = sources.Receiver(
         **gs.receiver_si(),
         filter_sigma_pr=scenario.filter.pseudorange_sigma_m,
         filter_sigma_rr=scenario.filter.range_rate_sigma_mps,
+        filter_sigma_scale=scenario.filter.sigma_scale(),
     )
     mat0, vel0, lla0 = truth.state([0.0])
     mat_base, _, _ = base.state([0.0])
@@ -208,14 +240,28 @@ def _recorded(scenario, store=None):
     if terms is not None:
         dth_c, dv_c = compensate(imu.dtheta, imu.dv, dt, terms)
         imu = replace(imu, dtheta=dth_c, dv=dv_c)
+    obs = measurements.from_record(rec.gnss)
+    systems = filter_systems(f, {"GRECJS"[k] for k in np.unique(obs.prn // 100)}, "recording")
+    obs = measurements.system_rows(obs, ["GREC".index(x) for x in systems])
+    glo = None
+    if "R" in systems:
+        if rec.glonass is None:
+            raise InputError(
+                "GLONASS observations but no GLONASS navigation sets (gnss/glonass) in the "
+                "recording: import it again, or leave R out of filter.systems",
+                source=str(d.file),
+                key="filter.systems",
+            )
+        glo = glonass.from_columns(**rec.glonass)
     start = recorded.prepare(
         imu.time,
         imu.dtheta,
         imu.dv,
         dt,
-        measurements.gps_rows(measurements.from_record(rec.gnss)),  # one clock: GPS only
+        obs,
         rec.ephemeris,
         rec.imu_t0_sow,
+        glonass=glo,
         mask=d.mask_deg * DEG,
         klobuchar=None if rec.iono_alpha is None else (rec.iono_alpha, rec.iono_beta),
         static_window=d.static_window_s,
@@ -224,7 +270,7 @@ def _recorded(scenario, store=None):
         source=str(d.file),
     )
     window = 1 if f.dither_window == "auto" else f.dither_window
-    config = _checked(lambda: filter_config(f, dt, d.lever_arm_m, window), "data")
+    config = _checked(lambda: filter_config(f, dt, d.lever_arm_m, window, systems), "data")
     stream = recorded.epoch_stream(
         start,
         imu.time,
@@ -233,6 +279,7 @@ def _recorded(scenario, store=None):
         d.latency_s,
         f.pseudorange_sigma_m,
         f.range_rate_sigma_mps,
+        sigma_scale=f.sigma_scale(),
     )
     result = _checked(
         lambda: run_filter(config, start.initial, start.t_start, stream, store=store),

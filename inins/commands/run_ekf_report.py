@@ -27,6 +27,7 @@ _UNITS = (  # state-name prefix -> (lab unit, SI per lab unit)
     ("mg_", "arcsec", ARCSEC),
     ("clock_bias", "m", 1.0),
     ("clock_drift", "m/s", 1.0),
+    ("isb_", "m", 1.0),
 )
 _GYRO_MIS = ("mg_xy", "mg_xz", "mg_yx", "mg_yz", "mg_zx", "mg_zy")
 _ACCEL_MIS = ("ma_yx", "ma_zx", "ma_zy")

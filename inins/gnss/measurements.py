@@ -497,6 +497,13 @@ def ionosphere_rows(signal, choice, has_klobuchar):
     )
 
 
+def system_rows(obs, system_indices):
+    """The rows of ``obs`` whose satellite is of one of ``system_indices``
+    (:data:`inins.gnss.systems.SYSTEMS` values)."""
+    keep = np.isin(systems.system_of(obs.prn), np.asarray(system_indices, np.int64))
+    return obs if keep.all() else obs.take_rows(keep)
+
+
 def gps_rows(obs):
     """The GPS rows of ``obs`` (a consumer with one receiver clock and no inter-system bias,
     such as the tightly coupled filter, must not mix systems)."""
