@@ -180,7 +180,14 @@ def _simulated(scenario, seed, progress=None, store=None):
     result = _checked(
         lambda: run_filter(config, initial, 0.0, stream, errors, store=store), "gnss.mask_deg"
     )
-    info = {"errors": errors, "forward": np.array([1.0, 0.0, 0.0]), "track": None}
+    bias = dict(zip("GREC", np.zeros(4), strict=True)) | dict(gs.system_bias_m)
+    info = {
+        "errors": errors,
+        "forward": np.array([1.0, 0.0, 0.0]),
+        "track": None,
+        # each bias state estimates its system's bias minus the reference system's
+        "system_bias": {n: bias[n[-1]] - bias[systems[0]] for n in config.bias_names},
+    }
     return result, info
 
 
@@ -433,7 +440,7 @@ def _datasets(r, info):
         d["truth/heading_error"] = Series(r.heading_error, "rad", "", "heading minus truth")
     if r.nees.size:
         d["truth/nees"] = Series(r.nees, "1", "", "NEES of all states")
-    truth = run_ekf_report.state_truth(info.get("errors"), r.layout.names)
+    truth = run_ekf_report.state_truth(info.get("errors"), r.layout.names, info.get("system_bias"))
     if truth:
         vector = np.array([truth.get(n, np.nan) for n in r.layout.names])
         d["truth/states"] = Series(vector, "SI", "", "true sensor states (NaN: none single)")
@@ -467,7 +474,7 @@ def _report(scenario, r, s, info):
             f"of the forward axis {math.degrees(math.atan2(axis[1], axis[0])):.2f} deg "
             f"(body x {h.heading / DEG:.2f} deg) from the velocity at {used} s"
         )
-    truth = run_ekf_report.state_truth(info.get("errors"), r.layout.names)
+    truth = run_ekf_report.state_truth(info.get("errors"), r.layout.names, info.get("system_bias"))
     lines += run_ekf_report.final_states(r.layout.names, r.state[-1], r.sigma[-1], truth)
     lines += run_ekf_report.truth_table(_results(r, s, info), _truth(info))
     return "\n".join(lines)

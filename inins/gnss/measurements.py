@@ -505,7 +505,8 @@ def system_rows(obs, system_indices):
 
 
 def gps_rows(obs):
-    """The GPS rows of ``obs`` (a consumer with one receiver clock and no inter-system bias,
-    such as the tightly coupled filter, must not mix systems)."""
+    """The GPS rows of ``obs`` (for a consumer with one receiver clock and no inter-system
+    bias, which must not mix systems; the tightly coupled filter takes the systems it
+    has bias states for, :func:`system_rows`)."""
     gps = systems.system_of(obs.prn) == systems.GPS
     return obs if gps.all() else obs.take_rows(gps)
