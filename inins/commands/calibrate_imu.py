@@ -17,13 +17,14 @@ import numpy as np
 from inins.calibration import discrete, imu_model, systemlevel, tablefree
 from inins.commands._calibrate_imu_units import PREFIX, lab
 from inins.commands._compensation import compensation_terms
-from inins.commands._table import load_record, table_simulation
+from inins.commands._table import load_record
 from inins.core import earth
 from inins.core.records import MemoryRecord
 from inins.core.units import ARCSEC, DEG, DEG_RTH, DPH, G0, PPM, UG, UG_RTHZ, UG_S
 from inins.exceptions import InputError
 from inins.results import CommandResult, Series, format_table
 from inins.scenario.calibrate_imu import CalibrateImuScenario
+from inins.scenario.si.table import table_simulation
 
 SCENARIO_MODEL = CalibrateImuScenario
 

@@ -10,9 +10,10 @@ import numpy as np
 import pytest
 
 from inins.calibration import discrete, imu_model
-from inins.commands._table import memory_record, table_simulation
+from inins.commands._table import memory_record
 from inins.core import imu as core_imu
 from inins.core.units import ARCSEC, DEG_RTH, UG_RTHZ
+from inins.scenario.si.table import table_simulation
 from inins.scenario.simulate_table import TableSetup
 from inins.table import simulate
 

@@ -9,8 +9,9 @@ import yaml
 from helpers import CONFIGS
 
 from inins.calibration import imu_model, systemlevel
-from inins.commands._table import memory_record, table_simulation
+from inins.commands._table import memory_record
 from inins.core.units import ARCSEC, DPH, PPM, UG
+from inins.scenario.si.table import table_simulation
 from inins.scenario.simulate_table import TableSetup
 from inins.table import simulate
 
