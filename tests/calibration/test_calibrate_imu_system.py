@@ -67,7 +67,7 @@ def test_noise_free_19_positions_recover_all_21_terms():
     reason="50-seed Monte Carlo of the system-level method (about a minute): ININS_LONG=1",
 )
 def test_monte_carlo_sigma_and_planner():
-    from inins.commands.calibrate_imu import plan_system_level
+    from inins.commands.calibrate_imu_plan import plan_system_level
     from inins.core.units import DEG_RTH, UG_RTHZ
     from inins.scenario.calibrate_imu import CalibrateImuScenario
 
