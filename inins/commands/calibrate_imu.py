@@ -25,6 +25,7 @@ from inins.core.units import ARCSEC, DEG, DPH, G0, PPM, UG
 from inins.exceptions import InputError
 from inins.results import CommandResult, Series
 from inins.scenario.calibrate_imu import CalibrateImuScenario
+from inins.scenario.si.calibrate_imu import tablefree_detector
 
 SCENARIO_MODEL = CalibrateImuScenario
 
@@ -326,14 +327,7 @@ def _table_free(time, acc, gyro, gravity, scenario, comp):
         dt = np.gradient(time)[:, None]
         dtheta, dv = imu_model.compensate(gyro * dt, acc * dt, 1.0, comp)
         gyro, acc = dtheta / dt, dv / dt
-    d = scenario.table_free.detector
-    det = tablefree.Detector(
-        d.window_s,
-        d.init_interval_s,
-        d.threshold_factor,
-        d.min_interval_s,
-        d.max_tilt_change_deg * DEG,
-    )
+    det = tablefree_detector(scenario)
     try:
         return tablefree.calibrate(time, acc, gyro, gravity, det, scenario.table_free.use_positions)
     except ValueError as exc:

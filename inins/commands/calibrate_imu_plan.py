@@ -8,9 +8,10 @@ from inins.calibration import discrete, systemlevel, tablefree
 from inins.commands._calibrate_imu_units import lab
 from inins.commands.calibrate_imu_report import certificate_info
 from inins.core import earth
-from inins.core.units import ARCSEC, DEG, DEG_RTH, PPM, UG_RTHZ, UG_S
+from inins.core.units import ARCSEC, DEG_RTH, PPM, UG_RTHZ, UG_S
 from inins.exceptions import InputError
 from inins.results import CommandResult, Series, format_table
+from inins.scenario.si.calibrate_imu import tablefree_detector
 from inins.scenario.si.table import table_simulation
 
 
@@ -214,14 +215,7 @@ def plan_table_free(scenario):
     rec = memory_record(ideal, simulate.simulation_chunks(ideal, np.random.default_rng(0)))
     time = rec.t0 + rec.dt * (np.arange(rec.n_samples) + 1)
     gravity = scenario.table_free.gravity_mps2 or float(earth.gravity(rec.lla[0], rec.lla[2]))
-    d = scenario.table_free.detector
-    det = tablefree.Detector(
-        d.window_s,
-        d.init_interval_s,
-        d.threshold_factor,
-        d.min_interval_s,
-        d.max_tilt_change_deg * DEG,
-    )
+    det = tablefree_detector(scenario)
     return tablefree.plan(
         time, rec.dv / rec.dt, rec.dtheta / rec.dt, gravity, noise.vrw, noise.arw, det
     )
