@@ -18,7 +18,7 @@ from dataclasses import replace
 import numpy as np
 
 from inins.calibration.imu_model import compensate
-from inins.commands import figures, run_ekf_post, run_ekf_report
+from inins.commands import figures, run_ekf_post, run_ekf_post_figures, run_ekf_report
 from inins.commands._compensation import scenario_terms
 from inins.core import rotation, strapdown
 from inins.core.units import ARCSEC, DEG, DPH
@@ -35,7 +35,7 @@ from inins.results import CommandResult, Series
 from inins.scenario.run_ekf import RunEkfScenario
 
 SCENARIO_MODEL = RunEkfScenario
-FIGURES = run_ekf_post.with_post_figures(
+FIGURES = run_ekf_post_figures.with_post_figures(
     {
         "run-ekf-heading-error.png": figures.run_ekf_heading,
         "run-ekf-gyro-bias.png": figures.run_ekf_gyro_bias,
