@@ -157,6 +157,13 @@ def _simulated(scenario, seed, progress=None, store=None):
     mixed = isinstance(eph, broadcast.Navigation)
     available = "".join("GRECJS"[k] for k in eph.systems) if mixed else "G"
     systems = filter_systems(scenario.filter, available, "constellation")
+    unused = sorted(set(gs.system_bias_m) - set(systems))
+    if unused:
+        raise InputError(
+            f"a bias for system {''.join(unused)}, which the simulation does not use "
+            f"(systems {systems})",
+            key="gnss.system_bias_m",
+        )
     if mixed:
         eph = _take_systems(eph, systems)
     config = _checked(
