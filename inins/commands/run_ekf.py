@@ -255,7 +255,12 @@ def _recorded(scenario, store=None):
         dth_c, dv_c = compensate(imu.dtheta, imu.dv, dt, terms)
         imu = replace(imu, dtheta=dth_c, dv=dv_c)
     obs = measurements.from_record(rec.gnss)
-    systems = filter_systems(f, {"GRECJS"[k] for k in np.unique(obs.prn // 100)}, "recording")
+    present = {"GRECJS"[k] for k in np.unique(obs.prn // 100)}
+    notes = ()
+    if f.systems is None and "R" in present and rec.glonass is None:
+        present.discard("R")  # a file imported before the layout carried GLONASS sets
+        notes = ("GLONASS rows left out: the recording has no GLONASS navigation sets",)
+    systems = filter_systems(f, present, "recording")
     obs = measurements.system_rows(obs, ["GREC".index(x) for x in systems])
     glo = None
     if "R" in systems:
@@ -308,7 +313,7 @@ def _recorded(scenario, store=None):
         "spp_vel_n": start.fix_vel_n[idx],
         "heading_init": start.heading,
         "lever": np.asarray(d.lever_arm_m, float),
-        "dropped": rec.dropped,
+        "dropped": (*rec.dropped, *notes),
     }
     return result, info
 

@@ -163,3 +163,21 @@ def test_a_bias_for_a_system_not_simulated_is_refused(tmp_path):
     assert "gnss.system_bias_m" in done.output and "does not use" in done.output
     done = CliRunner().invoke(app, [*args, "--set", "filter.systems=GX"])
     assert done.exit_code == 2 and "filter.systems" in done.output
+
+
+def test_a_recording_without_glonass_sets_runs_on_gps(recording, tmp_path):
+    """A file imported before the layout carried the GLONASS sets: the default takes GPS
+    and says so; asking for GLONASS is bad input."""
+    path, _, _ = recording
+    old = tmp_path / "old.h5"
+    old.write_bytes(path.read_bytes())
+    with h5py.File(old, "a") as f:
+        del f["gnss/glonass"]
+    done = _run(_scenario(tmp_path, old), tmp_path / "g")
+    assert done.exit_code == 0, done.output
+    assert "GLONASS rows left out" in (tmp_path / "g" / "run-ekf.txt").read_text()
+    with h5py.File(tmp_path / "g" / "run-ekf.h5") as f:
+        assert "isb_R" not in [str(n) for n in f["ekf"].attrs["states"]]
+        assert (f["innovations/prn"][:] < 100).all()
+    done = _run(_scenario(tmp_path, old, systems="GR"), tmp_path / "gr")
+    assert done.exit_code == 2 and "no GLONASS navigation sets" in done.output
