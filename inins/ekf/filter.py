@@ -19,7 +19,10 @@ Per epoch ``k`` (1PPS time ``t_k``, data arriving at ``t_k + tau``):
 3. Update at ``t_k`` with the stored state: scalar Joseph updates per pseudorange
    and range rate, each gated on chi-square(1) (:func:`inins.ekf.kernels.sequential_update`).
    The measurement is predicted at the corrected INS state ``nav (-) x``; epochs
-   without satellites or inside an outage window are coasted.
+   without satellites or inside an outage window are coasted. With several systems
+   (:attr:`inins.ekf.config.FilterConfig.systems`) a pseudorange of a further system
+   also has 1 at its inter-system bias state (appended after the 17 or 26 states,
+   random walk, never reset by the feedback; docs/gnss.md).
 4. FF: nothing else; the output is ``nav (-) x``. FB: the correction, carried over
    the latency by ``I + F tau``, is applied to the current INS state, the sensor
    estimates are added to the compensation, those states reset to zero and the
