@@ -131,8 +131,8 @@ class Constellation(Section):
         description="abpo: the shipped broadcast navigation file data/abpo0080.15n.gz "
         "(2015-01-08); walker: a nominal Walker 55 deg constellation; mixed: GPS, GLONASS, "
         "Galileo and BeiDou of the shipped smartLoc mixed RINEX 3 file (2016-06-06; its "
-        "Galileo and BeiDou sets cover the evening, e.g. start_hour_s 64800; inter-system "
-        "biases from gnss.system_bias_m)",
+        "Galileo and BeiDou sets span about 09:00-23:00: at Berlin start_hour_s 64800 sees "
+        "2 and 3 of them, 21600 none; inter-system biases from gnss.system_bias_m)",
     )
     start_hour_s: NonNegFloat = Field(
         21600.0,

@@ -28,7 +28,7 @@ def _run(tmp_path, *sets):
         "filter.turning_from_s=0",
         "gnss.constellation.source=mixed",
         "flight.site={lat_deg: 52.5, lon_deg: 13.4, height_m: 100.0}",
-        "gnss.constellation.start_hour_s=64800",  # 18:00: the file's Galileo and BeiDou sets
+        "gnss.constellation.start_hour_s=64800",  # 18:00: Galileo and BeiDou in view
         *sets,
     ):
         args += ["--set", item]
@@ -56,9 +56,10 @@ def _normalised(run, system):
 
 
 def test_inter_system_biases_estimated_by_the_tight_filter(tmp_path):
-    """Berlin, 18:00 GPS time (the hours the file's Galileo and BeiDou sets cover; at
-    06:00 only GPS and GLONASS are simulated), 134 s flight with a 180-deg turn, GPS +
-    GLONASS + Galileo + BeiDou with true biases R 30 m, E -12 m, C 8 m. Each bias state
+    """Berlin, 18:00 GPS time (Galileo and BeiDou in view: the file has their sets from
+    about 09:00 to 23:00; at 06:00 only GPS and GLONASS are simulated), 134 s flight with a
+    180-deg turn, GPS + GLONASS + Galileo + BeiDou with true biases R 30 m, E -12 m,
+    C 8 m. Each bias state
     ends within 3 sigma of its truth (measured: 29.92 +- 0.10, -12.15 +- 0.15,
     8.11 +- 0.19 m); the innovations of every system are unbiased (normalised means
     below 0.1); the NEES of all 29 states, which scores the bias states against the truth
