@@ -410,9 +410,9 @@ def _bias_names(layout):
 
 def _true_biases(truths, names, systems):
     """(m, 1 + len(names)) true biases: the reference system's (the clock carries it),
-    then each bias state's (its system's minus the reference's); None if ``names`` is
-    empty. Truth without ``system_bias`` counts as no bias."""
-    if not names:
+    then each bias state's (its system's minus the reference's); None if no truth
+    carries a ``system_bias`` (one without counts as no bias)."""
+    if all(t.system_bias is None for t in truths):
         return None
     index = [LETTERS.index(systems[0])] + [LETTERS.index(n[-1]) for n in names]
     zero = np.zeros(len(LETTERS))

@@ -154,17 +154,6 @@ def test_a_system_the_recording_lacks_is_refused(recording, tmp_path):
     assert "filter.systems" in done.output and "not in the recording" in done.output
 
 
-def test_a_bias_for_a_system_not_simulated_is_refused(tmp_path):
-    from tests.helpers import CONFIGS
-
-    args = ["run-ekf", str(CONFIGS / "paper003" / "ekf1-ff.yaml"), "-o", str(tmp_path)]
-    done = CliRunner().invoke(app, [*args, "--set", "gnss.system_bias_m={R: 30}"])
-    assert done.exit_code == 2
-    assert "gnss.system_bias_m" in done.output and "does not use" in done.output
-    done = CliRunner().invoke(app, [*args, "--set", "filter.systems=GX"])
-    assert done.exit_code == 2 and "filter.systems" in done.output
-
-
 def test_a_recording_without_glonass_sets_runs_on_gps(recording, tmp_path):
     """A file imported before the layout carried the GLONASS sets: the default takes GPS
     and says so; asking for GLONASS is bad input."""

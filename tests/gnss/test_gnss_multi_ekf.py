@@ -98,3 +98,33 @@ def test_without_the_bias_state_the_glonass_innovations_are_biased(tmp_path, mon
     assert z.mean() > 5.0 and accepted.mean() < 0.1
     z_gps, _ = _normalised(r, 0)
     assert abs(z_gps.mean()) < 0.2
+
+
+def test_a_bias_for_a_system_not_simulated_is_refused(tmp_path):
+    args = ["run-ekf", str(CONFIGS / "paper003" / "ekf1-ff.yaml"), "-o", str(tmp_path)]
+    done = CliRunner().invoke(app, [*args, "--set", "gnss.system_bias_m={R: 30}"])
+    assert done.exit_code == 2
+    assert "gnss.system_bias_m" in done.output and "does not use" in done.output
+    done = CliRunner().invoke(app, [*args, "--set", "filter.systems=GX"])
+    assert done.exit_code == 2 and "filter.systems" in done.output
+
+
+def test_a_bias_on_the_reference_system_goes_to_the_clock(tmp_path):
+    """GPS alone with a 50 m GPS bias: the clock state takes it, and the NEES scores the
+    clock against clock + 50 m, so the run scores as the one without the bias (measured:
+    NEES mean 8.25 both); scored against the clock alone it would add (50 / 1.93 m)^2."""
+    short = (
+        "flight.legs=[{kind: wait, duration_s: 30}, {kind: takeoff, duration_s: 40, "
+        "speed_mps: 80}, {kind: straight, duration_s: 20}]"
+    )
+    args = ["run-ekf", str(CONFIGS / "paper003" / "ekf1-ff.yaml"), "--set", short]
+    args += ["--set", "checks=[]", "--set", "filter.turning_from_s=0"]
+    nees = []
+    for name, extra in (("none", []), ("g5", ["--set", "gnss.system_bias_m={G: 50}"])):
+        done = CliRunner().invoke(app, [*args, *extra, "-o", str(tmp_path / name)])
+        assert done.exit_code == 0, done.output
+        with h5py.File(tmp_path / name / "run-ekf.h5") as f:
+            nees.append(f["truth/nees"][:])
+            sigma = f["states/sigma"][-1, 15]
+    assert abs(nees[1].mean() - nees[0].mean()) < 0.05 * nees[0].mean()
+    assert (50.0 / sigma) ** 2 > 10 * nees[0].mean()
