@@ -250,10 +250,14 @@ def sequential_update(x, P, H, y0, r, threshold, accepted, y_out, s_out):
         count += 1
         k = ph / s
         dx += k * y
-        for a in range(n):
-            for b in range(a, n):
-                v = P[a, b] - k[a] * ph[b] - ph[a] * k[b] + s * k[a] * k[b]
-                P[a, b] = v
-                P[b, a] = v
+        for a in range(n):  # the upper triangle, row by row (contiguous: vectorised)
+            ka, pa = k[a], ph[a]
+            ska = s * ka
+            row, k_b, ph_b = P[a, a:], k[a:], ph[a:]
+            for b in range(n - a):
+                row[b] = row[b] - ka * ph_b[b] - pa * k_b[b] + ska * k_b[b]
+        for a in range(1, n):  # mirrored
+            for b in range(a):
+                P[a, b] = P[b, a]
     x += dx
     return count
