@@ -2,17 +2,19 @@
 
 A frozen copy of ``inins.ekf.filter.run_filter`` (and its ``_Run``, ``EpochLog``) as
 of the commit before :func:`inins.ekf.step.epoch` replaced the per-epoch Python glue:
-it calls the building-block kernels of :mod:`inins.ekf.step` (compensate, the
-strapdown, mean rates, propagate, update, correct, feedback) one by one from Python,
-with the list-based log. ``tests/ekf/test_fused_epoch.py`` runs it beside the fused
-filter on the same epochs: the same arithmetic composed in Python, so the outputs
-must agree to rounding. It reads the sub-interval limits from
-:mod:`inins.ekf.filter`, so a test that moves them moves both.
+it calls the building blocks one by one from Python, with the list-based log: the
+kernels of :mod:`inins.ekf.step` the fused epoch composes unchanged (compensate, the
+strapdown, mean rates, correct, feedback) and, for the propagation and the update
+it rewrote, their frozen numpy copies (``frozen_kernels``).
+``tests/ekf/test_fused_epoch.py`` runs it beside the fused filter on the same
+epochs: the same equations, so the outputs must agree to rounding. It reads the
+sub-interval limits from :mod:`inins.ekf.filter`, so a test that moves them moves both.
 """
 
 import time as _time
 from dataclasses import dataclass, field
 
+import frozen_kernels
 import numpy as np
 
 from inins.core.stats import chi2_ppf
@@ -152,7 +154,7 @@ class _Run:
         split = dt_k > 0.0 and step.rates_change(self.rates_sub, self.limits)
         self.Phi_k = self.Phi  # the interval's transition (for a smoother's store)
         if not split:
-            step.propagate(
+            frozen_kernels.propagate(
                 self.x,
                 self.P,
                 self.F,
@@ -171,7 +173,7 @@ class _Run:
         for j in range(SUB_STEPS):
             if total is not None and j:
                 total = self.Phi @ total
-            step.propagate(
+            frozen_kernels.propagate(
                 self.x,
                 self.P,
                 self.F,
@@ -193,7 +195,7 @@ class _Run:
         rows = np.arange(2 * k) if self.cfg.use_range_rate else np.arange(0, 2 * k, 2)
         acc = np.zeros(rows.size, dtype=np.bool_)
         y, s = np.empty(rows.size), np.empty(rows.size)
-        step.update(
+        frozen_kernels.update(
             self.x,
             self.P,
             quat,

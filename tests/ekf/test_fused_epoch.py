@@ -1,14 +1,14 @@
 """The fused epoch kernel (:func:`inins.ekf.step.epoch`) against the filter loop it
-replaced (``stepwise_filter.run_stepwise``, the frozen Python composition of the same
-building-block kernels): EKF2-FB with a GPS outage, an epoch without satellites and
-a bank turn whose roll-in and roll-out split the propagation; EKF1-FF on
-pseudoranges alone; the naive pairing; the smoother's store. Every output array
-agrees to rounding (asserted: within 1e-12 of each array's largest magnitude;
-measured bit-identical).
+replaced (``stepwise_filter.run_stepwise``: the Python loop as it was, calling the
+building-block kernels one by one, the propagation and update ones in their frozen
+form of ``frozen_kernels``): EKF2-FB with a GPS outage, an epoch without satellites
+and a bank turn whose roll-in and roll-out split the propagation; EKF1-FF on
+pseudoranges alone; the naive pairing; the smoother's store. Every output array is
+equal bit for bit.
 
 The reference is recomputed in the test from the same epochs, so nothing here is a
-stored number: a change to a building-block kernel moves both sides alike, and a
-change to how the fused kernel composes them fails.
+stored number: a change to how the fused kernel composes the steps, or to the
+arithmetic of a rewritten kernel, fails.
 """
 
 import math
@@ -107,13 +107,8 @@ def flight():
 
 def _assert_same(name, got, want):
     got, want = np.asarray(got), np.asarray(want)
-    assert got.shape == want.shape, name
     assert got.dtype == want.dtype, name
-    if want.dtype.kind in "biu":
-        np.testing.assert_array_equal(got, want, err_msg=name)
-        return
-    scale = float(np.max(np.abs(want))) if want.size else 0.0
-    np.testing.assert_allclose(got, want, rtol=1e-12, atol=1e-12 * scale, err_msg=name)
+    np.testing.assert_array_equal(got, want, err_msg=name, strict=True)
 
 
 def _assert_results_agree(got, want):
