@@ -159,19 +159,28 @@ def discretize(F, Qc, dt, Phi, Qd):
     n = F.shape[0]
     A = F * dt
     A2 = A @ A
-    Phi[:, :] = A + 0.5 * A2 + (A2 @ A) / 6.0
-    for i in range(n):
-        Phi[i, i] += 1.0
+    A3 = A2 @ A
     FQ = F @ Qc
-    Qd[:, :] = Qc * dt + (FQ + FQ.T) * (0.5 * dt * dt) + (FQ @ F.T) * (dt**3 / 3.0)
+    FQF = FQ @ F.T
+    c2, c3 = 0.5 * dt * dt, dt**3 / 3.0
+    for i in range(n):  # the sums element by element, straight into the outputs
+        for j in range(n):
+            Phi[i, j] = A[i, j] + 0.5 * A2[i, j] + A3[i, j] / 6.0
+            Qd[i, j] = Qc[i, j] * dt + (FQ[i, j] + FQ[j, i]) * c2 + FQF[i, j] * c3
+        Phi[i, i] += 1.0
 
 
 @jit.njit(cache=True)
 def predict(x, P, Phi, Qd):
     """``x = Phi x``, ``P = Phi P Phi^T + Qd``, symmetrised (in place)."""
+    n = x.shape[0]
     x[:] = Phi @ x
-    M = Phi @ P @ Phi.T + Qd
-    P[:, :] = 0.5 * (M + M.T)
+    M = Phi @ P @ Phi.T
+    for i in range(n):  # (M + Qd) symmetrised, upper triangle mirrored
+        for j in range(i, n):
+            v = 0.5 * ((M[i, j] + Qd[i, j]) + (M[j, i] + Qd[j, i]))
+            P[i, j] = v
+            P[j, i] = v
 
 
 @jit.njit(cache=True)
