@@ -145,19 +145,33 @@ class _Log:
         self.inn_f = np.zeros((8 * capacity, 2))
         self.inn_i = np.zeros((8 * capacity, 4), np.int64)
         self.rows = 0  # innovation rows written
-        self.truth = []
-        self.has_truth = []
+        self.truth = []  # (epoch index, TruthEpoch)
         self.update_s = []
+        self._sizes()
+
+    def _sizes(self):
+        self.capacity, self.row_capacity = self.flog.shape[0], self.inn_f.shape[0]
+        self.cov_capacity = self.cov.shape[0]
+
+    def full(self, index, rows, cov):
+        """True unless there is room for epoch ``index``, ``rows`` more innovation rows
+        and, if ``cov``, its ``P``."""
+        return (
+            index >= self.capacity
+            or self.rows + rows > self.row_capacity
+            or (cov and index >= self.cov_capacity)
+        )
 
     def reserve(self, index, rows, cov):
         """Room for epoch ``index``, ``rows`` more innovation rows, and its ``P`` if ``cov``."""
-        if index >= self.flog.shape[0]:
+        if index >= self.capacity:
             self.flog, self.ilog = _grown(self.flog, index), _grown(self.ilog, index)
-        if self.rows + rows > self.inn_f.shape[0]:
+        if self.rows + rows > self.row_capacity:
             self.inn_f = _grown(self.inn_f, self.rows + rows)
             self.inn_i = _grown(self.inn_i, self.rows + rows)
-        if cov and index >= self.cov.shape[0]:
+        if cov and index >= self.cov_capacity:
             self.cov = _grown(self.cov, index)
+        self._sizes()
 
     def epochs(self):
         """The :class:`EpochLog` of the epochs written (copies of the filled rows)."""
@@ -177,8 +191,8 @@ class _Log:
             state=col(step.LOG_STATE, n),
             sigma=col(step.LOG_STATE + n, n),
             cumulative=col(step.LOG_STATE + 2 * n, n),
-            covariance=self.cov[np.flatnonzero(self.has_truth)],
-            truth=self.truth,
+            covariance=self.cov[[index for index, _ in self.truth]],
+            truth=[truth for _, truth in self.truth],
             n_sats=i[:, step.N_SATS].copy(),
             n_used=i[:, step.N_USED].copy(),
             n_rejected=i[:, step.N_REJECTED].copy(),
@@ -239,6 +253,25 @@ class _Run:
         self.kept = np.zeros(n + 25)  # a smoother's store: x, INS state, compensation
 
 
+def _store(store, row, mats, kept, n, sens, time, feedback):
+    """Hand a smoother's store the epoch's record (:func:`inins.ekf.step.epoch`, ``keep``)."""
+    store.predicted(mats[step.P_PRED], mats[step.PHI_K])
+    store.updated(
+        time,
+        kept[:n],
+        mats[step.P_UPD],
+        np.r_[0:9, sens],
+        feedback,
+        (kept[n : n + 4], kept[n + 4 : n + 7], kept[n + 7 : n + 10]),
+        (
+            row[step.LOG_QUAT : step.LOG_QUAT + 4],
+            row[step.LOG_VEL : step.LOG_VEL + 3],
+            row[step.LOG_LLA : step.LOG_LLA + 3],
+        ),
+        kept[n + 10 : n + 25],
+    )
+
+
 def run_filter(config, initial, t0, epochs, true_sensor=None, store=None):
     """Run the tightly coupled filter over a stream of epochs (module docstring).
 
@@ -275,11 +308,14 @@ def run_filter(config, initial, t0, epochs, true_sensor=None, store=None):
     cfg, run = config, _Run(config, initial, t0)
     fb = cfg.coupling is Coupling.FB
     keep = store is not None
-    nav, mats, kept, n = run.nav, run.mats, run.kept, run.n
+    pps, outages = cfg.pps_storage, bool(cfg.outages)
+    x, P, mats, kept, n, nav = run.x, run.P, run.mats, run.kept, run.n, run.nav
+    static = (nav.quat, nav.vel, nav.lla, nav.prev)  # the INS state, updated in place
+    model = (run.comp, run.cum, run.sens, run.rates, run.rates_sub, cfg.dt, cfg.dither_window)
+    model += (run.noise, run.lever, run.limits, run.threshold, cfg.use_range_rate, fb, keep)
     log = _Log(n)
-    reset = np.r_[0:9, run.sens]
     wall = 0.0  # the filter's own time: producing the epochs (simulation, file) is not counted
-    t_end = t0
+    t_prev = t_end = t0
     clock_ready = False
     for index, ep in enumerate(epochs):
         start_wall = _time.perf_counter()
@@ -287,42 +323,25 @@ def run_filter(config, initial, t0, epochs, true_sensor=None, store=None):
         t_k, arrival, k = gnss.time, gnss.arrival, gnss.prn.size
         dtheta, dv = np.ascontiguousarray(ep.dtheta), np.ascontiguousarray(ep.dv)
         # naive pairing updates the state at arrival itself: nothing to carry over
-        tau = arrival - t_k if cfg.pps_storage else 0.0
-        t_state = t_k if cfg.pps_storage else arrival
+        tau, t_state, p = (arrival - t_k, t_k, ep.pps_index) if pps else (0.0, arrival, len(dtheta))
         t_end = arrival
-        p = ep.pps_index if cfg.pps_storage else dtheta.shape[0]
-        coasted = k == 0 or cfg.in_outage(t_k)
+        coasted = k == 0 or (outages and cfg.in_outage(t_k))
         truth = ep.truth is not None
-        log.reserve(index, 0 if coasted else 2 * k, truth)
+        if log.full(index, 2 * k, truth):
+            log.reserve(index, 2 * k, truth)
         tick = _time.perf_counter()
         rows = step.epoch(
-            run.x,
-            run.P,
+            x,
+            P,
             mats,
-            nav.quat,
-            nav.vel,
-            nav.lla,
-            nav.prev,
+            *static,
             nav.count,
             run.home,
-            run.comp,
-            run.cum,
-            run.sens,
-            run.rates,
-            run.rates_sub,
-            cfg.dt,
-            cfg.dither_window,
-            run.noise,
-            run.lever,
-            run.limits,
-            run.threshold,
-            cfg.use_range_rate,
-            fb,
-            keep,
+            *model,
             dtheta,
             dv,
             p,
-            t_state - run.t_prev,
+            t_state - t_prev,
             tau,
             coasted,
             not clock_ready,
@@ -349,30 +368,14 @@ def run_filter(config, initial, t0, epochs, true_sensor=None, store=None):
             kept,
         )
         log.update_s.append(_time.perf_counter() - tick)
-        nav.count += dtheta.shape[0]
+        nav.count += len(dtheta)
         log.rows += rows
         clock_ready = clock_ready or not coasted
-        run.t_prev = t_state
-        log.has_truth.append(truth)
+        t_prev = t_state
         if truth:
-            log.truth.append(ep.truth)
+            log.truth.append((index, ep.truth))
         if keep:
-            store.predicted(mats[step.P_PRED], mats[step.PHI_K])
-            row = log.flog[index]
-            store.updated(
-                t_state,
-                kept[:n],
-                mats[step.P_UPD],
-                reset,
-                fb and not coasted,
-                (kept[n : n + 4], kept[n + 4 : n + 7], kept[n + 7 : n + 10]),
-                (
-                    row[step.LOG_QUAT : step.LOG_QUAT + 4],
-                    row[step.LOG_VEL : step.LOG_VEL + 3],
-                    row[step.LOG_LLA : step.LOG_LLA + 3],
-                ),
-                kept[n + 10 : n + 25],
-            )
+            _store(store, log.flog[index], mats, kept, n, run.sens, t_state, fb and not coasted)
         wall += _time.perf_counter() - start_wall
     epochs_log = log.epochs()
     if epochs_log.n_sats.size and epochs_log.n_sats.max() == 0:
