@@ -17,6 +17,7 @@ from dataclasses import dataclass, field
 import frozen_kernels
 import numpy as np
 
+from inins.core.satellites import LETTERS
 from inins.core.stats import chi2_ppf
 from inins.core.strapdown import FreeInertial
 from inins.ekf import filter as ekf_filter
@@ -109,12 +110,14 @@ class _Run:
     def __init__(self, config, initial, t0):
         self.cfg = config
         n = self.n = len(config.layout)
+        base = len(config.model.layout)  # 17 or 26; inter-system biases after them
         self.keep_phi = False  # accumulate Phi over sub-intervals (a smoother's store)
         self.x = np.zeros(n)
-        self.P = config.initial_sigma.covariance(n)
+        self.P = config.initial_sigma.covariance(base, n - base)
         self.comp = np.zeros(15)
         self.cum = np.zeros(9)
-        self.sens = _sensor_index(n)
+        self.sens = _sensor_index(base)
+        self.bias_columns = config.bias_columns()
         self.nav = FreeInertial(initial)
         self.t_prev = t0
         self.clock_ready = False
@@ -130,6 +133,7 @@ class _Run:
                 config.accel_bias_rw,
                 config.gyro_bias_rw,
                 [config.clock_bias_psd, config.clock_drift_psd],
+                [config.system_bias_psd] * (n - base),
             ]
         )
         self.lever = np.asarray(config.lever_arm, dtype=float)
@@ -195,6 +199,14 @@ class _Run:
         rows = np.arange(2 * k) if self.cfg.use_range_rate else np.arange(0, 2 * k, 2)
         acc = np.zeros(rows.size, dtype=np.bool_)
         y, s = np.empty(rows.size), np.empty(rows.size)
+        bias_col = self.bias_columns[gnss.system]
+        if bias_col.min() < -1:
+            letters = sorted({LETTERS[i] for i in gnss.system[bias_col < -1].tolist()})
+            raise InputError(
+                f"satellites of system {''.join(letters)} at t = {gnss.time:.3f} s, which the "
+                f"filter does not take (systems {self.cfg.systems})",
+                key="systems",
+            )
         frozen_kernels.update(
             self.x,
             self.P,
@@ -212,6 +224,7 @@ class _Run:
             gnss.sat_clock_drift,
             gnss.sigma_pr,
             gnss.sigma_rr,
+            bias_col,
             self.threshold,
             self.cfg.use_range_rate,
             not self.clock_ready,
@@ -334,5 +347,7 @@ def run_stepwise(config, initial, t0, epochs, true_sensor=None, store=None):
         raise InputError("no satellites above the mask in any epoch of the run", key="gnss")
     result = EkfResult.from_log(cfg, log, t_end - t0, wall)
     if log.truth and len(log.truth) == len(log.time):
-        result = ekf_filter.score(result, log, true_sensor, pps_storage=cfg.pps_storage)
+        result = ekf_filter.score(
+            result, log, true_sensor, pps_storage=cfg.pps_storage, systems=cfg.systems
+        )
     return result, run.splits
