@@ -14,8 +14,7 @@ Per epoch ``k`` (1PPS time ``t_k``, data arriving at ``t_k + tau``):
    interval (a roll transient: ``omega_b`` or ``f_b`` at the middles of
    :data:`SUB_STEPS` sub-intervals differ from the mid-interval value by more than
    :data:`RATE_CHANGE` or :data:`FORCE_CHANGE`), ``F`` and ``Qd`` are evaluated
-   on each sub-interval and the prediction made sub-interval by sub-interval
-   (:func:`inins.ekf.step.propagate_split`).
+   on each sub-interval and the prediction made sub-interval by sub-interval.
 3. Update at ``t_k`` with the stored state: scalar Joseph updates per pseudorange
    and range rate, each gated on chi-square(1) (:func:`inins.ekf.kernels.sequential_update`).
    The measurement is predicted at the corrected INS state ``nav (-) x``; epochs
@@ -38,6 +37,12 @@ at the data arrival ``t_k + tau``, and the result is labelled with that time and
 scored against the truth there (the measurements of ``t_k`` pulled onto the state
 of ``t_k + tau`` leave it ``v tau`` behind along track, which a score at ``t_k``
 hides).
+
+All four steps of an epoch, and its log, are one call of the compiled
+:func:`inins.ekf.step.epoch`, which composes the building-block kernels of
+:mod:`inins.ekf.step` (the per-epoch Python glue of one call per block cost as much
+as the arithmetic; ``tests/ekf/test_fused_epoch.py`` holds it bit for bit to that
+loop). The log goes into preallocated arrays, doubled when full.
 
 With truth (simulation) the output error, the heading error and the NEES of all
 states are computed after the run (:func:`score`), vectorised over the epochs; the

@@ -1,14 +1,17 @@
 """One filter epoch in compiled code: propagation, update at the 1PPS state, FB feedback.
 
-:func:`inins.ekf.filter.run_filter` calls, once per GPS epoch and with preallocated
-arrays, :func:`compensate` (FB), :func:`mean_rates_at` / :func:`mean_rates`,
-:func:`propagate` (once, or once per sub-interval when the rates change fast),
-:func:`update`, :func:`correct` and (FB) :func:`feedback`, so that an epoch costs
-tens of microseconds besides the strapdown. The equations are those of
-:mod:`inins.ekf.filter` (module docstring) and :mod:`inins.ekf.kernels`; the
-navigation helpers here are the scalar forms of :func:`inins.core.earth.mat_en`,
-:func:`~inins.core.earth.ecef_from_llh`, :func:`inins.core.rotation.mat_from_quat`
-and :func:`inins.ekf.measurements.antenna` (tested equal in ``tests/ekf/test_step.py``).
+:func:`epoch` is the whole epoch of :func:`inins.ekf.filter.run_filter`, one call
+per GPS epoch with preallocated arrays: :func:`compensate` (FB), the strapdown,
+:func:`mean_rates_at` / :func:`mean_rates`, :func:`propagate` (once, or once per
+sub-interval when the rates change fast), :func:`update`, :func:`correct`, (FB)
+:func:`feedback`, and the epoch's log. The building blocks stay separate kernels
+(tested on their own, and the loosely coupled filter uses some); an epoch of
+EKF2 with ten satellites costs about 50 us, a quarter of it the strapdown's 200
+samples. The equations are those of :mod:`inins.ekf.filter` (module docstring) and
+:mod:`inins.ekf.kernels`; the navigation helpers here are the scalar forms of
+:func:`inins.core.earth.mat_en`, :func:`~inins.core.earth.ecef_from_llh`,
+:func:`inins.core.rotation.mat_from_quat` and :func:`inins.ekf.measurements.antenna`
+(tested equal in ``tests/ekf/test_step.py``).
 """
 
 import math
