@@ -62,9 +62,8 @@ from inins.ekf.sources import Receiver, simulated_epochs
 from inins.gnss import constellation, gpstime
 
 ROOT = Path(__file__).resolve().parent.parent
-sys.path.insert(
-    0, str(ROOT)
-) if __name__ == "__main__" and "benchmarks" not in sys.modules else None
+if __name__ == "__main__" and "benchmarks" not in sys.modules and not os.environ.get("PYTHONPATH"):
+    sys.path.insert(0, str(ROOT))  # run as a script: this checkout (--before: PYTHONPATH's)
 
 DT = 0.005
 ERRORS = imu.SensorErrors(
