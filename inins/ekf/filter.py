@@ -183,17 +183,17 @@ class _Log:
         self._sizes()
 
     def epochs(self):
-        """The :class:`EpochLog` of the epochs written (copies of the filled rows)."""
+        """The :class:`EpochLog` of the epochs written (views of the filled rows)."""
         m, n = len(self.update_s), self.n
         f, i = self.flog[:m], self.ilog[:m]
         inn_f, inn_i = self.inn_f[: self.rows], self.inn_i[: self.rows]
 
         def col(first, width):
-            return f[:, first : first + width].copy()
+            return f[:, first : first + width]
 
         return EpochLog(
-            time=f[:, step.LOG_TIME].copy(),
-            gnss_time=f[:, step.LOG_GNSS_TIME].copy(),
+            time=f[:, step.LOG_TIME],
+            gnss_time=f[:, step.LOG_GNSS_TIME],
             quat=col(step.LOG_QUAT, 4),
             vel=col(step.LOG_VEL, 3),
             lla=col(step.LOG_LLA, 3),
@@ -202,11 +202,11 @@ class _Log:
             cumulative=col(step.LOG_STATE + 2 * n, n),
             covariance=self.cov[[index for index, _ in self.truth]],
             truth=[truth for _, truth in self.truth],
-            n_sats=i[:, step.N_SATS].copy(),
-            n_used=i[:, step.N_USED].copy(),
-            n_rejected=i[:, step.N_REJECTED].copy(),
+            n_sats=i[:, step.N_SATS],
+            n_used=i[:, step.N_USED],
+            n_rejected=i[:, step.N_REJECTED],
             coasted=i[:, step.COASTED].astype(bool),
-            nis=f[:, step.LOG_NIS].copy(),
+            nis=f[:, step.LOG_NIS],
             update_s=np.array(self.update_s),
             measurements=Innovations(
                 inn_i[:, 0].copy(),
