@@ -73,6 +73,8 @@ RATE_CHANGE = 5.0 * np.pi / 180.0
 within a second, ~100 deg/s, is far above)."""
 FORCE_CHANGE = 2.0
 """m/s^2: a change of ``f_b`` within an interval beyond this splits the propagation."""
+LOG_CAPACITY = 256
+"""Epochs the log holds before it first doubles (8 innovation rows per epoch)."""
 
 
 def _sensor_index(n):
@@ -146,8 +148,9 @@ class EpochLog:
 class _Log:
     """The arrays :func:`inins.ekf.step.epoch` writes its log into, grown by doubling."""
 
-    def __init__(self, n, capacity=256):
+    def __init__(self, n):
         self.n = n
+        capacity = LOG_CAPACITY
         self.flog = np.zeros((capacity, step.LOG_STATE + 3 * n))
         self.ilog = np.zeros((capacity, 4), np.int64)
         self.cov = np.zeros((0, n, n))

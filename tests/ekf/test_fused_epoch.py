@@ -183,6 +183,18 @@ def test_smoother_store(flight, coupling):
         _assert_same(f"store.{name}", getattr(run_got, name), getattr(run_want, name))
 
 
+def test_log_grown_by_doubling(flight, monkeypatch):
+    """A log that starts with room for one epoch (and 8 innovation rows) doubles its
+    arrays as the run goes: the result is the one of a log with room from the start."""
+    from inins.ekf import filter as ekf_filter
+
+    config, initial, epochs = flight
+    want = run_filter(config, initial, 0.0, epochs, ERRORS)
+    monkeypatch.setattr(ekf_filter, "LOG_CAPACITY", 1)
+    got = run_filter(config, initial, 0.0, epochs, ERRORS)
+    _assert_results_agree(got, want)
+
+
 def test_epochs_consumed_as_a_stream(flight):
     """A generator of epochs (consumed once) gives the run of the list."""
     config, initial, epochs = flight
