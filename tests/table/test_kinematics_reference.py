@@ -10,7 +10,7 @@ import kinematics_v0
 import numpy as np
 import pytest
 
-from inins.core import rotation
+from inins.core import jit, rotation
 from inins.core.units import DEG
 from inins.table import kinematics
 from inins.table.kinematics import MountRotation, TableTrajectory, base_matrix, gimbal_axes
@@ -56,6 +56,9 @@ def test_matches_previous_kernel_bit_for_bit(names):
 
 
 def test_warm_up_compiles_the_one_specialisation_every_table_uses():
+    # the specialisations are numba's: load it first (else the kernel library takes
+    # the calls and the dispatcher compiles nothing, when this test runs first)
+    jit.activate()
     kinematics.warm_up()
     program = compile_program([Rotate(2, 1.0, 0.5, 1.0)], np.zeros(3))
     traj = TableTrajectory(
