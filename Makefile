@@ -33,8 +33,10 @@ lint: $(STAMP)
 	$(BIN)/ruff format --check inins tests benchmarks
 	$(BIN)/lint-imports
 
+# PYTHONDONTWRITEBYTECODE cleared: pytest keeps its rewrite of the test modules (their
+# asserts) as bytecode, which every worker would otherwise redo (3 s of CPU each)
 test: lint kernels
-	$(BIN)/python -m pytest -n auto --dist loadscope
+	PYTHONDONTWRITEBYTECODE= $(BIN)/python -m pytest -n auto --dist loadscope
 
 # More examples of the property tests (tests/cli/test_fuzz.py), random seed:
 # FUZZ_EXAMPLES per test (make test runs 150 of each, derandomized).
