@@ -18,8 +18,10 @@ venv: $(STAMP)
 # numba's cache of every kernel, and the kernel library short runs load without
 # numba: compiled at install (about 40 s), checked again when a source changed
 KERNELS := $(VENV)/.kernels
+# (one BLAS thread: the short runs' small matrices, e.g. the 26-state Gramian's matrix
+# exponentials, took 3-10 times the CPU with threaded OpenBLAS on a busy machine)
 $(KERNELS): $(STAMP) $(shell find inins -name '*.py')
-	$(BIN)/python -m inins.commands.warmup
+	OPENBLAS_NUM_THREADS=1 OMP_NUM_THREADS=1 $(BIN)/python -m inins.commands.warmup
 	touch $(KERNELS)
 
 kernels: $(KERNELS)
