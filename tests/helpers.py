@@ -1,5 +1,6 @@
 """Shared test helpers: shipped scenarios loaded with ``--set``-style overrides."""
 
+import functools
 from pathlib import Path
 
 import yaml
@@ -22,6 +23,13 @@ def overrides_of(**updates):
 
 def shipped(model_cls, relative, *overrides, **updates):
     """The shipped scenario ``configs/<relative>`` validated as ``model_cls``, with
-    ``--set`` items (strings) and keyword updates (``key.path=value``) applied in order."""
-    items = [*overrides, *overrides_of(**updates)]
-    return load_scenario(model_cls, CONFIGS / relative, items, None)[0]
+    ``--set`` items (strings) and keyword updates (``key.path=value``) applied in order.
+
+    Loaded once per process for the same arguments (the models are frozen; Monte Carlo
+    tests ask for the same scenario once per seed)."""
+    return _shipped(model_cls, relative, (*overrides, *overrides_of(**updates)))
+
+
+@functools.cache
+def _shipped(model_cls, relative, items):
+    return load_scenario(model_cls, CONFIGS / relative, list(items), None)[0]
