@@ -207,16 +207,17 @@ def test_library_only_warm_up_compiles_what_the_library_takes_and_builds_it(monk
     """``--library-only`` runs each module's warm_up() and the short runs of the
     library's commands, then builds it, without the other short runs; the full
     warm-up builds the library before those runs."""
+    import importlib
+
+    import inins.commands
     from inins.commands import execute, warmup
 
     steps = []
-
-    class Module:
-        def __init__(self, name):
-            self.warm_up = lambda: steps.append(name)
-
     monkeypatch.setattr(warmup.jit, "activate", lambda: None)
-    monkeypatch.setattr(warmup.importlib, "import_module", Module)
+    for name in warmup.MODULES:
+        module = importlib.import_module(name)
+        monkeypatch.setattr(module, "warm_up", lambda name=name: steps.append(name))
+    monkeypatch.setattr(inins.commands, "find_command", lambda command: command)
     monkeypatch.setattr(
         execute, "execute", lambda command, path, *a, **k: steps.append(path.parent.name)
     )
