@@ -1,6 +1,6 @@
-"""Shared test helpers: shipped scenarios loaded with ``--set``-style overrides."""
+"""Shared test helpers: shipped scenarios loaded with ``--set``-style overrides; the
+argument types a kernel is called with."""
 
-import functools
 from pathlib import Path
 
 import yaml
@@ -24,16 +24,9 @@ def overrides_of(**updates):
 
 def shipped(model_cls, relative, *overrides, **updates):
     """The shipped scenario ``configs/<relative>`` validated as ``model_cls``, with
-    ``--set`` items (strings) and keyword updates (``key.path=value``) applied in order.
-
-    Loaded once per process for the same arguments (the models are frozen; Monte Carlo
-    tests ask for the same scenario once per seed)."""
-    return _shipped(model_cls, relative, (*overrides, *overrides_of(**updates)))
-
-
-@functools.cache
-def _shipped(model_cls, relative, items):
-    return load_scenario(model_cls, CONFIGS / relative, list(items), None)[0]
+    ``--set`` items (strings) and keyword updates (``key.path=value``) applied in order."""
+    items = [*overrides, *overrides_of(**updates)]
+    return load_scenario(model_cls, CONFIGS / relative, items, None)[0]
 
 
 def kernel_argument_types(monkeypatch, module, name):
