@@ -30,6 +30,8 @@ _SATURATED = 37.0  # as inins.core.flight: |x| > 37, sigma is 0 or 1 in double
 _SPEED_FLOOR = 1e-3  # as inins.ekf.flight
 _TRACK_FLOOR = 1e-9
 
+_INV_GAMMA_E = 1.0 / earth.GAMMA_E
+
 _gravity_of_sin2 = jit.njit(cache=True)(earth.gravity_of_sin2)
 
 
@@ -102,9 +104,11 @@ def _velocity(t, centres, taus, dv, prefix, plan, kin, position):
 
 
 @jit.njit(cache=True, nogil=True, error_model="numpy", inline="always")
-def _body(t, kin, plan, dither, out, row):
+def _body(t, kin, plan, dither, out, row, lat_ref):
     """``omega_ib_b`` into ``out[row, 0:3]`` and ``f_b`` into ``out[row, 3:6]`` at ``t``
-    from the velocity sum ``kin`` (:func:`_velocity`)."""
+    from the velocity sum ``kin`` (:func:`_velocity`). ``lat_ref``: ``[lat, sin lat,
+    cos lat]`` of a nearby latitude (NaN: none); within 1e-4 rad of it the sine and
+    cosine are its own by the angle sum (series to ``eps^3``, exact to rounding)."""
     disp_n, disp_d = kin[0], kin[2]
     vn, ve, vd = kin[3], kin[4], kin[5]
     an, ae, ad = kin[6], kin[7], kin[8]
@@ -120,35 +124,44 @@ def _body(t, kin, plan, dither, out, row):
     acc1 = plan[7] * ae
     acc2 = plan[8] * ad
     ground = math.sqrt(vn * vn + ve * ve + _SPEED_FLOOR**2)
+    i_ground = 1.0 / ground  # divisions hoisted: the chain is latency-bound
     turn = vn * ae - ve * an
     # roll atan(u), pitch atan(w) + aoa, heading the track angle of (t_n, t_e): only
     # their sines and cosines enter, in closed form
-    u = turn / ground / earth.GAMMA_E
+    u = turn * i_ground * _INV_GAMMA_E
     cr = 1.0 / math.sqrt(1.0 + u * u)
     sr = u * cr
-    w = -vd / ground
+    w = -vd * i_ground
     cw = 1.0 / math.sqrt(1.0 + w * w)
     sw = w * cw
     cp = cw * plan[12] - sw * plan[13]
     sp = sw * plan[12] + cw * plan[13]
     t_n = vn + _TRACK_FLOOR * plan[14]
     t_e = ve + _TRACK_FLOOR * plan[15]
-    track = math.sqrt(t_n * t_n + t_e * t_e)
-    ch, sh = t_n / track, t_e / track
-    d_ground = (vn * an + ve * ae) / ground
-    du = ((vn * je - ve * jn) / ground - turn * d_ground / ground**2) / earth.GAMMA_E
-    dw = -ad / ground + vd * d_ground / ground**2
-    dr = du / (1.0 + u * u)
-    dp = dw / (1.0 + w * w)
-    dh = (t_n * ae - t_e * an) / (track * track)
+    i_track = 1.0 / math.sqrt(t_n * t_n + t_e * t_e)
+    ch, sh = t_n * i_track, t_e * i_track
+    d_ground = (vn * an + ve * ae) * i_ground
+    du = ((vn * je - ve * jn) - turn * d_ground * i_ground) * i_ground * _INV_GAMMA_E
+    dw = (-ad + vd * d_ground * i_ground) * i_ground
+    dr = du * cr * cr  # d/dt atan(u) = u' / (1 + u^2)
+    dp = dw * cw * cw
+    dh = (t_n * ae - t_e * an) * i_track * i_track
 
     # acc_n and vel_n (FlightTruth.rates)
-    s, c = math.sin(lat), math.cos(lat)
+    eps = lat - lat_ref[0]
+    if abs(eps) < 1e-4:
+        cos_e = 1.0 - 0.5 * eps * eps
+        sin_e = eps - eps * eps * eps / 6.0
+        s = lat_ref[1] * cos_e + lat_ref[2] * sin_e
+        c = lat_ref[2] * cos_e - lat_ref[1] * sin_e
+    else:
+        s, c = math.sin(lat), math.cos(lat)
     s2 = s * s
     root = math.sqrt(1.0 - earth.E2 * s2)
-    re = earth.A / root
-    rn = re * (1.0 - earth.E2) / (root * root)
-    q = earth.E2 * s * c / (1.0 - earth.E2 * s2)
+    i_root2 = 1.0 / (root * root)
+    re = earth.A * root * i_root2
+    rn = re * (1.0 - earth.E2) * i_root2
+    q = earth.E2 * s * c * i_root2
     d_rn = 3.0 * rn * q * rate0
     d_re = re * q * rate0
     fa0 = (d_rn + rate2) * rate0 + (rn + h) * acc0
@@ -171,9 +184,10 @@ def _body(t, kin, plan, dither, out, row):
     # body_rates: Earth and transport rate, Coriolis, gravity
     wie0 = earth.RATE * c
     wie2 = -earth.RATE * s
-    wen0 = vel1 / (re + h)
+    i_re = 1.0 / (re + h)
+    wen0 = vel1 * i_re
     wen1 = -vel0 / (rn + h)
-    wen2 = -vel1 * math.tan(lat) / (re + h)
+    wen2 = -vel1 * (s / c) * i_re
     wn0, wn1, wn2 = wie0 + wen0, wen1, wie2 + wen2
     om0 = onb0 + m00 * wn0 + m10 * wn1 + m20 * wn2
     om1 = onb1 + m01 * wn0 + m11 * wn1 + m21 * wn2
@@ -218,9 +232,10 @@ def rates(time, centres, taus, dv, prefix, plan, dither):
     """``[omega_ib_b, f_b]`` (n, 6) (rad/s, m/s^2) at ``time`` (n,) s."""
     out = np.empty((time.size, 6))
     kin = np.empty(12)
+    no_ref = np.full(3, np.nan)
     for i in range(time.size):
         _velocity(time[i], centres, taus, dv, prefix, plan, kin, True)
-        _body(time[i], kin, plan, dither, out, i)
+        _body(time[i], kin, plan, dither, out, i, no_ref)
     return out
 
 
@@ -282,11 +297,14 @@ def integrals(start, stop, x, w, centres, taus, dv, prefix, plan, dither, klass,
     node = np.empty((1, 6))
     kin = np.empty(12)
     mid_kin = np.empty(12)
+    lat_ref = np.empty(3)
+    acc = np.empty(6)
     live = np.empty(m, dtype=np.int64)
     e_mid = np.empty(m)
     x_mid = np.empty(m)
     shift = np.empty((class_taus.size, nodes, 2))  # exp(-d / tau), exp(d / tau)
     shift_half = math.nan
+    i_taus = 1.0 / taus
     for k in range(n):
         t0, t1 = start[k], stop[k]
         half = 0.5 * (t1 - t0)
@@ -319,12 +337,12 @@ def integrals(start, stop, x, w, centres, taus, dv, prefix, plan, dither, klass,
             elif (t1 - tk) / tau > -_SATURATED:
                 live[count] = i
                 count += 1
-        acc = np.zeros(6)
+        acc[:] = 0.0
         for j in range(-1, nodes):
             # j = -1: the centre (exact, with the displacement); then the nodes
             d = 0.0 if j < 0 else half * x[j]
             if j >= 0 and d == 0.0:
-                _body(mid, mid_kin, plan, dither, node, 0)
+                _body(mid, mid_kin, plan, dither, node, 0, lat_ref)
                 for c in range(6):
                     acc[c] += w[j] * node[0, c]
                 continue
@@ -335,8 +353,8 @@ def integrals(start, stop, x, w, centres, taus, dv, prefix, plan, dither, klass,
             jn = je = jd = 0.0
             for q in range(count):
                 i = live[q]
-                tau = taus[i]
-                xi = (t - centres[i]) / tau
+                i_tau = i_taus[i]
+                xi = (t - centres[i]) * i_tau
                 if j < 0:
                     e = math.exp(-abs(xi))
                     e_mid[q] = e
@@ -347,11 +365,11 @@ def integrals(start, stop, x, w, centres, taus, dv, prefix, plan, dither, klass,
                     e = math.exp(-abs(xi))
                 inv = 1.0 / (1.0 + e)
                 sigma = inv if xi > 0.0 else e * inv
-                dsigma = e * inv * inv / tau
-                ddsigma = dsigma * (1.0 - 2.0 * sigma) / tau
+                dsigma = e * inv * inv * i_tau
+                ddsigma = dsigma * (1.0 - 2.0 * sigma) * i_tau
                 sn, se, sd = dv[i, 0], dv[i, 1], dv[i, 2]
                 if j < 0:
-                    soft = ((xi if xi > 0.0 else 0.0) + math.log1p(e)) * tau
+                    soft = ((xi if xi > 0.0 else 0.0) + math.log1p(e)) * taus[i]
                     dn += soft * sn
                     de += soft * se
                     dd += soft * sd
@@ -371,6 +389,8 @@ def integrals(start, stop, x, w, centres, taus, dv, prefix, plan, dither, klass,
                 mid_kin[3], mid_kin[4], mid_kin[5] = vn + v0n, ve + v0e, vd + v0d
                 mid_kin[6], mid_kin[7], mid_kin[8] = an, ae, ad
                 mid_kin[9], mid_kin[10], mid_kin[11] = jn, je, jd
+                lat_ref[0] = plan[3] + plan[6] * mid_kin[0]
+                lat_ref[1], lat_ref[2] = math.sin(lat_ref[0]), math.cos(lat_ref[0])
                 continue
             for c in range(3):
                 kin[c] = mid_kin[c] + d * (
@@ -379,7 +399,7 @@ def integrals(start, stop, x, w, centres, taus, dv, prefix, plan, dither, klass,
             kin[3], kin[4], kin[5] = vn + v0n, ve + v0e, vd + v0d
             kin[6], kin[7], kin[8] = an, ae, ad
             kin[9], kin[10], kin[11] = jn, je, jd
-            _body(t, kin, plan, dither, node, 0)
+            _body(t, kin, plan, dither, node, 0, lat_ref)
             for c in range(6):
                 acc[c] += w[j] * node[0, c]
         for c in range(6):
