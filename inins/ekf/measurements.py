@@ -99,8 +99,35 @@ class GnssEpoch:
         object.__setattr__(self, "time", float(self.time))
         object.__setattr__(self, "arrival", arrival)
 
+    @classmethod
+    def unchecked(cls, time, *arrays, delay, arrival):
+        """An epoch of arrays its caller has checked (a simulated block, checked as a
+        whole by :func:`inins.ekf.sources.filter_epochs`): the types, shapes and values
+        ``__post_init__`` would ensure, without checking them again. ``arrays``: the
+        fields from ``prn`` to ``sigma_rr`` in order (int64, float, C-contiguous)."""
+        epoch = object.__new__(cls)
+        names = ("time", *_ARRAY_FIELDS, "delay", "arrival")
+        for name, value in zip(names, (time, *arrays, delay, arrival), strict=True):
+            if isinstance(value, np.ndarray):
+                value.flags.writeable = False
+            object.__setattr__(epoch, name, value)
+        return epoch
+
     def __len__(self):
         return self.prn.size
+
+
+_ARRAY_FIELDS = (
+    "prn",
+    "sat_pos",
+    "sat_vel",
+    "sat_clock",
+    "sat_clock_drift",
+    "pseudorange",
+    "range_rate",
+    "sigma_pr",
+    "sigma_rr",
+)
 
 
 def antenna(lla, vel_n, mat_nb, omega_eb_b, lever_b):
