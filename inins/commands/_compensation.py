@@ -19,7 +19,6 @@ from inins.core.records import TableRecord
 from inins.core.units import ARCSEC, DPH, G0, PPM, UG
 from inins.exceptions import InputError
 from inins.io.tabledata import CHUNK_SAMPLES
-from inins.scenario.calibrate_imu import CompensationFile
 
 
 def compensation_terms(path, unit_name=None, serial=None):
@@ -33,6 +32,7 @@ def compensation_terms(path, unit_name=None, serial=None):
         the file and key.
     """
     from inins.io.rawlog import read_compensation
+    from inins.scenario.calibrate_imu import CompensationFile  # its scenario models: lazily
 
     comp = read_compensation(path, CompensationFile)
     want = (unit_name, serial)

@@ -27,7 +27,7 @@ from inins.calibration.imu_model import compensate
 from inins.commands._compensation import scenario_terms
 from inins.core import earth, error_model, rotation, strapdown
 from inins.core.units import DEG, UG
-from inins.ekf import loose, outages, smoother, sources, timeoffset
+from inins.ekf import outages, smoother, sources, timeoffset
 from inins.ekf.tight_store import TightStore
 from inins.exceptions import InputError
 from inins.io import scratch, solution_layout
@@ -145,6 +145,8 @@ def _antenna(quat, lla, lever, vel=None, offset=None):
 
 def run(scenario, seed, *, sink=None, progress=None):
     """Post-process the scenario's drive (module docstring)."""
+    from inins.ekf import loose  # the loose filter: only this path (lazily)
+
     p = scenario.post
     g = p.gnss
     full = read_post_gnss(g)

@@ -140,6 +140,11 @@ class SimulationOptions:
     system_bias_m: tuple = ()
 
 
+_MASK_MARGIN = 1.0 * DEG
+"""Satellites further below the mask after the first light-time iteration (rad) are not
+iterated again (they stay below it)."""
+
+
 def _delays(los, pos_e, sow, options, sat=None):
     el, az = propagation.elevation_azimuth(los, pos_e)
     lla = earth.llh_from_ecef(pos_e)
@@ -200,22 +205,36 @@ def simulate(eph, week, time, pos_e, vel_e, clock, drift, rng, options=Simulatio
     have = index >= 0
     single = options.signal == Signal.L1
     index = np.where(have, index, 0)
-    for _ in range(3):
-        sat = _states(eph, nav, prn, index, week, t - tau, single, have)
-        rho, rate, los, _ = propagation.geometry(sat.pos, sat.vel, rx, rx_vel)
-        el, delay = _delays(los, rx, t, options, None if nav is None else prn)
-        tau = (rho + delay) / C
+    sat = _states(eph, nav, prn, index, week, t - tau, single, have)
+    rho, rate, los, _ = propagation.geometry(sat.pos, sat.vel, rx, rx_vel)
+    el, delay = _delays(los, rx, t, options, None if nav is None else prn)
+    # two more light-time iterations, for the satellites that can be above the mask
+    # (a second iteration moves the elevation by ~1e-5 rad; the others stay masked)
+    near = np.nonzero(have & (el > options.mask_rad - _MASK_MARGIN))
+    rx_n = np.broadcast_to(rx, (*shape, 3))[near]
+    rv_n = np.broadcast_to(rx_vel, (*shape, 3))[near]
+    t_n, prn_n, index_n = t[near], prn[near], index[near]
+    tau_n = (rho[near] + delay[near]) / C
+    for _ in range(2):
+        sat_n = _states(eph, nav, prn_n, index_n, week, t_n - tau_n, single, have[near])
+        rho_n, rate_n, los_n, _ = propagation.geometry(sat_n.pos, sat_n.vel, rx_n, rv_n)
+        el_n, delay_n = _delays(los_n, rx_n, t_n, options, None if nav is None else prn_n)
+        tau_n = (rho_n + delay_n) / C
+    clock_sat, drift_sat = sat.clock.copy(), sat.drift.copy()
+    for full, part in ((rho, rho_n), (rate, rate_n), (el, el_n), (delay, delay_n)):
+        full[near] = part
+    clock_sat[near], drift_sat[near] = sat_n.clock, sat_n.drift
     seen = have & (el >= options.mask_rad)
     scale = 1.0 / np.sin(np.clip(el, 1e-3, None)) if options.elevation_noise else 1.0
     sigma = np.broadcast_to(options.sigma_pr_m * scale, shape)
     sigma_rate = options.sigma_rate_mps * scale
-    pr = rho + clock[:, None] - sat.clock + delay + sigma * rng.standard_normal(shape)
+    pr = rho + clock[:, None] - clock_sat + delay + sigma * rng.standard_normal(shape)
     if options.system_bias_m:
         bias = np.zeros(systems.SBAS + 1)
         for system, value in options.system_bias_m:
             bias[system] = value
         pr = pr + bias[systems.system_of(prn)]
-    rr = rate + drift[:, None] - sat.drift + sigma_rate * rng.standard_normal(shape)
+    rr = rate + drift[:, None] - drift_sat + sigma_rate * rng.standard_normal(shape)
     counts = seen.sum(axis=1)
     obs = make_observations(
         week,
