@@ -281,10 +281,11 @@ def integrals(start, stop, x, w, centres, taus, dv, prefix, plan, dither, klass,
     Per interval, as :class:`inins.core.flight.SmoothVelocity` does per block: the
     steps saturated over the whole interval are folded into the constant and linear
     parts, the others (``live``) summed at every node. The logistic terms are
-    computed at the interval's centre; at a node ``mid + d`` on the same side of a
-    step's centre ``exp(-|x|)`` is the centre's times ``exp(-+d / tau)`` (one
-    ``exp`` per distinct ``tau`` and node, for every interval of the same length:
-    a relative change of a few units in the last place), and the displacement
+    computed at the interval's centre; at a node ``mid + d``, for a step whose centre
+    is outside the interval, ``exp(-|x|)`` is the centre's times ``exp(-+d / tau)``
+    (one ``exp`` per distinct ``tau`` and node, for every interval of the same
+    length: a relative change of a few units in the last place; the few steps
+    centred inside the interval are evaluated directly), and the displacement
     (which enters the rates only through gravity, the radii and the Earth and
     transport rates) the Taylor series about the centre to the jerk term
     (remainder ``|snap| d^4 / 24``: < 1e-12 m for 200 Hz samples, below the rounding
@@ -299,12 +300,17 @@ def integrals(start, stop, x, w, centres, taus, dv, prefix, plan, dither, klass,
     mid_kin = np.empty(12)
     lat_ref = np.empty(3)
     acc = np.empty(6)
-    live = np.empty(m, dtype=np.int64)
-    e_mid = np.empty(m)
-    x_mid = np.empty(m)
+    i_taus = 1.0 / taus
+    # the live steps of an interval that stay on one side of their centre over it,
+    # packed: exp(-|x|) at the centre, side (1: x > 0), 1 / tau, dv, node factors
+    a_e = np.empty(m)
+    a_pos = np.empty(m)
+    a_it = np.empty(m)
+    a_dv = np.empty((m, 3))
+    a_shift = np.empty((m, nodes))
+    b_idx = np.empty(m, dtype=np.int64)  # those whose centre is inside the interval
     shift = np.empty((class_taus.size, nodes, 2))  # exp(-d / tau), exp(d / tau)
     shift_half = math.nan
-    i_taus = 1.0 / taus
     for k in range(n):
         t0, t1 = start[k], stop[k]
         half = 0.5 * (t1 - t0)
@@ -324,74 +330,110 @@ def integrals(start, stop, x, w, centres, taus, dv, prefix, plan, dither, klass,
         p0n = prefix[lo, 3]
         p0e = prefix[lo, 4]
         p0d = prefix[lo, 5]
-        count = 0
+        dn = de = dd = 0.0
+        vn = ve = vd = 0.0
+        an = ae = ad = 0.0
+        jn = je = jd = 0.0
+        na = nb = 0
         for i in range(lo, hi):
-            tk, tau = centres[i], taus[i]
-            if (t0 - tk) / tau > _SATURATED:
+            tk, tau, i_tau = centres[i], taus[i], i_taus[i]
+            if (t0 - tk) * i_tau > _SATURATED:
                 v0n += dv[i, 0]
                 v0e += dv[i, 1]
                 v0d += dv[i, 2]
                 p0n += tk * dv[i, 0]
                 p0e += tk * dv[i, 1]
                 p0d += tk * dv[i, 2]
-            elif (t1 - tk) / tau > -_SATURATED:
-                live[count] = i
-                count += 1
+                continue
+            if not (t1 - tk) * i_tau > -_SATURATED:
+                continue
+            # the centre of the interval: exact, with the displacement
+            xi = (mid - tk) * i_tau
+            e = math.exp(-abs(xi))
+            inv = 1.0 / (1.0 + e)
+            sigma = inv if xi > 0.0 else e * inv
+            dsigma = e * inv * inv * i_tau
+            ddsigma = dsigma * (1.0 - 2.0 * sigma) * i_tau
+            soft = ((xi if xi > 0.0 else 0.0) + math.log1p(e)) * tau
+            sn, se, sd = dv[i, 0], dv[i, 1], dv[i, 2]
+            dn += soft * sn
+            de += soft * se
+            dd += soft * sd
+            vn += sigma * sn
+            ve += sigma * se
+            vd += sigma * sd
+            an += dsigma * sn
+            ae += dsigma * se
+            ad += dsigma * sd
+            jn += ddsigma * sn
+            je += ddsigma * se
+            jd += ddsigma * sd
+            if t0 > tk or t1 <= tk:  # one side over the interval: packed
+                side = 0 if xi > 0.0 else 1
+                a_e[na] = e
+                a_pos[na] = 1.0 - side
+                a_it[na] = i_tau
+                a_dv[na, 0], a_dv[na, 1], a_dv[na, 2] = sn, se, sd
+                for j in range(nodes):
+                    a_shift[na, j] = shift[klass[i], j, side]
+                na += 1
+            else:
+                b_idx[nb] = i
+                nb += 1
+        mid_kin[0] = mid * v0n - p0n + dn
+        mid_kin[1] = mid * v0e - p0e + de
+        mid_kin[2] = mid * v0d - p0d + dd
+        mid_kin[3], mid_kin[4], mid_kin[5] = vn + v0n, ve + v0e, vd + v0d
+        mid_kin[6], mid_kin[7], mid_kin[8] = an, ae, ad
+        mid_kin[9], mid_kin[10], mid_kin[11] = jn, je, jd
+        lat_ref[0] = plan[3] + plan[6] * mid_kin[0]
+        lat_ref[1], lat_ref[2] = math.sin(lat_ref[0]), math.cos(lat_ref[0])
         acc[:] = 0.0
-        for j in range(-1, nodes):
-            # j = -1: the centre (exact, with the displacement); then the nodes
-            d = 0.0 if j < 0 else half * x[j]
-            if j >= 0 and d == 0.0:
+        for j in range(nodes):
+            d = half * x[j]
+            if d == 0.0:
                 _body(mid, mid_kin, plan, dither, node, 0, lat_ref)
                 for c in range(6):
                     acc[c] += w[j] * node[0, c]
                 continue
             t = mid + d
-            dn = de = dd = 0.0
             vn = ve = vd = 0.0
             an = ae = ad = 0.0
             jn = je = jd = 0.0
-            for q in range(count):
-                i = live[q]
+            for q in range(na):
+                e = a_e[q] * a_shift[q, j]
+                inv = 1.0 / (1.0 + e)
+                p = a_pos[q]
+                sigma = inv * (p + (1.0 - p) * e)  # inv (x > 0) or e inv, exactly
+                dsigma = e * inv * inv * a_it[q]
+                ddsigma = dsigma * (1.0 - 2.0 * sigma) * a_it[q]
+                vn += sigma * a_dv[q, 0]
+                ve += sigma * a_dv[q, 1]
+                vd += sigma * a_dv[q, 2]
+                an += dsigma * a_dv[q, 0]
+                ae += dsigma * a_dv[q, 1]
+                ad += dsigma * a_dv[q, 2]
+                jn += ddsigma * a_dv[q, 0]
+                je += ddsigma * a_dv[q, 1]
+                jd += ddsigma * a_dv[q, 2]
+            for q in range(nb):
+                i = b_idx[q]
                 i_tau = i_taus[i]
                 xi = (t - centres[i]) * i_tau
-                if j < 0:
-                    e = math.exp(-abs(xi))
-                    e_mid[q] = e
-                    x_mid[q] = xi
-                elif (xi > 0.0) == (x_mid[q] > 0.0):
-                    e = e_mid[q] * shift[klass[i], j, 0 if xi > 0.0 else 1]
-                else:
-                    e = math.exp(-abs(xi))
+                e = math.exp(-abs(xi))
                 inv = 1.0 / (1.0 + e)
                 sigma = inv if xi > 0.0 else e * inv
                 dsigma = e * inv * inv * i_tau
                 ddsigma = dsigma * (1.0 - 2.0 * sigma) * i_tau
-                sn, se, sd = dv[i, 0], dv[i, 1], dv[i, 2]
-                if j < 0:
-                    soft = ((xi if xi > 0.0 else 0.0) + math.log1p(e)) * taus[i]
-                    dn += soft * sn
-                    de += soft * se
-                    dd += soft * sd
-                vn += sigma * sn
-                ve += sigma * se
-                vd += sigma * sd
-                an += dsigma * sn
-                ae += dsigma * se
-                ad += dsigma * sd
-                jn += ddsigma * sn
-                je += ddsigma * se
-                jd += ddsigma * sd
-            if j < 0:
-                mid_kin[0] = t * v0n - p0n + dn
-                mid_kin[1] = t * v0e - p0e + de
-                mid_kin[2] = t * v0d - p0d + dd
-                mid_kin[3], mid_kin[4], mid_kin[5] = vn + v0n, ve + v0e, vd + v0d
-                mid_kin[6], mid_kin[7], mid_kin[8] = an, ae, ad
-                mid_kin[9], mid_kin[10], mid_kin[11] = jn, je, jd
-                lat_ref[0] = plan[3] + plan[6] * mid_kin[0]
-                lat_ref[1], lat_ref[2] = math.sin(lat_ref[0]), math.cos(lat_ref[0])
-                continue
+                vn += sigma * dv[i, 0]
+                ve += sigma * dv[i, 1]
+                vd += sigma * dv[i, 2]
+                an += dsigma * dv[i, 0]
+                ae += dsigma * dv[i, 1]
+                ad += dsigma * dv[i, 2]
+                jn += ddsigma * dv[i, 0]
+                je += ddsigma * dv[i, 1]
+                jd += ddsigma * dv[i, 2]
             for c in range(3):
                 kin[c] = mid_kin[c] + d * (
                     mid_kin[3 + c] + d * (0.5 * mid_kin[6 + c] + d * mid_kin[9 + c] / 6.0)
