@@ -148,8 +148,7 @@ class FlightTruth:
     def state(self, time):
         """Attitude (n, 3, 3), NED velocity (n, 3) m/s and lla (n, 3) at ``time`` (n,) s
         (:func:`inins.ekf.flight_kernel.states`)."""
-        time = np.ascontiguousarray(np.atleast_1d(np.asarray(time, dtype=float)))
-        out = flight_kernel.states(time, *self.kernel_params[0])
+        out = flight_kernel.states(_kernel_array(time), *self.kernel_params[0])
         mat_nb = rotation.mat_from_euler(out[:, 6], out[:, 7], out[:, 8])
         return mat_nb, out[:, 3:6], out[:, :3]
 
@@ -195,17 +194,23 @@ class FlightTruth:
 _NO_DITHER = np.zeros(10)
 
 
+def _kernel_array(value):
+    """``value`` as the kernels take it (float64, 1-D at least, C-contiguous, writable:
+    the types of the kernel library's copies, :func:`inins.ekf.flight_kernel.warm_up`)."""
+    arr = np.ascontiguousarray(np.atleast_1d(np.asarray(value, dtype=float)))
+    return arr if arr.flags.writeable else arr.copy()
+
+
 def _kernel_rates(params, dither, time):
-    time = np.ascontiguousarray(np.atleast_1d(np.asarray(time, dtype=float)))
-    out = flight_kernel.rates(time, *params[0], dither)
+    out = flight_kernel.rates(_kernel_array(time), *params[0], dither)
     return out[:, :3], out[:, 3:]
 
 
 def _kernel_integrals(params, dither, start, stop, rule):
-    x, w = (np.ascontiguousarray(np.asarray(a, dtype=float)) for a in rule)
-    start = np.ascontiguousarray(start, dtype=float)
-    stop = np.ascontiguousarray(stop, dtype=float)
-    out = flight_kernel.integrals(start, stop, x, w, *params[0], dither, *params[1])
+    x, w = (_kernel_array(a) for a in rule)
+    out = flight_kernel.integrals(
+        _kernel_array(start), _kernel_array(stop), x, w, *params[0], dither, *params[1]
+    )
     return out[:, :3], out[:, 3:]
 
 

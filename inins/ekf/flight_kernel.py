@@ -227,7 +227,7 @@ def _body(t, kin, plan, dither, out, row, lat_ref):
     out[row, 5] = f2 * cth - sth * (ux * f1 - uy * f0) + one * dot * uz + theta_dd * urz + rr * uuz
 
 
-@jit.njit(cache=True, nogil=True, error_model="numpy")
+@jit.njit(cache=True, nogil=True, error_model="numpy", aot=True)
 def rates(time, centres, taus, dv, prefix, plan, dither):
     """``[omega_ib_b, f_b]`` (n, 6) (rad/s, m/s^2) at ``time`` (n,) s."""
     out = np.empty((time.size, 6))
@@ -239,7 +239,7 @@ def rates(time, centres, taus, dv, prefix, plan, dither):
     return out
 
 
-@jit.njit(cache=True, nogil=True, error_model="numpy")
+@jit.njit(cache=True, nogil=True, error_model="numpy", aot=True)
 def states(time, centres, taus, dv, prefix, plan):
     """``[lla (rad, rad, m), vel_n (m/s), roll, pitch, heading (rad)]`` (n, 9) at ``time``
     (n,) s: position ``lla0 + scale p(t)``, ``vel_n = [(R_N + h) lat', (R_E + h) cos(lat)
@@ -273,7 +273,7 @@ def states(time, centres, taus, dv, prefix, plan):
     return out
 
 
-@jit.njit(cache=True, nogil=True, error_model="numpy")
+@jit.njit(cache=True, nogil=True, error_model="numpy", aot=True)
 def integrals(start, stop, x, w, centres, taus, dv, prefix, plan, dither, klass, class_taus):
     """Gauss-Legendre integrals ``[dtheta, dv]`` (n, 6) of the rates over
     ``[start_k, stop_k]`` (rule nodes ``x``, weights ``w`` on [-1, 1]).
@@ -447,3 +447,22 @@ def integrals(start, stop, x, w, centres, taus, dv, prefix, plan, dither, klass,
         for c in range(6):
             out[k, c] = half * acc[c]
     return out
+
+
+def warm_up():
+    """Compile (or load from the on-disk cache) the three kernels on a one-step flight,
+    with the argument types :class:`inins.ekf.flight.FlightTruth` passes (float64 and
+    int64, C-contiguous, writable): the types of the kernel library's copies."""
+    time = np.array([0.0, 1.0])
+    centres, taus, dv = np.array([0.5]), np.array([2.0]), np.array([[1.0, 0.0, 0.0]])
+    prefix = np.zeros((2, 6))
+    prefix[1, :3] = dv[0]
+    plan = np.zeros(16)
+    plan[3], plan[9], plan[11], plan[12], plan[14] = 0.6, 0.0, 75.0, 1.0, 1.0
+    plan[6], plan[7], plan[8] = 1.6e-7, 2.0e-7, -1.0
+    dither = np.zeros(10)
+    rates(time, centres, taus, dv, prefix, plan, dither)
+    states(time, centres, taus, dv, prefix, plan)
+    x, w = np.array([-0.5, 0.5]), np.array([1.0, 1.0])
+    klass, class_taus = np.zeros(1, dtype=np.int64), np.array([2.0])
+    integrals(time[:1], time[1:], x, w, centres, taus, dv, prefix, plan, dither, klass, class_taus)
