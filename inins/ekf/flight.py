@@ -125,7 +125,11 @@ class FlightTruth:
     ``acc_n`` the derivative of ``[(R_N + h) lat', (R_E + h) cos(lat) lon', -h']``
     with ``dR_N/dlat = 3 R_N e^2 sin cos / w^2``, ``dR_E/dlat = R_E e^2 sin cos / w^2``.
     The same trajectory as the complex-step one to rounding (tested), at a fraction
-    of its cost. A :class:`inins.core.trajectory.Trajectory`.
+    of its cost: ``state``, ``rates`` and the quadrature ``integrals`` that
+    :func:`inins.core.trajectory.ideal_increments` uses are compiled,
+    :mod:`inins.ekf.flight_kernel` (one pass per time, no array temporaries;
+    ``Dithered`` over a ``FlightTruth`` adds the dither there too). A
+    :class:`inins.core.trajectory.Trajectory`.
     """
 
     plan: FlightPlan
