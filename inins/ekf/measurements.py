@@ -104,15 +104,12 @@ class GnssEpoch:
     @classmethod
     def unchecked(cls, time, *arrays, delay, arrival):
         """An epoch of arrays its caller has checked (a simulated block, checked as a
-        whole by :func:`inins.ekf.sources.filter_epochs`): the types, shapes and values
-        ``__post_init__`` would ensure, without checking them again. ``arrays``: the
-        fields from ``prn`` to ``sigma_rr`` in order (int64, float, C-contiguous)."""
+        whole by :func:`inins.ekf.sources.filter_epochs`): the types, shapes, values and
+        read-only flags ``__post_init__`` would ensure, without checking them again.
+        ``arrays``: the fields from ``prn`` to ``sigma_rr`` in order (int64 and float,
+        C-contiguous, read-only: slices of read-only block arrays)."""
         epoch = object.__new__(cls)
-        names = ("time", *_ARRAY_FIELDS, "delay", "arrival")
-        for name, value in zip(names, (time, *arrays, delay, arrival), strict=True):
-            if isinstance(value, np.ndarray):
-                value.flags.writeable = False
-            object.__setattr__(epoch, name, value)
+        vars(epoch).update(zip(_FIELDS, (time, *arrays, delay, arrival), strict=True))
         return epoch
 
     def __len__(self):
@@ -125,7 +122,8 @@ class GnssEpoch:
         return self.prn // 100
 
 
-_ARRAY_FIELDS = (
+_FIELDS = (
+    "time",
     "prn",
     "sat_pos",
     "sat_vel",
@@ -135,6 +133,8 @@ _ARRAY_FIELDS = (
     "range_rate",
     "sigma_pr",
     "sigma_rr",
+    "delay",
+    "arrival",
 )
 
 

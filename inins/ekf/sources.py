@@ -106,6 +106,8 @@ def filter_epochs(
     checked = all(np.isfinite(c).all() for c in columns[1:])
     checked = checked and np.all(row_sigma > 0.0) and sigma_rr > 0.0
     make = GnssEpoch.unchecked if checked else GnssEpoch
+    for column in columns:
+        column.flags.writeable = False  # and so every epoch's slice of it
     out = []
     for k in range(obs.n_epochs):
         a, b = bounds[k], bounds[k + 1]
