@@ -16,7 +16,6 @@ from inins.calibration import imu_model
 from inins.core.records import TableRecord
 from inins.exceptions import InputError
 from inins.io.tabledata import CHUNK_SAMPLES
-from inins.scenario.calibrate_imu import CompensationFile
 from inins.scenario.si.compensation import terms_from_compensation
 
 
@@ -31,6 +30,7 @@ def compensation_terms(path, unit_name=None, serial=None):
         the file and key.
     """
     from inins.io.rawlog import read_compensation
+    from inins.scenario.calibrate_imu import CompensationFile  # its scenario models: lazily
 
     comp = read_compensation(path, CompensationFile)
     want = (unit_name, serial)

@@ -28,7 +28,7 @@ from inins.commands import run_ekf_post_report
 from inins.commands._compensation import scenario_terms
 from inins.core import earth, error_model, rotation, strapdown
 from inins.core.units import DEG, UG
-from inins.ekf import loose, outages, smoother, sources, timeoffset
+from inins.ekf import outages, smoother, sources, timeoffset
 from inins.ekf.tight_store import TightStore
 from inins.exceptions import InputError
 from inins.io import scratch, solution_layout
@@ -138,6 +138,8 @@ def _uniform(tig, rates, dt, t0, t1):
 
 def run(scenario, seed, *, sink=None, progress=None):
     """Post-process the scenario's drive (module docstring)."""
+    from inins.ekf import loose  # the loose filter: only this path (lazily)
+
     p = scenario.post
     g = p.gnss
     full = read_post_gnss(g)

@@ -20,7 +20,13 @@ import time
 
 from inins.core import jit
 
-MODULES = ("inins.core.pulses", "inins.core.imu", "inins.core.strapdown", "inins.table.kinematics")
+MODULES = (
+    "inins.core.pulses",
+    "inins.core.imu",
+    "inins.core.strapdown",
+    "inins.table.kinematics",
+    "inins.ekf.flight_kernel",
+)
 _WAIT = ("flight.legs=[{kind: wait, duration_s: 20}]", "filter.turning_from_s=0")
 SHORT_RUNS = (  # (command, shipped scenario (folder, name), --set overrides)
     ("run-ekf", ("run-ekf", "default"), _WAIT),

@@ -35,6 +35,9 @@ class Trajectory(Protocol):
     """Truth trajectory: ``breakpoints`` (k,) s where rates may jump (may be empty),
     ``rates(time (n,) s) -> (omega_ib_b (n, 3) rad/s, f_b (n, 3) m/s^2)`` and
     ``state(time) -> (mat_nb (n, 3, 3), vel_n (n, 3) m/s NED, lla (n, 3) [rad, rad, m])``.
+    A trajectory may also give ``integrals(start, stop, rule)``, the Gauss-Legendre
+    integrals :func:`quadrature` computes (the flight truth compiles them), which
+    :func:`ideal_increments` then uses.
     """
 
     breakpoints: np.ndarray
@@ -125,7 +128,18 @@ def ideal_increments(trajectory, time_edges, *, nodes=3, chunk=4096):
 
 
 def _quadrature(trajectory, start, stop, rule, chunk):
-    """Gauss-Legendre integrals of the rates over [start_k, stop_k], in chunks."""
+    """The trajectory's own ``integrals`` (a compiled quadrature) where it has one,
+    else :func:`quadrature`."""
+    integrals = getattr(trajectory, "integrals", None)
+    if integrals is not None:
+        return integrals(start, stop, rule)
+    return quadrature(trajectory, start, stop, rule, chunk)
+
+
+def quadrature(trajectory, start, stop, rule, chunk=4096):
+    """Gauss-Legendre integrals (n, 3), (n, 3) of ``trajectory.rates`` over
+    ``[start_k, stop_k]`` (``rule``: nodes and weights on [-1, 1]), ``chunk``
+    intervals at a time."""
     x, w = rule
     n = start.size
     dtheta = np.empty((n, 3))

@@ -35,6 +35,7 @@ velocity ``mat_nb theta' u x r``.
 
 import math
 from dataclasses import dataclass, field
+from functools import cached_property
 
 import numpy as np
 
@@ -48,6 +49,7 @@ from inins.core.flight import (  # the plan types live in core (the scenario bui
     plan_velocity,
 )
 from inins.core.trajectory import Analytic
+from inins.ekf import flight_kernel
 
 __all__ = [
     "TURN_STEP",
@@ -123,7 +125,11 @@ class FlightTruth:
     ``acc_n`` the derivative of ``[(R_N + h) lat', (R_E + h) cos(lat) lon', -h']``
     with ``dR_N/dlat = 3 R_N e^2 sin cos / w^2``, ``dR_E/dlat = R_E e^2 sin cos / w^2``.
     The same trajectory as the complex-step one to rounding (tested), at a fraction
-    of its cost. A :class:`inins.core.trajectory.Trajectory`.
+    of its cost: ``state``, ``rates`` and the quadrature ``integrals`` that
+    :func:`inins.core.trajectory.ideal_increments` uses are compiled,
+    :mod:`inins.ekf.flight_kernel` (one pass per time, no array temporaries;
+    ``Dithered`` over a ``FlightTruth`` adds the dither there too). A
+    :class:`inins.core.trajectory.Trajectory`.
     """
 
     plan: FlightPlan
@@ -143,86 +149,73 @@ class FlightTruth:
         rn, re = earth.principal_radii(p.lat)
         return np.array([1.0 / (rn + p.height), 1.0 / ((re + p.height) * math.cos(p.lat)), -1.0])
 
-    def _kinematics(self, time, rates):
-        time = np.atleast_1d(np.asarray(time, dtype=float))
-        p = self.plan
-        scale = self._scale()
-        orders = [-1, 0, 1, 2] if rates else [-1, 0, 1]
-        disp, vel, acc, *jerk = (self.velocity(time, j) for j in orders)
-        lla = np.array([p.lat, p.lon, p.height]) + scale * disp
-        lla_rate = scale * vel
-        v_n, v_e, v_d = vel[:, 0], vel[:, 1], vel[:, 2]
-        a_n, a_e = acc[:, 0], acc[:, 1]
-        ground = np.sqrt(v_n * v_n + v_e * v_e + _SPEED_FLOOR**2)
-        turn = v_n * a_e - v_e * a_n
-        euler = np.empty((time.size, 3))
-        euler[:, 0] = np.arctan(turn / ground / earth.GAMMA_E)
-        euler[:, 1] = np.arctan(-v_d / ground) + p.aoa
-        t_n = v_n + _TRACK_FLOOR * math.cos(p.heading)
-        t_e = v_e + _TRACK_FLOOR * math.sin(p.heading)
-        track = np.sqrt(t_n * t_n + t_e * t_e)
-        with np.errstate(divide="ignore", invalid="ignore"):  # the branch not taken may be 0/0
-            north = 2.0 * np.arctan(t_e / (track + t_n))
-            south = np.pi + 2.0 * np.arctan(-t_e / (track - t_n))
-        euler[:, 2] = np.where(t_n > 0.0, north, south)
-        out = {"lla": lla, "lla_rate": lla_rate, "euler": euler}
-        if not rates:
-            return out
-        j_n, j_e = jerk[0][:, 0], jerk[0][:, 1]
-        d_ground = (v_n * a_n + v_e * a_e) / ground
-        u = turn / ground / earth.GAMMA_E
-        du = ((v_n * j_e - v_e * j_n) / ground - turn * d_ground / ground**2) / earth.GAMMA_E
-        w = -v_d / ground
-        dw = -acc[:, 2] / ground + v_d * d_ground / ground**2
-        euler_rate = np.empty((time.size, 3))
-        euler_rate[:, 0] = du / (1.0 + u * u)
-        euler_rate[:, 1] = dw / (1.0 + w * w)
-        euler_rate[:, 2] = (t_n * a_e - t_e * a_n) / (track * track)
-        out |= {"euler_rate": euler_rate, "lla_acc": scale * acc}
-        return out
-
-    @staticmethod
-    def _vel_n(lla, lla_rate):
-        lat, h = lla[:, 0], lla[:, 2]
-        rn, re = earth.principal_radii(lat)
-        return np.stack(
-            [
-                (rn + h) * lla_rate[:, 0],
-                (re + h) * np.cos(lat) * lla_rate[:, 1],
-                -lla_rate[:, 2],
-            ],
-            -1,
-        )
-
     def state(self, time):
-        """Attitude (n, 3, 3), NED velocity (n, 3) m/s and lla (n, 3) at ``time`` (n,) s."""
-        k = self._kinematics(time, rates=False)
-        euler = k["euler"]
-        mat_nb = rotation.mat_from_euler(euler[:, 0], euler[:, 1], euler[:, 2])
-        return mat_nb, self._vel_n(k["lla"], k["lla_rate"]), k["lla"]
+        """Attitude (n, 3, 3), NED velocity (n, 3) m/s and lla (n, 3) at ``time`` (n,) s
+        (:func:`inins.ekf.flight_kernel.states`)."""
+        out = flight_kernel.states(_kernel_array(time), *self.kernel_params[0])
+        mat_nb = rotation.mat_from_euler(out[:, 6], out[:, 7], out[:, 8])
+        return mat_nb, out[:, 3:6], out[:, :3]
+
+    @cached_property
+    def kernel_params(self):
+        """The arrays :mod:`inins.ekf.flight_kernel` takes: steps in centre order
+        (centres, taus, dv), prefix sums, plan constants (its docstring)."""
+        v, p = self.velocity, self.plan
+        index = v._sorted()
+        order = index["order"]
+        prefix = np.ascontiguousarray(np.concatenate([index["cum_v"], index["cum_p"]], axis=1))
+        plan = np.concatenate(
+            [
+                np.asarray(v.v0, dtype=float),
+                [p.lat, p.lon, p.height],
+                self._scale(),
+                [p.heading, p.aoa, index["reach"]],
+                [math.cos(p.aoa), math.sin(p.aoa), math.cos(p.heading), math.sin(p.heading)],
+            ]
+        )
+        taus = np.ascontiguousarray(np.asarray(v.taus, dtype=float)[order])
+        class_taus, klass = np.unique(taus, return_inverse=True)
+        return (
+            np.ascontiguousarray(index["times"]),
+            taus,
+            np.ascontiguousarray(np.asarray(v.steps, dtype=float).reshape(-1, 3)[order]),
+            prefix,
+            plan,
+        ), (klass.astype(np.int64).ravel(), class_taus)
 
     def rates(self, time):
-        """``omega_ib_b`` (n, 3) rad/s and ``f_b`` (n, 3) m/s^2 at ``time`` (n,) s."""
-        k = self._kinematics(time, rates=True)
-        lla, rate, acc, euler = k["lla"], k["lla_rate"], k["lla_acc"], k["euler"]
-        lat, h = lla[:, 0], lla[:, 2]
-        rn, re = earth.principal_radii(lat)
-        s, c = np.sin(lat), np.cos(lat)
-        q = earth.E2 * s * c / (1.0 - earth.E2 * s * s)
-        d_rn, d_re = 3.0 * rn * q * rate[:, 0], re * q * rate[:, 0]  # d/dt of the radii
-        acc_n = np.stack(
-            [
-                (d_rn + rate[:, 2]) * rate[:, 0] + (rn + h) * acc[:, 0],
-                ((d_re + rate[:, 2]) * c - (re + h) * s * rate[:, 0]) * rate[:, 1]
-                + (re + h) * c * acc[:, 1],
-                -acc[:, 2],
-            ],
-            -1,
-        )
-        mat_nb = rotation.mat_from_euler(euler[:, 0], euler[:, 1], euler[:, 2])
-        omega_nb_b = trajectory.euler_rates_to_body(euler, k["euler_rate"])
-        vel_n = self._vel_n(lla, rate)
-        return trajectory.body_rates(mat_nb, omega_nb_b, vel_n, acc_n, lla)
+        """``omega_ib_b`` (n, 3) rad/s and ``f_b`` (n, 3) m/s^2 at ``time`` (n,) s
+        (:func:`inins.ekf.flight_kernel.rates`: the equations of the class docstring)."""
+        return _kernel_rates(self.kernel_params, _NO_DITHER, time)
+
+    def integrals(self, start, stop, rule):
+        """Gauss-Legendre integrals (n, 3), (n, 3) of the rates over ``[start_k, stop_k]``
+        (``rule``: nodes and weights on [-1, 1]), for
+        :func:`inins.core.trajectory.ideal_increments`."""
+        return _kernel_integrals(self.kernel_params, _NO_DITHER, start, stop, rule)
+
+
+_NO_DITHER = np.zeros(10)
+
+
+def _kernel_array(value):
+    """``value`` as the kernels take it (float64, 1-D at least, C-contiguous, writable:
+    the types of the kernel library's copies, :func:`inins.ekf.flight_kernel.warm_up`)."""
+    arr = np.ascontiguousarray(np.atleast_1d(np.asarray(value, dtype=float)))
+    return arr if arr.flags.writeable else arr.copy()
+
+
+def _kernel_rates(params, dither, time):
+    out = flight_kernel.rates(_kernel_array(time), *params[0], dither)
+    return out[:, :3], out[:, 3:]
+
+
+def _kernel_integrals(params, dither, start, stop, rule):
+    x, w = (_kernel_array(a) for a in rule)
+    out = flight_kernel.integrals(
+        _kernel_array(start), _kernel_array(stop), x, w, *params[0], dither, *params[1]
+    )
+    return out[:, :3], out[:, 3:]
 
 
 def flight_trajectory(plan):
@@ -291,8 +284,35 @@ class Dithered:
         lever_vel = rate[:, None] * np.cross(axis, self.dither.lever)
         return mat_nb, vel_n + np.einsum("nij,nj->ni", mat_nb, lever_vel), lla
 
+    def _kernel_dither(self):
+        """The dither row of :mod:`inins.ekf.flight_kernel` when the base is a
+        :class:`FlightTruth` (then the compiled path applies), else None."""
+        if not isinstance(self.base, FlightTruth):
+            return None
+        d = self.dither
+        return np.concatenate(
+            [
+                [d.amplitude, 2.0 * math.pi * d.frequency, d.phase],
+                np.asarray(d.axis, dtype=float),
+                np.asarray(d.lever, dtype=float),
+                [1.0],
+            ]
+        )
+
+    def integrals(self, start, stop, rule):
+        """Gauss-Legendre integrals (n, 3), (n, 3) of the rates over ``[start_k, stop_k]``
+        (compiled for a :class:`FlightTruth` base), for
+        :func:`inins.core.trajectory.ideal_increments`."""
+        dither = self._kernel_dither()
+        if dither is None:
+            return trajectory.quadrature(self, start, stop, rule)
+        return _kernel_integrals(self.base.kernel_params, dither, start, stop, rule)
+
     def rates(self, time):
         """``omega_ib_b`` (n, 3) rad/s and ``f_b`` (n, 3) m/s^2 at the accelerometers."""
+        dither = self._kernel_dither()
+        if dither is not None:
+            return _kernel_rates(self.base.kernel_params, dither, time)
         time = np.atleast_1d(np.asarray(time, dtype=float))
         omega0, force0 = self.base.rates(time)
         theta, rate, acc = self.dither.angles(time)

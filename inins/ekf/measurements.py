@@ -101,6 +101,17 @@ class GnssEpoch:
         object.__setattr__(self, "time", float(self.time))
         object.__setattr__(self, "arrival", arrival)
 
+    @classmethod
+    def unchecked(cls, time, *arrays, delay, arrival):
+        """An epoch of arrays its caller has checked (a simulated block, checked as a
+        whole by :func:`inins.ekf.sources.filter_epochs`): the types, shapes, values and
+        read-only flags ``__post_init__`` would ensure, without checking them again.
+        ``arrays``: the fields from ``prn`` to ``sigma_rr`` in order (int64 and float,
+        C-contiguous, read-only: slices of read-only block arrays)."""
+        epoch = object.__new__(cls)
+        vars(epoch).update(zip(_FIELDS, (time, *arrays, delay, arrival), strict=True))
+        return epoch
+
     def __len__(self):
         return self.prn.size
 
@@ -109,6 +120,22 @@ class GnssEpoch:
         """System index of each satellite (k,) int64, ``prn // 100``
         (:data:`inins.core.satellites.LETTERS`: 0 GPS, 1 GLONASS, 2 Galileo, 3 BeiDou)."""
         return self.prn // 100
+
+
+_FIELDS = (
+    "time",
+    "prn",
+    "sat_pos",
+    "sat_vel",
+    "sat_clock",
+    "sat_clock_drift",
+    "pseudorange",
+    "range_rate",
+    "sigma_pr",
+    "sigma_rr",
+    "delay",
+    "arrival",
+)
 
 
 def antenna(lla, vel_n, mat_nb, omega_eb_b, lever_b):

@@ -84,28 +84,38 @@ def filter_epochs(
     pos = propagation.sagnac_rotate(epochs.sat_pos, rng / C)
     vel = propagation.sagnac_rotate(epochs.sat_vel, rng / C)
     pred = measurements.predict(epochs, rx, 0.0, 0.0, 0.0, klobuchar=klobuchar)
-    keep = (pred.elevation >= mask) & np.isfinite(obs.range_rate)
-    row_sigma = np.full(obs.prn.size, float(sigma_pr))
+    keep = np.flatnonzero((pred.elevation >= mask) & np.isfinite(obs.range_rate))
+    bounds = np.searchsorted(keep, obs.start)  # epoch k: kept rows bounds[k]:bounds[k + 1]
+    row_sigma = np.full(keep.size, float(sigma_pr))
     if sigma_scale is not None:
-        row_sigma = row_sigma * np.asarray(sigma_scale, float)[obs.prn // 100]
+        row_sigma = row_sigma * np.asarray(sigma_scale, float)[obs.prn[keep] // 100]
+    columns = (
+        obs.prn[keep],
+        pos[keep],
+        vel[keep],
+        epochs.sat_clock[keep],
+        epochs.sat_drift[keep],
+        obs.pseudorange[keep],
+        obs.range_rate[keep],
+        row_sigma,
+        np.full(keep.size, float(sigma_rr)),
+        pred.delay[keep],
+    )
+    # one check of the whole block (finite, sigmas > 0; shapes hold by construction);
+    # a block that fails goes through GnssEpoch's own per-epoch checks and messages
+    checked = all(np.isfinite(c).all() for c in columns[1:])
+    checked = checked and np.all(row_sigma > 0.0) and sigma_rr > 0.0
+    make = GnssEpoch.unchecked if checked else GnssEpoch
+    for column in columns:
+        column.flags.writeable = False  # and so every epoch's slice of it
     out = []
     for k in range(obs.n_epochs):
-        rows = np.arange(obs.start[k], obs.start[k + 1])
-        rows = rows[keep[rows]]
-        m = rows.size
+        a, b = bounds[k], bounds[k + 1]
         out.append(
-            GnssEpoch(
+            make(
                 float(times[k]),
-                obs.prn[rows],
-                pos[rows],
-                vel[rows],
-                epochs.sat_clock[rows],
-                epochs.sat_drift[rows],
-                obs.pseudorange[rows],
-                obs.range_rate[rows],
-                row_sigma[rows],
-                np.full(m, sigma_rr),
-                delay=pred.delay[rows],
+                *(c[a:b] for c in columns[:9]),
+                delay=columns[9][a:b],
                 arrival=float(arrival[k]),
             )
         )

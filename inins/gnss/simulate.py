@@ -140,13 +140,23 @@ class SimulationOptions:
     system_bias_m: tuple = ()
 
 
-def _delays(los, pos_e, sow, options, sat=None):
-    el, az = propagation.elevation_azimuth(los, pos_e)
-    lla = earth.llh_from_ecef(pos_e)
+_MASK_MARGIN = 1.0 * DEG
+"""Satellites further below the mask after the first light-time iteration (rad) are not
+iterated again (they stay below it)."""
+
+
+def _delays(los, lla, mat_en, sow, options, sat=None):
+    """Elevation (rad) and modelled delay (m) of lines of sight ``los`` (ECEF unit
+    vectors) from receivers at ``lla`` with NED-to-ECEF ``mat_en``: the elevation and
+    azimuth of :func:`inins.gnss.propagation.elevation_azimuth` with the receiver's
+    geodetic position and frame computed once per epoch, not per satellite."""
+    los_n = np.einsum("...ji,...j->...i", mat_en, los)
+    el = np.arcsin(np.clip(-los_n[..., 2], -1.0, 1.0))
     delay = np.zeros_like(el)
     if options.troposphere:
         delay += propagation.troposphere_saastamoinen(lla[..., 2], lla[..., 0], el)
     if options.klobuchar is not None and options.signal == Signal.L1:
+        az = np.mod(np.arctan2(los_n[..., 1], los_n[..., 0]), 2.0 * np.pi)
         alpha, beta = options.klobuchar
         iono = propagation.ionosphere_klobuchar(sow, lla[..., 0], lla[..., 1], el, az, alpha, beta)
         delay += iono if sat is None else iono * systems.iono_scale(sat)
@@ -200,22 +210,41 @@ def simulate(eph, week, time, pos_e, vel_e, clock, drift, rng, options=Simulatio
     have = index >= 0
     single = options.signal == Signal.L1
     index = np.where(have, index, 0)
-    for _ in range(3):
-        sat = _states(eph, nav, prn, index, week, t - tau, single, have)
-        rho, rate, los, _ = propagation.geometry(sat.pos, sat.vel, rx, rx_vel)
-        el, delay = _delays(los, rx, t, options, None if nav is None else prn)
-        tau = (rho + delay) / C
+    rx_lla = earth.llh_from_ecef(rx)  # (n, 1, 3): per epoch
+    rx_mat = earth.mat_en(rx_lla[..., 0], rx_lla[..., 1])
+    sat = _states(eph, nav, prn, index, week, t - tau, single, have)
+    rho, rate, los, _ = propagation.geometry(sat.pos, sat.vel, rx, rx_vel)
+    el, delay = _delays(los, rx_lla, rx_mat, t, options, None if nav is None else prn)
+    # two more light-time iterations, for the satellites that can be above the mask
+    # (a second iteration moves the elevation by ~1e-5 rad; the others stay masked)
+    near = np.nonzero(have & (el > options.mask_rad - _MASK_MARGIN))
+    rx_n = np.broadcast_to(rx, (*shape, 3))[near]
+    rv_n = np.broadcast_to(rx_vel, (*shape, 3))[near]
+    lla_n = np.broadcast_to(rx_lla, (*shape, 3))[near]
+    mat_n = np.broadcast_to(rx_mat, (*shape, 3, 3))[near]
+    t_n, prn_n, index_n = t[near], prn[near], index[near]
+    tau_n = (rho[near] + delay[near]) / C
+    for _ in range(2):
+        sat_n = _states(eph, nav, prn_n, index_n, week, t_n - tau_n, single, have[near])
+        rho_n, rate_n, los_n, _ = propagation.geometry(sat_n.pos, sat_n.vel, rx_n, rv_n)
+        sys_n = None if nav is None else prn_n
+        el_n, delay_n = _delays(los_n, lla_n, mat_n, t_n, options, sys_n)
+        tau_n = (rho_n + delay_n) / C
+    clock_sat, drift_sat = sat.clock.copy(), sat.drift.copy()
+    for full, part in ((rho, rho_n), (rate, rate_n), (el, el_n), (delay, delay_n)):
+        full[near] = part
+    clock_sat[near], drift_sat[near] = sat_n.clock, sat_n.drift
     seen = have & (el >= options.mask_rad)
     scale = 1.0 / np.sin(np.clip(el, 1e-3, None)) if options.elevation_noise else 1.0
     sigma = np.broadcast_to(options.sigma_pr_m * scale, shape)
     sigma_rate = options.sigma_rate_mps * scale
-    pr = rho + clock[:, None] - sat.clock + delay + sigma * rng.standard_normal(shape)
+    pr = rho + clock[:, None] - clock_sat + delay + sigma * rng.standard_normal(shape)
     if options.system_bias_m:
         bias = np.zeros(systems.SBAS + 1)
         for system, value in options.system_bias_m:
             bias[system] = value
         pr = pr + bias[systems.system_of(prn)]
-    rr = rate + drift[:, None] - sat.drift + sigma_rate * rng.standard_normal(shape)
+    rr = rate + drift[:, None] - drift_sat + sigma_rate * rng.standard_normal(shape)
     counts = seen.sum(axis=1)
     obs = make_observations(
         week,

@@ -111,3 +111,31 @@ def test_ground_heading_holds_until_take_off(heading_deg):
     heading = rotation.euler_from_mat(mat)[:, 2]
     err = np.degrees(np.abs(rotation.wrap_angle(heading - heading_deg * DEG)))
     assert err.max() < 1e-6
+
+
+def test_simulated_epochs_are_what_the_checked_constructor_makes():
+    """The simulated stream builds its epochs unchecked from block-checked arrays
+    (GnssEpoch.unchecked): field for field what GnssEpoch's own checks make of the same
+    arrays, read-only like them."""
+    from dataclasses import fields
+
+    from inins.ekf.measurements import GnssEpoch
+
+    plan = _plan(wait=5.0, takeoff=40.0)
+    base = flight_trajectory(plan)
+    week, sow0 = gpstime.from_calendar(2015, 1, 8, 6, 0, 0.0)
+    eph = constellation.walker(week, sow0, 200.0, per_plane=5)
+    stream = sources.simulated_epochs(
+        base, base, imu.SensorErrors(), DT, 20.0, eph, week, sow0, RX, seed=3, nodes=2
+    )
+    for ep in stream:
+        got = ep.gnss
+        want = GnssEpoch(**{f.name: getattr(got, f.name) for f in fields(GnssEpoch)})
+        for f in fields(GnssEpoch):
+            a, b = getattr(got, f.name), getattr(want, f.name)
+            if isinstance(b, np.ndarray):
+                assert a.dtype == b.dtype and a.shape == b.shape, f.name
+                assert a.flags.c_contiguous and not a.flags.writeable, f.name
+                np.testing.assert_array_equal(a, b, err_msg=f.name)
+            else:
+                assert type(a) is type(b) and a == b, f.name
