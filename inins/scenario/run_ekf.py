@@ -174,6 +174,15 @@ class Gnss(Section):
         "receiver's code biases; the filter estimates each against its first system",
     )
 
+    glonass_ifb_m_per_channel: float = Field(
+        0.0,
+        ge=-2.0,
+        le=2.0,
+        description="GLONASS inter-frequency code bias: k times this on the pseudoranges of "
+        "frequency channel k (m per channel); the filter's one GLONASS bias takes its "
+        "mean, the rest stays in the residuals",
+    )
+
     def receiver_si(self):
         """The simulated receiver in SI: keywords of :class:`inins.ekf.sources.Receiver`
         but the filter's sigmas (which the ``filter:`` section gives)."""
@@ -187,6 +196,7 @@ class Gnss(Section):
             "clock_bias": self.clock_bias_m,
             "clock_drift": self.clock_drift_mps,
             "latency": self.latency_s,
+            "glonass_ifb": self.glonass_ifb_m_per_channel,
             "system_bias": tuple(
                 ("GREC".index(k), float(v)) for k, v in sorted(self.system_bias_m.items())
             ),
