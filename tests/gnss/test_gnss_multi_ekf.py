@@ -156,3 +156,19 @@ def test_glonass_inter_frequency_bias_the_mean_in_the_bias_the_rest_in_sigma(tmp
     scaled = _run(tmp_path / "scaled", *ifb, "filter.system_sigma_scale={R: 1.5}")
     assert _nis(scaled, 1) < 1.0
     assert scaled["results"]["pos_err_rms_m"] < plain["results"]["pos_err_rms_m"]
+
+
+def test_the_rts_smoother_carries_the_bias_state(tmp_path):
+    """filter.smoother: rts over a GPS + GLONASS run with its bias state (EKF1 + isb_R,
+    18 states): the smoothed position beats the forward one (measured: RMS 0.16 m
+    against 0.59 m)."""
+    r = _run(
+        tmp_path,
+        "filter.systems=GR",
+        "gnss.system_bias_m={R: 30}",
+        "filter.smoother=rts",
+        "filter.model=ekf1",
+    )
+    assert r["names"][-1] == "isb_R" and len(r["names"]) == 18
+    res = r["results"]
+    assert res["smoothed_pos_err_rms_m"] < res["pos_err_rms_m"]
