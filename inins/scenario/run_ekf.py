@@ -170,7 +170,7 @@ class Gnss(Section):
     system_bias_m: dict[Literal["G", "R", "E", "C"], float] = Field(
         default_factory=dict,
         description="inter-system bias the receiver adds to a system's pseudoranges, by "
-        "RINEX letter (m, constant; e.g. {R: 30}): the GLONASS-GPS time offset and the "
+        "RINEX letter (m), constant, e.g. {R: 30}: the GLONASS-GPS time offset and the "
         "receiver's code biases; the filter estimates each against its first system",
     )
 
