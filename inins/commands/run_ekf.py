@@ -108,7 +108,7 @@ def filter_systems(f, available, key):
             f"system {''.join(missing)} is not in the {key} (it has {have or 'none'})",
             key="filter.systems",
         )
-    return f.systems
+    return "".join(x for x in "GREC" if x in f.systems)
 
 
 def _take_systems(nav, systems):

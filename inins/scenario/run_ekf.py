@@ -323,7 +323,8 @@ class FilterSettings(Section):
         None,
         pattern="^[GREC]+$",
         description="satellite systems the filter takes, RINEX letters (G GPS, R GLONASS, "
-        "E Galileo, C BeiDou), e.g. GR: the first carries the receiver clock, each further "
+        "E Galileo, C BeiDou), e.g. GR: the first of them in the order G R E C carries the "
+        "receiver clock, each further "
         "one adds an inter-system bias state (m) after the 17 or 26 states; default: every "
         "system of the constellation or the recording (GPS first)",
     )
