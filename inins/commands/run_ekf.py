@@ -108,7 +108,7 @@ def filter_systems(f, available, key):
             f"system {''.join(missing)} is not in the {key} (it has {have or 'none'})",
             key="filter.systems",
         )
-    return f.systems
+    return "".join(x for x in "GREC" if x in f.systems)
 
 
 def _take_systems(nav, systems):
@@ -194,6 +194,7 @@ def _simulated(scenario, seed, progress=None, store=None):
         "track": None,
         # each bias state estimates its system's bias minus the reference system's
         "system_bias": {n: bias[n[-1]] - bias[systems[0]] for n in config.bias_names},
+        "systems": systems,
     }
     return result, info
 
@@ -314,6 +315,7 @@ def _recorded(scenario, store=None):
         "heading_init": start.heading,
         "lever": np.asarray(d.lever_arm_m, float),
         "dropped": (*rec.dropped, *notes),
+        "systems": systems,
     }
     return result, info
 
@@ -477,6 +479,12 @@ def _report(scenario, r, s, info):
             s, scenario.filter.turning_from_s, info.get("errors") is not None
         ),
     ]
+    biases = [n for n in r.layout.names if n.startswith("isb_")]
+    if biases:
+        lines.append(
+            f"GNSS systems {info['systems']}: the receiver clock on {info['systems'][0]}, "
+            f"inter-system bias states {', '.join(biases)}"
+        )
     if info.get("heading_init") is not None:
         h = info["heading_init"]
         axis = h.mat_nb @ info["forward"]

@@ -108,10 +108,11 @@ class FilterConfig:
         True: the update uses the INS state stored at the 1PPS epoch (003 §2.1).
         False: the naive pairing with the INS state at the data's arrival (for study).
     systems : str
-        RINEX letters of the systems whose pseudoranges the filter takes (``"GR"``): the
-        first carries the receiver clock alone, each further one adds an inter-system
-        bias state (m) after the 17 or 26 states (:data:`SYSTEM_BIASES` order of the
-        letters R E C J). An epoch with a satellite of another system is refused.
+        RINEX letters of the systems whose pseudoranges the filter takes (``"GR"``), kept
+        in the order G R E C J: the first carries the receiver clock alone, each further
+        one adds an inter-system bias state (m) after the 17 or 26 states
+        (:data:`SYSTEM_BIASES` order). An epoch with a satellite of another system is
+        refused.
     system_bias_psd : float
         Random-walk density of each inter-system bias state (m^2/s); 0: constant.
     """
@@ -168,7 +169,7 @@ class FilterConfig:
             raise InputError(
                 f"must be in [0, 1e6), got {self.system_bias_psd}", key="system_bias_psd"
             )
-        object.__setattr__(self, "systems", systems)
+        object.__setattr__(self, "systems", "".join(x for x in "GRECJ" if x in systems))
 
     @property
     def bias_names(self):

@@ -129,7 +129,8 @@ class Receiver:
     clock bias (m) and drift (m/s), data latency (s), the sigmas the filter uses, and
     ``system_bias``: (system index, m) pairs, the inter-system bias the receiver adds
     to that system's pseudoranges (constant); ``filter_sigma_scale`` the filter's factor
-    on its pseudorange sigma per system index (None: 1)."""
+    on its pseudorange sigma per system index (None: 1); ``glonass_ifb`` the GLONASS
+    inter-frequency bias, m per frequency channel."""
 
     lever_arm: tuple
     mask: float
@@ -144,6 +145,7 @@ class Receiver:
     filter_sigma_rr: float
     system_bias: tuple = ()
     filter_sigma_scale: tuple | None = None
+    glonass_ifb: float = 0.0
 
 
 def simulated_epochs(truth, base, errors, dt, duration, eph, week, sow0, rx, seed, *, nodes=3):
@@ -191,6 +193,7 @@ def simulated_epochs(truth, base, errors, dt, duration, eph, week, sow0, rx, see
         sigma_rate_mps=rx.sigma_rr,
         troposphere=True,
         system_bias_m=tuple(rx.system_bias),
+        glonass_ifb_m=rx.glonass_ifb,
     )
     true_bias = None
     if rx.system_bias:

@@ -127,7 +127,9 @@ class SimulationOptions:
     ``klobuchar``: (alpha, beta) or None (scaled by ``(f_L1 / f)^2`` for other systems'
     band-1 signals); ``system_bias_m``: (system index, m) pairs, an inter-system bias the
     receiver adds to that system's pseudoranges (GLONASS-GPS time offset and receiver
-    code biases).
+    code biases); ``glonass_ifb_m``: a GLONASS inter-frequency code bias of
+    ``glonass_ifb_m * k`` (m) on the pseudoranges of channel ``k`` (a receiver's delay
+    varying across the G1 band, linear in frequency).
     """
 
     mask_rad: float = 10.0 * DEG
@@ -138,6 +140,7 @@ class SimulationOptions:
     troposphere: bool = True
     klobuchar: tuple | None = None
     system_bias_m: tuple = ()
+    glonass_ifb_m: float = 0.0
 
 
 _MASK_MARGIN = 1.0 * DEG
@@ -244,6 +247,9 @@ def simulate(eph, week, time, pos_e, vel_e, clock, drift, rng, options=Simulatio
         for system, value in options.system_bias_m:
             bias[system] = value
         pr = pr + bias[systems.system_of(prn)]
+    if options.glonass_ifb_m and nav is not None:
+        channel = broadcast.glonass_channels(nav, prn)
+        pr = pr + options.glonass_ifb_m * np.where(np.isfinite(channel), channel, 0.0)
     rr = rate + drift[:, None] - drift_sat + sigma_rate * rng.standard_normal(shape)
     counts = seen.sum(axis=1)
     obs = make_observations(

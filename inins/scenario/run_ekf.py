@@ -170,8 +170,17 @@ class Gnss(Section):
     system_bias_m: dict[Literal["G", "R", "E", "C"], float] = Field(
         default_factory=dict,
         description="inter-system bias the receiver adds to a system's pseudoranges, by "
-        "RINEX letter (m, constant; e.g. {R: 30}): the GLONASS-GPS time offset and the "
+        "RINEX letter (m), constant, e.g. {R: 30}: the GLONASS-GPS time offset and the "
         "receiver's code biases; the filter estimates each against its first system",
+    )
+
+    glonass_ifb_m_per_channel: float = Field(
+        0.0,
+        ge=-2.0,
+        le=2.0,
+        description="GLONASS inter-frequency code bias: k times this on the pseudoranges of "
+        "frequency channel k (m per channel); the filter's one GLONASS bias takes its "
+        "mean, the rest stays in the residuals",
     )
 
     def receiver_si(self):
@@ -187,6 +196,7 @@ class Gnss(Section):
             "clock_bias": self.clock_bias_m,
             "clock_drift": self.clock_drift_mps,
             "latency": self.latency_s,
+            "glonass_ifb": self.glonass_ifb_m_per_channel,
             "system_bias": tuple(
                 ("GREC".index(k), float(v)) for k, v in sorted(self.system_bias_m.items())
             ),
@@ -313,7 +323,8 @@ class FilterSettings(Section):
         None,
         pattern="^[GREC]+$",
         description="satellite systems the filter takes, RINEX letters (G GPS, R GLONASS, "
-        "E Galileo, C BeiDou), e.g. GR: the first carries the receiver clock, each further "
+        "E Galileo, C BeiDou), e.g. GR: the first of them in the order G R E C carries the "
+        "receiver clock, each further "
         "one adds an inter-system bias state (m) after the 17 or 26 states; default: every "
         "system of the constellation or the recording (GPS first)",
     )

@@ -8,7 +8,10 @@ import numpy as np
 from typer.testing import CliRunner
 
 from inins.cli import app
+from inins.commands.run_ekf import _ephemeris
 from inins.ekf import config as ekf_config
+from inins.gnss import broadcast
+from inins.scenario.run_ekf import Constellation
 from tests.helpers import CONFIGS
 
 SHORT = (
@@ -128,3 +131,44 @@ def test_a_bias_on_the_reference_system_goes_to_the_clock(tmp_path):
             sigma = f["states/sigma"][-1, 15]
     assert abs(nees[1].mean() - nees[0].mean()) < 0.05 * nees[0].mean()
     assert (50.0 / sigma) ** 2 > 10 * nees[0].mean()
+
+
+def _nis(run, system):
+    sel = (run["prn"] // 100 == system) & (run["kind"] == 0) & run["accepted"]
+    return float(np.mean(run["value"][sel] ** 2 / run["variance"][sel]))
+
+
+def test_glonass_inter_frequency_bias_the_mean_in_the_bias_the_rest_in_sigma(tmp_path):
+    """A GLONASS code bias of 0.5 m per frequency channel (k = -7 ... 6 in view: -3.5 ...
+    3 m) beside the 30 m bias. The one GLONASS bias state takes 30 m plus the mean over
+    the rows (measured: 30.73 +- 0.10 m against 30 + 0.5 * 1.43 = 30.72 m); the rest
+    stays in the GLONASS residuals (their NIS 1.47, GPS's 1.13) and costs position (RMS
+    2.02 m, against 0.59 m without the inter-frequency bias and 0.74 m with GPS alone).
+    A larger GLONASS sigma (filter.system_sigma_scale {R: 1.5}) brings the NIS down (0.76)
+    and the error with it (1.37 m): the stated handling, no per-channel state."""
+    mixed, _, _ = _ephemeris(Constellation(source="mixed", start_hour_s=64800.0), 0.0)
+    ifb = ("filter.systems=GR", "gnss.system_bias_m={R: 30}", "gnss.glonass_ifb_m_per_channel=0.5")
+    plain = _run(tmp_path / "plain", *ifb)
+    sel = (plain["prn"] // 100 == 1) & (plain["kind"] == 0) & plain["accepted"]
+    mean_k = broadcast.glonass_channels(mixed, plain["prn"][sel]).mean()
+    assert abs(plain["estimate"][-1] - (30.0 + 0.5 * mean_k)) < 3.0 * plain["sigma"][-1]
+    assert _nis(plain, 1) > 1.3
+    scaled = _run(tmp_path / "scaled", *ifb, "filter.system_sigma_scale={R: 1.5}")
+    assert _nis(scaled, 1) < 1.0
+    assert scaled["results"]["pos_err_rms_m"] < plain["results"]["pos_err_rms_m"]
+
+
+def test_the_rts_smoother_carries_the_bias_state(tmp_path):
+    """filter.smoother: rts over a GPS + GLONASS run with its bias state (EKF1 + isb_R,
+    18 states): the smoothed position beats the forward one (measured: RMS 0.16 m
+    against 0.59 m)."""
+    r = _run(
+        tmp_path,
+        "filter.systems=GR",
+        "gnss.system_bias_m={R: 30}",
+        "filter.smoother=rts",
+        "filter.model=ekf1",
+    )
+    assert r["names"][-1] == "isb_R" and len(r["names"]) == 18
+    res = r["results"]
+    assert res["smoothed_pos_err_rms_m"] < res["pos_err_rms_m"]
