@@ -154,36 +154,44 @@ class ProgressBar:
     """
 
     def __init__(self, label: str):
-        from rich.progress import BarColumn, Progress, TextColumn, TimeRemainingColumn
-
         self._label = label
         self._phase = "running"
+        self._task = None
+        self._last = 0
+        self._progress = None
+        stderr = Console(stderr=True)
+        if not stderr.is_terminal:
+            return  # silent: rich's progress machinery is not even loaded
+        from rich.progress import BarColumn, Progress, TextColumn, TimeRemainingColumn
+
         self._progress = Progress(
             TextColumn("{task.description}"),
             BarColumn(),
             TextColumn("{task.percentage:>3.0f}%"),
             TimeRemainingColumn(),
-            console=Console(stderr=True),
+            console=stderr,
             transient=True,
-            disable=not Console(stderr=True).is_terminal,
         )
-        self._task = None
-        self._last = 0
 
     def __enter__(self):
-        self._progress.__enter__()
+        if self._progress is not None:
+            self._progress.__enter__()
         return self
 
     def __exit__(self, *exc):
-        return self._progress.__exit__(*exc)
+        return self._progress is not None and self._progress.__exit__(*exc)
 
     def phase(self, name: str) -> None:
         """Start a new phase: later progress goes to a new bar labelled ``name``."""
+        if self._progress is None:
+            return
         if self._task is not None:
             self._progress.update(self._task, visible=False)
         self._phase, self._task, self._last = name, None, 0
 
     def __call__(self, done: int, total: int) -> None:
+        if self._progress is None:
+            return
         if self._task is not None and done < self._last:  # the work started over
             self.phase(self._phase)
         if self._task is None:
