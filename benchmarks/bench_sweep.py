@@ -22,6 +22,19 @@ near 1; on a shared one it shows the cores other processes took.
 Every executor is warmed first (workers started, compiled kernels loaded), so the
 figures are steady-state throughput; a sweep's start-up (a few seconds per worker)
 is reported apart as ``local_start_s``.
+
+On a shared machine the 2-worker speedup measures the other processes as much as the
+sweep. CPU time does not: ``local_{1,2}_worker_cpu_ms_per_point`` is the CPU of the
+worker processes per point (all of it, pickling included), ``parent_cpu_ms_per_point``
+the sweep process's (dispatch, journal, table), ``serial_s`` the part of the
+1-worker sweep's wall time when no worker runs (the folder, the tasks, the probe
+point alone, the table and aggregates at the end) and ``amdahl_2_workers`` the
+speedup these imply on two otherwise idle cores::
+
+    T1 = serial + N w,   T2 = serial + w + ((N - 1) w + N p) / 2
+
+(``w`` the worker CPU a point, ``p`` the parent's: on two cores the sweep process
+takes its share from the workers).
 """
 
 import argparse
@@ -46,19 +59,48 @@ def _sweep_file(folder, command, base, seeds):
     return path
 
 
-def _timed_sweep(folder, name, sweep, executor):
+def _process_cpu_s(pid):
+    """User + system CPU seconds of process ``pid`` so far (Linux ``/proc``), or NaN."""
+    import os
+
+    try:
+        with open(f"/proc/{pid}/stat") as f:
+            fields = f.read().rsplit(")", 1)[1].split()
+    except OSError:
+        return float("nan")
+    return (int(fields[11]) + int(fields[12])) / os.sysconf("SC_CLK_TCK")
+
+
+def _self_cpu_s():
+    import resource
+
+    usage = resource.getrusage(resource.RUSAGE_SELF)
+    return usage.ru_utime + usage.ru_stime
+
+
+def _timed_sweep(folder, name, sweep, executor, cpu=None):
+    """Wall time, worker busy share and CPU share of one sweep; with a dict ``cpu``,
+    also the CPU seconds of the workers (``workers_s``) and of this process
+    (``parent_s``) and the wall time with no point running (``serial_s``)."""
     from inins.sweep.engine import run_sweep
     from inins.sweep.plan import load_sweep
 
     plan = load_sweep(sweep)
+    pids = list(getattr(executor.pool, "_processes", None) or ()) if cpu is not None else []
+    workers_before = sum(_process_cpu_s(pid) for pid in pids)
+    parent_before = _self_cpu_s()
     start = time.perf_counter()
     outcome = run_sweep(plan, Path(folder) / name, executor)
     wall = time.perf_counter() - start
     if outcome.errors:
         raise RuntimeError(f"{outcome.errors} points raised in {name}")
     busy = sum(r["run_s"] for r in outcome.table.records)
-    cpu = sum(r["cpu_s"] for r in outcome.table.records)
-    return wall, busy / (wall * executor.slots), cpu / (wall * executor.slots)
+    point_cpu = sum(r["cpu_s"] for r in outcome.table.records)
+    if cpu is not None:
+        cpu["workers_s"] = sum(_process_cpu_s(pid) for pid in pids) - workers_before
+        cpu["parent_s"] = _self_cpu_s() - parent_before
+        cpu["serial_s"] = wall - busy / executor.slots
+    return wall, busy / (wall * executor.slots), point_cpu / (wall * executor.slots)
 
 
 def _run_alone_ms(base, command, repeats=40):
@@ -106,17 +148,34 @@ def _throughput(folder, points):
     sweep = _sweep_file(folder, "calibrate-bias", SHORT_CAL, points)
     warm = _sweep_file(folder, "calibrate-bias", SHORT_CAL, 4)
     figures = {"points": points}
+    used = {}
     for workers in (1, 2):
         executor = LocalExecutor(workers, "calibrate-bias", keep_open=True)
+        used[workers] = {}
         try:
             _timed_sweep(folder, f"warm-{workers}", warm, executor)
-            wall, busy, cpu = _timed_sweep(folder, f"local-{workers}", sweep, executor)
+            wall, busy, cpu = _timed_sweep(
+                folder, f"local-{workers}", sweep, executor, used[workers]
+            )
         finally:
             executor.close()
         figures[f"local_{workers}_points_per_s"] = points / wall
         figures[f"local_{workers}_worker_busy"] = busy
         figures[f"local_{workers}_worker_cpu_share"] = cpu
+        figures[f"local_{workers}_worker_cpu_ms_per_point"] = (
+            1e3 * used[workers]["workers_s"] / points
+        )
     figures["speedup_2_workers"] = figures["local_2_points_per_s"] / figures["local_1_points_per_s"]
+    # Amdahl on two idle cores, from CPU times (module docstring)
+    w = used[1]["workers_s"] / points
+    p = used[1]["parent_s"] / points
+    serial = used[1]["serial_s"]  # no point running (the probe point alone is in T2)
+    t1 = serial + points * w
+    t2 = serial + w + ((points - 1) * w + points * p) / 2.0
+    figures["parent_cpu_ms_per_point"] = 1e3 * p
+    figures["serial_s"] = serial
+    figures["serial_fraction_1_worker"] = serial / t1
+    figures["amdahl_2_workers"] = t1 / t2
     dask = _dask(folder, sweep, warm, points)
     if dask is not None:
         keys = ("dask_2_points_per_s", "dask_2_worker_busy", "dask_2_worker_cpu_share")
