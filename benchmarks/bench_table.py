@@ -9,7 +9,7 @@ from pathlib import Path
 import numpy as np
 import yaml
 
-from inins.commands._table import table_simulation
+from inins.scenario.si.table import table_simulation
 from inins.scenario.simulate_table import SimulateTableScenario
 from inins.table.simulate import simulation_chunks
 

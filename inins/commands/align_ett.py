@@ -25,13 +25,14 @@ The IMU heading at any table position is the heading of ``mat_nt(encoder) @ mat_
 
 import numpy as np
 
-from inins.calibration.ett import EttOptions, align_ett, paper_angles
+from inins.calibration.ett import align_ett, paper_angles
 from inins.commands import figures
 from inins.commands._table import load_record, table_estimate
 from inins.core import rotation
-from inins.core.units import ARCSEC, DEG, DEG_RTH, UG, UG_RTHZ
+from inins.core.units import ARCSEC
 from inins.results import CommandResult, Series, format_table
 from inins.scenario.align_ett import AlignEttScenario
+from inins.scenario.si.align_ett import options
 
 SCENARIO_MODEL = AlignEttScenario
 FIGURES = {"align-ett.png": figures.align_ett_geometry}
@@ -80,27 +81,6 @@ def run(scenario, seed, *, sink=None, progress=None):
     record, _ = load_record(scenario.data, scenario.simulate, seed, progress)
     estimate = align_ett(record, options(scenario))
     return command_result(estimate, record.gimbals, record.source)
-
-
-def options(scenario):
-    """The method settings in SI (:class:`inins.calibration.ett.EttOptions`)."""
-    p = scenario.positions
-
-    def scaled(value, unit):
-        return None if value is None else value * unit
-
-    return EttOptions(
-        vertical_label=p.vertical_label,
-        level_label=p.level_label,
-        settle=p.settle_s,
-        window=p.window_s,
-        mat_tb0=scenario.mat_tb0(),
-        table_azimuth=scaled(scenario.table_azimuth_deg, DEG),
-        table_azimuth_sigma=scenario.table_azimuth_sigma_arcsec * ARCSEC,
-        accel_bias_sigma=scenario.accel_bias_sigma_ug * UG,
-        accel_vrw=scaled(scenario.accel_vrw_ug_rthz, UG_RTHZ),
-        gyro_arw=scaled(scenario.gyro_arw_deg_rth, DEG_RTH),
-    )
 
 
 def _deg(rad):

@@ -15,15 +15,17 @@ import datetime
 import numpy as np
 
 from inins.calibration import discrete, imu_model, systemlevel, tablefree
+from inins.commands import calibrate_imu_plan, calibrate_imu_report
 from inins.commands._calibrate_imu_units import PREFIX, lab
 from inins.commands._compensation import compensation_terms
-from inins.commands._table import load_record, table_simulation
+from inins.commands._table import load_record
 from inins.core import earth
 from inins.core.records import MemoryRecord
-from inins.core.units import ARCSEC, DEG, DEG_RTH, DPH, G0, PPM, UG, UG_RTHZ, UG_S
+from inins.core.units import ARCSEC, DEG, DPH, G0, PPM, UG
 from inins.exceptions import InputError
-from inins.results import CommandResult, Series, format_table
+from inins.results import CommandResult, Series
 from inins.scenario.calibrate_imu import CalibrateImuScenario
+from inins.scenario.si.calibrate_imu import tablefree_detector
 
 SCENARIO_MODEL = CalibrateImuScenario
 
@@ -66,62 +68,6 @@ FILES = {"calibrate-imu-compensation.yaml": _compensation_text}
 
 
 # ----------------------------------------------------------------------------- inputs
-
-
-def noise_figures(scenario, sensor, record=None, ivs=None):
-    """White-noise figures (SI): the scenario's, else the simulation's, else estimated
-    from the scatter of 1-s block means within the holds."""
-    n = scenario.noise
-    est = None
-
-    def pick(given, unit, sim_value, index):
-        nonlocal est
-        if given is not None:
-            return np.asarray(given, float) * unit
-        if sim_value is not None:
-            return np.asarray(sim_value, float)
-        if est is None:
-            est = _estimate_noise(record, ivs)
-        return est[index]
-
-    arw = pick(n.arw_deg_rth, DEG_RTH, None if sensor is None else sensor.gyro_arw, 0)
-    vrw = pick(n.vrw_ug_rthz, UG_RTHZ, None if sensor is None else sensor.accel_vrw, 1)
-    gq = (
-        np.asarray(n.gyro_pulse_weight_arcsec, float) * ARCSEC
-        if n.gyro_pulse_weight_arcsec is not None
-        else (np.zeros(3) if sensor is None else sensor.gyro_pulse_weight)
-    )
-    aq = (
-        np.asarray(n.accel_pulse_weight_ug_s, float) * UG_S
-        if n.accel_pulse_weight_ug_s is not None
-        else (np.zeros(3) if sensor is None else sensor.accel_pulse_weight)
-    )
-    return discrete.Noise(arw, vrw, gq, aq)
-
-
-def _estimate_noise(record, ivs):
-    """ARW and VRW from the scatter of 1-s block means within the holds (rad/sqrt(s),
-    m/s/sqrt(s))."""
-    if record is None:
-        raise InputError("no noise figures given and no data to estimate them", key="noise")
-    if ivs is None:  # the holds of the schedule
-        spans = [(s.start_index, s.stop_index) for s in record.steps if str(s.kind) == "hold"]
-    else:
-        spans = [(iv.start, iv.stop) for iv in ivs if iv.kind == "hold"]
-    block = max(1, round(1.0 / record.dt))
-    parts = ([], [])
-    for start, stop in spans:
-        if stop - start < 4 * block:
-            continue
-        dtheta, dv = record.imu(start, stop)
-        m = (dtheta.shape[0] // block) * block
-        for k, x in enumerate((dtheta, dv)):
-            means = x[:m].reshape(-1, block, 3).sum(axis=1) / (block * record.dt)
-            parts[k].append(means - means.mean(axis=0))
-    if not parts[0]:
-        raise InputError("no hold long enough (4 s) to estimate the noise", key="noise")
-    t_block = block * record.dt
-    return tuple(np.sqrt(np.mean(np.vstack(p) ** 2, axis=0) * t_block) for p in parts)
 
 
 def load_compensation(scenario):
@@ -202,7 +148,7 @@ def run(scenario, seed, *, sink=None, progress=None):
     """Plan, then calibrate with each method of the scenario."""
     names = requested_terms(scenario)
     if scenario.plan.only:
-        return _plan_only(scenario, names)
+        return calibrate_imu_plan.plan_only(scenario, names)
     comp = load_compensation(scenario)
     methods = {}
     truth_terms = None
@@ -221,7 +167,7 @@ def run(scenario, seed, *, sink=None, progress=None):
             truth_terms = _truth(scenario, sensor)
         geometry = _geometry(scenario, record)
         if "discrete" in scenario.methods:
-            enc_sigma = _encoder_sigma(scenario)
+            enc_sigma = calibrate_imu_plan.encoder_sigma(scenario)
             flags = []
             ivs = discrete.intervals(
                 record.steps,
@@ -238,9 +184,9 @@ def run(scenario, seed, *, sink=None, progress=None):
             warnings += flags
             if not ivs:
                 raise InputError("the record has no hold or spin to calibrate from", key="data")
-            noise = noise_figures(scenario, sensor, record, ivs)
+            noise = calibrate_imu_plan.noise_figures(scenario, sensor, record, ivs)
             planned = discrete.plan(ivs, names, noise)
-            _refuse(planned, scenario)
+            calibrate_imu_plan.refuse(planned, scenario)
             fit = discrete.calibrate(ivs, discrete.measured_means(record, ivs), names, noise)
             _check_mounting(fit, scenario)
             methods["discrete"] = _from_discrete(fit, ivs, geometry, "discrete")
@@ -273,9 +219,11 @@ def run(scenario, seed, *, sink=None, progress=None):
         from inins.io.rawlog import compensation_text
 
         attrs[pre]["compensation_yaml"] = compensation_text(payload)
-        report_parts.append(_report(method, out, truth_terms, attrs[pre]["compensation_yaml"]))
+        report_parts.append(
+            calibrate_imu_report.report(method, out, truth_terms, attrs[pre]["compensation_yaml"])
+        )
     attrs[""]["methods"] = list(methods)
-    attrs[""]["certificate"] = _certificate_info(scenario)
+    attrs[""]["certificate"] = calibrate_imu_report.certificate_info(scenario)
     return CommandResult(
         "calibrate-imu",
         results,
@@ -308,50 +256,6 @@ def _geometry(scenario, record):
     return discrete.Geometry(
         np.asarray(record.axes, float), np.asarray(record.mat_n_base, float), mat_tb, record.lla
     )
-
-
-def _encoder_sigma(scenario):
-    if scenario.noise.encoder_noise_arcsec is not None:
-        return scenario.noise.encoder_noise_arcsec * ARCSEC
-    if scenario.simulate is not None:
-        return scenario.simulate.table.encoder_noise_arcsec * ARCSEC
-    return 0.0
-
-
-def combination_text(combo):
-    """An inseparable direction in lab units (largest coefficient 1, terms below 1e-5 of
-    it left out): ``+1 ba_x[ug] +0.206 mount_y[arcsec]``."""
-    lab_coef = {n: c / lab(n)[1] for n, c in combo.items()}
-    top = max(abs(c) for c in lab_coef.values())
-    return " ".join(
-        f"{c / top:+.3g} {n}[{lab(n)[0]}]" for n, c in lab_coef.items() if abs(c) > 1e-5 * top
-    )
-
-
-def _refuse(planned, scenario):
-    """Bad input when the schedule cannot separate a requested term (or gives a scale
-    factor worse than ``plan.max_sigma_ppm``), unless combinations are allowed."""
-    bad = planned.inseparable
-    if bad and not scenario.plan.allow_combinations:
-        combos = "; ".join(combination_text(c) for c in planned.combinations[:4])
-        raise InputError(
-            f"the schedule cannot separate {', '.join(bad)} (inseparable: {combos}); "
-            "add positions or rate tests, drop the group from estimate, or set "
-            "plan.allow_combinations: true",
-            key="estimate",
-        )
-    limit = scenario.plan.max_sigma_ppm
-    if limit is not None:
-        worse = [
-            n
-            for n, s in zip(planned.names, planned.sigma, strict=True)
-            if n[:2] in ("sa", "sg") and np.isfinite(s) and s / PPM > limit
-        ]
-        if worse:
-            raise InputError(
-                f"predicted 1-sigma above {limit:g} ppm for {', '.join(worse)}",
-                key="plan.max_sigma_ppm",
-            )
 
 
 MAX_MOUNT = 1.0 * DEG
@@ -423,14 +327,7 @@ def _table_free(time, acc, gyro, gravity, scenario, comp):
         dt = np.gradient(time)[:, None]
         dtheta, dv = imu_model.compensate(gyro * dt, acc * dt, 1.0, comp)
         gyro, acc = dtheta / dt, dv / dt
-    d = scenario.table_free.detector
-    det = tablefree.Detector(
-        d.window_s,
-        d.init_interval_s,
-        d.threshold_factor,
-        d.min_interval_s,
-        d.max_tilt_change_deg * DEG,
-    )
+    det = tablefree_detector(scenario)
     try:
         return tablefree.calibrate(time, acc, gyro, gravity, det, scenario.table_free.use_positions)
     except ValueError as exc:
@@ -453,7 +350,7 @@ def _system_level(scenario, record, sensor):
             "the filter needs",
             key="system_level.step_s",
         )
-    noise = noise_figures(scenario, sensor, record, None)
+    noise = calibrate_imu_plan.noise_figures(scenario, sensor, record, None)
     dtheta, dv = record.imu(0, record.n_samples)
     fit = systemlevel.calibrate(
         dtheta,
@@ -550,7 +447,7 @@ def _from_discrete(fit, ivs, geometry, method):
         ),
         "f_ref": Series(ref_f, "m/s^2", "b", "reference specific force per interval"),
     }
-    combos = [combination_text(c) for c in fit.plan.combinations]
+    combos = [calibrate_imu_plan.combination_text(c) for c in fit.plan.combinations]
     return {
         "names": fit.names,
         "values": fit.values,
@@ -626,240 +523,6 @@ def _from_tablefree(fit, method):
         },
         "attrs": {"flagged": flagged, "method": method, "inseparable": [], "combinations": []},
     }
-
-
-def _certificate_info(scenario):
-    c = scenario.certificate
-    return {
-        "laboratory": c.laboratory,
-        "operator": c.operator,
-        "procedure": c.procedure,
-        "unit_serial": scenario.unit.serial,
-        "unit_description": scenario.unit.description,
-    }
-
-
-# ----------------------------------------------------------------------------- plan only
-
-
-def plan_intervals(setup, settle, encoder_sigma=0.0):
-    """The intervals of a simulate: section's motion program, from the program alone
-    (gimbal angles of the compiled program on the truth grid; nothing simulated)."""
-    from inins.table import simulate
-
-    sim = table_simulation(setup)
-    steps = simulate.schedule(sim)
-    grid = np.arange(0.0, sim.trajectory.program.duration, 1.0 / setup.output.truth_rate_hz)
-    angles, _ = sim.trajectory.program.segments.evaluate(grid)
-    traj = sim.trajectory
-    geometry = discrete.Geometry(traj.axes, traj.mat_n_base, setup.mount.nominal(), traj.lla)
-    ivs = discrete.intervals(
-        steps, grid, angles, geometry, 0.0, sim.dt, sim.n_samples, settle, encoder_sigma
-    )
-    return ivs, sim
-
-
-def _plan_only(scenario, names):
-    if scenario.simulate is None:
-        raise InputError("plan.only needs the motion program: a simulate: section", key="plan")
-    results, text, datasets, attrs = {}, [], {}, {}
-    if "discrete" in scenario.methods:
-        ivs, sim = plan_intervals(scenario.simulate, scenario.settle_s, _encoder_sigma(scenario))
-        noise = noise_figures(scenario, sim.sensor)
-        planned = discrete.plan(ivs, names, noise)
-        for n, s, ok in zip(planned.names, planned.sigma, planned.separable, strict=True):
-            unit, scale = lab(n)
-            results[f"plan_{n}_sigma_{unit}"] = float(s / scale) if ok else None
-        results["plan_inseparable"] = len(planned.inseparable)
-        rows = [
-            [n, "yes" if ok else "NO", (s / lab(n)[1]) if ok else float("nan"), lab(n)[0]]
-            for n, s, ok in zip(planned.names, planned.sigma, planned.separable, strict=True)
-        ]
-        text += [
-            f"planner, discrete: {len(ivs)} intervals "
-            f"({sum(iv.kind == 'hold' for iv in ivs)} holds, "
-            f"{sum(iv.kind == 'spin' for iv in ivs)} spins) from the motion program alone",
-            format_table(rows, ["term", "separable", "predicted 1-sigma", "unit"], fmt=".4g"),
-        ]
-        if planned.combinations:
-            text.append("inseparable combinations (the data fix nothing along them):")
-            text += ["  " + combination_text(combo) for combo in planned.combinations]
-        if planned.inseparable and not scenario.plan.allow_combinations:
-            _refuse(planned, scenario)
-        datasets["plan/sigma"] = Series(planned.sigma, "SI", "b", "predicted 1-sigma per term")
-        datasets["plan/information"] = Series(planned.information, "SI", "", "information")
-        attrs["plan"] = {"names": list(planned.names), "inseparable": list(planned.inseparable)}
-    if "system-level" in scenario.methods:
-        names_s, sigma = plan_system_level(scenario)
-        rows = []
-        for n, s in zip(names_s, sigma, strict=True):
-            unit, scale = lab(n)
-            results[f"plan_system_{n}_sigma_{unit}"] = float(s / scale)
-            rows.append([n, s / scale, unit])
-        text += [
-            "planner, system-level: the filter's covariance along the motion program "
-            "(an ideal unit's increments, the scenario's noise)",
-            format_table(rows, ["term", "predicted 1-sigma", "unit"], fmt=".4g"),
-        ]
-        datasets["plan_system/sigma"] = Series(sigma, "SI", "b", "predicted 1-sigma per term")
-    if "table-free" in scenario.methods:
-        planned_tf = plan_table_free(scenario)
-        rows = []
-        for n, s_, ok in zip(planned_tf.names, planned_tf.sigma, planned_tf.separable, strict=True):
-            unit, scale = lab(n)
-            results[f"plan_table_free_{n}_sigma_{unit}"] = float(s_ / scale) if ok else None
-            rows.append([n, s_ / scale if ok else float("nan"), unit])
-        text += [
-            f"planner, table-free: {planned_tf.positions} static positions found in the "
-            "motion program (an ideal unit's increments, the scenario's noise; the gyro "
-            "bias is the initial interval's mean, the Earth rate is outside the model)",
-            format_table(rows, ["term", "predicted 1-sigma", "unit"], fmt=".4g"),
-        ]
-    if not text:
-        raise InputError("the planner needs a method to plan", key="plan")
-    attrs[""] = {
-        "unit_name": scenario.unit.name,
-        "methods": [],
-        "plan_only": True,
-        "certificate": _certificate_info(scenario),
-    }
-    return CommandResult(
-        "calibrate-imu", results, datasets=datasets, attrs=attrs, report="\n".join(text)
-    )
-
-
-def plan_table_free(scenario):
-    """Predicted 1-sigma of the table-free terms from the motion program alone."""
-    from dataclasses import replace
-
-    from inins.commands._table import memory_record
-    from inins.core import imu
-    from inins.table import simulate
-
-    sim = table_simulation(scenario.simulate)
-    noise = noise_figures(scenario, sim.sensor)
-    ideal = replace(sim, sensor=imu.SensorErrors.none(), encoder_noise=0.0)
-    rec = memory_record(ideal, simulate.simulation_chunks(ideal, np.random.default_rng(0)))
-    time = rec.t0 + rec.dt * (np.arange(rec.n_samples) + 1)
-    gravity = scenario.table_free.gravity_mps2 or float(earth.gravity(rec.lla[0], rec.lla[2]))
-    d = scenario.table_free.detector
-    det = tablefree.Detector(
-        d.window_s,
-        d.init_interval_s,
-        d.threshold_factor,
-        d.min_interval_s,
-        d.max_tilt_change_deg * DEG,
-    )
-    return tablefree.plan(
-        time, rec.dv / rec.dt, rec.dtheta / rec.dt, gravity, noise.vrw, noise.arw, det
-    )
-
-
-def plan_system_level(scenario):
-    """Predicted 1-sigma of the system-level terms from the motion program alone: the
-    filter's covariance over the increments of an ideal unit on the same program (the
-    covariance of a linear filter depends on the trajectory, not on the errors)."""
-    from dataclasses import replace
-
-    from inins.commands._table import memory_record
-    from inins.core import imu
-    from inins.table import simulate
-
-    sim = table_simulation(scenario.simulate)
-    noise = noise_figures(scenario, sim.sensor)
-    ideal = replace(sim, sensor=imu.SensorErrors.none(), encoder_noise=0.0)
-    record = memory_record(ideal, simulate.simulation_chunks(ideal, np.random.default_rng(0)))
-    step = max(1, round(scenario.system_level.step_s / record.dt))
-    first = record.steps[0]
-    fit = systemlevel.calibrate(
-        record.dtheta,
-        record.dv,
-        record.dt,
-        np.asarray(record.lla, float),
-        first.stop_index - first.start_index,
-        step,
-        float(np.mean(noise.arw)) or 1e-12,
-        float(np.mean(noise.vrw)) or 1e-12,
-        scenario.system_level.velocity_noise_mps,
-        passes=1,
-    )
-    return fit.names, fit.sigma
-
-
-# ----------------------------------------------------------------------------- report
-
-
-def _report(method, out, truth, comp_yaml):
-    rows = []
-    for k, n in enumerate(out["names"]):
-        unit, scale = lab(n)
-        s = out["sigma"][k]
-        row = [n, out["values"][k] / scale, s / scale, 2 * s / scale, unit]
-        if truth is not None:
-            row.append(truth.get(n, 0.0) / scale)
-        if out["plan_sigma"] is not None:
-            row.append(out["plan_sigma"][k] / scale)
-        rows.append(row)
-    head = ["term", "estimate", "1-sigma", "U (k=2)", "unit"]
-    if truth is not None:
-        head.append("truth")
-    if out["plan_sigma"] is not None:
-        head.append("planned 1-sigma")
-    lines = [f"== {method} ==", format_table(rows, head, fmt=".6g")]
-    lines.append(
-        "  ".join(
-            f"{k} {v:.6g}" if isinstance(v, float) else f"{k} {v}"
-            for k, v in out["scalars"].items()
-        )
-    )
-    if out["residuals"] is not None:
-        res = out["residuals"]
-        rrows = []
-        for k, label in enumerate(out["labels"]):
-            rrows.append(
-                [
-                    label,
-                    out["kinds"][k],
-                    *(res[k, :3] / DPH),
-                    *(np.nan_to_num(res[k, 3:], nan=np.nan) / UG),
-                ]
-            )
-        lines += [
-            "",
-            "residuals per interval (mean minus model)",
-            format_table(
-                rrows,
-                ["interval", "kind", "gx", "gy", "gz", "ax", "ay", "az"],
-                ["", "", "deg/h", "deg/h", "deg/h", "ug", "ug", "ug"],
-                fmt=".3g",
-            ),
-        ]
-    corr = out["correlation"]
-    names = out["names"]
-    strong = [
-        (abs(corr[i, j]), names[i], names[j], corr[i, j])
-        for i in range(len(names))
-        for j in range(i)
-        if np.isfinite(corr[i, j]) and abs(corr[i, j]) > 0.5
-    ]
-    strong.sort(reverse=True)
-    if strong:
-        lines += ["", "correlations above 0.5:"]
-        lines += [f"  {a} - {b}: {c:+.3f}" for _, a, b, c in strong[:12]]
-    if out["attrs"].get("combinations"):
-        lines += [
-            "",
-            "inseparable combinations:",
-            *("  " + c for c in out["attrs"]["combinations"]),
-        ]
-    if out["attrs"].get("flagged"):
-        lines += [
-            "",
-            "flagged static intervals (not used):",
-            *("  " + c for c in out["attrs"]["flagged"]),
-        ]
-    lines += ["", "compensation file:", comp_yaml]
-    return "\n".join(lines)
 
 
 def declared_results(scenario):

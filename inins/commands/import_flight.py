@@ -357,6 +357,7 @@ def _read_multi(scenario):
         reference_pos_e=np.full(3, np.nan),
         iono_alpha=next((f.iono_alpha for f in files if f.iono_alpha is not None), None),
         iono_beta=next((f.iono_beta for f in files if f.iono_beta is not None), None),
+        glonass=flight_layout.glonass_columns(nav.glonass),
     )
     return flight, obs_file.approx_pos_e
 

@@ -11,17 +11,17 @@ combinations, the singular values per segment and the 1-sigma history.
 import numpy as np
 
 from inins.commands import figures
-from inins.core import earth, rotation
+from inins.core import rotation
 from inins.core.error_model import GROUPS
 from inins.core.units import ARCSEC, DEG, DEG_RTH, DPH, UG, UG_RTHZ
 from inins.exceptions import InputError
 from inins.io.tabledata import read_table_data
 from inins.observability import analysis, models
-from inins.observability import measurements as meas
 from inins.observability.analysis import NEAR_PRIOR, PRACTICAL_RATIO
-from inins.observability.segments import cut_segments, interval_means, make_segment
+from inins.observability.segments import cut_segments, interval_means
 from inins.results import CommandResult, Series, format_table
 from inins.scenario.observability import ObservabilityScenario
+from inins.scenario.si.observability import listed_segments, measurement
 
 SCENARIO_MODEL = ObservabilityScenario
 FIGURES = {
@@ -86,52 +86,13 @@ def estimate(scenario):
     return observability_estimate(scenario)
 
 
-def measurement(m, index):
-    """A scenario measurement as a :class:`inins.observability.measurements.Measurement`."""
-    return meas.Measurement(
-        kind=m.kind,
-        sigma=m.sigma,
-        baseline_b=m.baseline_b_m,
-        lever_arm_b=m.lever_arm_b_m,
-        reference=m.reference,
-        key=f"measurements[{index}]",
-    )
-
-
 def build_segments(scenario, los_n):
     """The listed segments, or those cut from the trajectory file."""
-    lla = scenario.site.lla()
     if scenario.trajectory is not None:
         return trajectory_segments(scenario.trajectory, los_n)
     if scenario.flight is not None:
         return flight_segments(scenario.flight, los_n)
-    out = []
-    for i, s in enumerate(scenario.segments):
-        mat_nb = rotation.mat_from_euler(s.roll_deg * DEG, s.pitch_deg * DEG, s.heading_deg * DEG)
-        if s.vel_n_mps is not None:
-            vel = np.array(s.vel_n_mps, dtype=float)
-        elif s.speed_mps is not None:
-            h = s.heading_deg * DEG
-            vel = s.speed_mps * np.array([np.cos(h), np.sin(h), 0.0])
-        else:
-            vel = np.zeros(3)
-        omega = None
-        if s.omega_b_dps is not None:
-            w_in = earth.rate_ie_n(lla[0]) + earth.rate_en_n(lla[0], lla[2], vel)
-            omega = mat_nb.T @ w_in + np.array(s.omega_b_dps) * DEG
-        out.append(
-            make_segment(
-                s.duration_s,
-                lla,
-                mat_nb=mat_nb,
-                vel_n=vel,
-                f_b=s.f_b_mps2,
-                omega_ib_b=omega,
-                los_n=los_n,
-                key=f"segments[{i}]",
-            )
-        )
-    return tuple(out)
+    return listed_segments(scenario, los_n)
 
 
 def trajectory_segments(trajectory, los_n):

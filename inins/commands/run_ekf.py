@@ -18,7 +18,7 @@ from dataclasses import replace
 import numpy as np
 
 from inins.calibration.imu_model import compensate
-from inins.commands import figures, run_ekf_post, run_ekf_report
+from inins.commands import figures, run_ekf_post, run_ekf_post_figures, run_ekf_report
 from inins.commands._compensation import scenario_terms
 from inins.core import rotation, strapdown
 from inins.core.units import ARCSEC, DEG, DPH
@@ -27,7 +27,7 @@ from inins.ekf import recorded, sources
 from inins.ekf.config import Coupling, FilterConfig, InitialSigma, Model, clock_psd
 from inins.ekf.filter import run_filter
 from inins.exceptions import InputError
-from inins.gnss import broadcast, constellation, ephemeris, gpstime, measurements
+from inins.gnss import broadcast, constellation, ephemeris, glonass, gpstime, measurements
 from inins.io.flight_layout import read_flight
 from inins.io.resources import configs_root
 from inins.io.rinex_nav import read_nav, read_navigation
@@ -35,7 +35,7 @@ from inins.results import CommandResult, Series
 from inins.scenario.run_ekf import RunEkfScenario
 
 SCENARIO_MODEL = RunEkfScenario
-FIGURES = run_ekf_post.with_post_figures(
+FIGURES = run_ekf_post_figures.with_post_figures(
     {
         "run-ekf-heading-error.png": figures.run_ekf_heading,
         "run-ekf-gyro-bias.png": figures.run_ekf_gyro_bias,
@@ -76,10 +76,12 @@ def run(scenario, seed, *, sink=None, progress=None):
     )
 
 
-def filter_config(f, dt, lever, dither_window):
+def filter_config(f, dt, lever, dither_window, systems="G"):
     """:class:`FilterConfig` from the scenario's filter section (its SI keywords,
-    :meth:`inins.scenario.run_ekf.FilterSettings.to_si`)."""
+    :meth:`inins.scenario.run_ekf.FilterSettings.to_si`) and the systems it takes
+    (:func:`filter_systems`)."""
     si = f.to_si()
+    si["systems"] = systems
     bias_psd, drift_psd = clock_psd(si.pop("clock_h0"), si.pop("clock_h_2"))
     return FilterConfig(
         Model(si.pop("model")),
@@ -92,6 +94,28 @@ def filter_config(f, dt, lever, dither_window):
         dither_window=dither_window,
         **si,
     )
+
+
+def filter_systems(f, available, key):
+    """The systems the filter takes: ``filter.systems``, or every one ``available``
+    (letters, GPS first); a system given that the data do not have is bad input."""
+    have = "".join(x for x in "GREC" if x in available)
+    if f.systems is None:
+        return have or "G"
+    missing = [x for x in f.systems if x not in have]
+    if missing:
+        raise InputError(
+            f"system {''.join(missing)} is not in the {key} (it has {have or 'none'})",
+            key="filter.systems",
+        )
+    return f.systems
+
+
+def _take_systems(nav, systems):
+    """A mixed Navigation restricted to ``systems`` (letters)."""
+    keep = np.isin(nav.kepler.prn // 100, ["GREC".index(x) for x in systems])
+    glo = nav.glonass if "R" in systems else glonass.empty()
+    return broadcast.Navigation(kepler=nav.kepler.take(keep), glonass=glo)
 
 
 def _ephemeris(c, duration):
@@ -129,12 +153,27 @@ def _simulated(scenario, seed, progress=None, store=None):
     truth = fl.Dithered(base, dither)
     window = scenario.filter.dither_window
     window = fl.dither_window(dither, dt) if window == "auto" else window
-    config = _checked(lambda: filter_config(scenario.filter, dt, gs.lever_arm_m, window), "gnss")
     eph, week, sow0 = _ephemeris(gs.constellation, plan.duration)
+    mixed = isinstance(eph, broadcast.Navigation)
+    available = "".join("GRECJS"[k] for k in eph.systems) if mixed else "G"
+    systems = filter_systems(scenario.filter, available, "constellation")
+    unused = sorted(set(gs.system_bias_m) - set(systems))
+    if unused:
+        raise InputError(
+            f"a bias for system {''.join(unused)}, which the simulation does not use "
+            f"(systems {systems})",
+            key="gnss.system_bias_m",
+        )
+    if mixed:
+        eph = _take_systems(eph, systems)
+    config = _checked(
+        lambda: filter_config(scenario.filter, dt, gs.lever_arm_m, window, systems), "gnss"
+    )
     rx = sources.Receiver(
         **gs.receiver_si(),
         filter_sigma_pr=scenario.filter.pseudorange_sigma_m,
         filter_sigma_rr=scenario.filter.range_rate_sigma_mps,
+        filter_sigma_scale=scenario.filter.sigma_scale(),
     )
     mat0, vel0, lla0 = truth.state([0.0])
     mat_base, _, _ = base.state([0.0])
@@ -148,7 +187,14 @@ def _simulated(scenario, seed, progress=None, store=None):
     result = _checked(
         lambda: run_filter(config, initial, 0.0, stream, errors, store=store), "gnss.mask_deg"
     )
-    info = {"errors": errors, "forward": np.array([1.0, 0.0, 0.0]), "track": None}
+    bias = dict(zip("GREC", np.zeros(4), strict=True)) | dict(gs.system_bias_m)
+    info = {
+        "errors": errors,
+        "forward": np.array([1.0, 0.0, 0.0]),
+        "track": None,
+        # each bias state estimates its system's bias minus the reference system's
+        "system_bias": {n: bias[n[-1]] - bias[systems[0]] for n in config.bias_names},
+    }
     return result, info
 
 
@@ -208,14 +254,33 @@ def _recorded(scenario, store=None):
     if terms is not None:
         dth_c, dv_c = compensate(imu.dtheta, imu.dv, dt, terms)
         imu = replace(imu, dtheta=dth_c, dv=dv_c)
+    obs = measurements.from_record(rec.gnss)
+    present = {"GRECJS"[k] for k in np.unique(obs.prn // 100)}
+    notes = ()
+    if f.systems is None and "R" in present and rec.glonass is None:
+        present.discard("R")  # a file imported before the layout carried GLONASS sets
+        notes = ("GLONASS rows left out: the recording has no GLONASS navigation sets",)
+    systems = filter_systems(f, present, "recording")
+    obs = measurements.system_rows(obs, ["GREC".index(x) for x in systems])
+    glo = None
+    if "R" in systems:
+        if rec.glonass is None:
+            raise InputError(
+                "GLONASS observations but no GLONASS navigation sets (gnss/glonass) in the "
+                "recording: import it again, or leave R out of filter.systems",
+                source=str(d.file),
+                key="filter.systems",
+            )
+        glo = glonass.from_columns(**rec.glonass)
     start = recorded.prepare(
         imu.time,
         imu.dtheta,
         imu.dv,
         dt,
-        measurements.gps_rows(measurements.from_record(rec.gnss)),  # one clock: GPS only
+        obs,
         rec.ephemeris,
         rec.imu_t0_sow,
+        glonass=glo,
         mask=d.mask_deg * DEG,
         klobuchar=None if rec.iono_alpha is None else (rec.iono_alpha, rec.iono_beta),
         static_window=d.static_window_s,
@@ -224,7 +289,7 @@ def _recorded(scenario, store=None):
         source=str(d.file),
     )
     window = 1 if f.dither_window == "auto" else f.dither_window
-    config = _checked(lambda: filter_config(f, dt, d.lever_arm_m, window), "data")
+    config = _checked(lambda: filter_config(f, dt, d.lever_arm_m, window, systems), "data")
     stream = recorded.epoch_stream(
         start,
         imu.time,
@@ -233,6 +298,7 @@ def _recorded(scenario, store=None):
         d.latency_s,
         f.pseudorange_sigma_m,
         f.range_rate_sigma_mps,
+        sigma_scale=f.sigma_scale(),
     )
     result = _checked(
         lambda: run_filter(config, start.initial, start.t_start, stream, store=store),
@@ -247,7 +313,7 @@ def _recorded(scenario, store=None):
         "spp_vel_n": start.fix_vel_n[idx],
         "heading_init": start.heading,
         "lever": np.asarray(d.lever_arm_m, float),
-        "dropped": rec.dropped,
+        "dropped": (*rec.dropped, *notes),
     }
     return result, info
 
@@ -386,7 +452,7 @@ def _datasets(r, info):
         d["truth/heading_error"] = Series(r.heading_error, "rad", "", "heading minus truth")
     if r.nees.size:
         d["truth/nees"] = Series(r.nees, "1", "", "NEES of all states")
-    truth = run_ekf_report.state_truth(info.get("errors"), r.layout.names)
+    truth = run_ekf_report.state_truth(info.get("errors"), r.layout.names, info.get("system_bias"))
     if truth:
         vector = np.array([truth.get(n, np.nan) for n in r.layout.names])
         d["truth/states"] = Series(vector, "SI", "", "true sensor states (NaN: none single)")
@@ -420,7 +486,7 @@ def _report(scenario, r, s, info):
             f"of the forward axis {math.degrees(math.atan2(axis[1], axis[0])):.2f} deg "
             f"(body x {h.heading / DEG:.2f} deg) from the velocity at {used} s"
         )
-    truth = run_ekf_report.state_truth(info.get("errors"), r.layout.names)
+    truth = run_ekf_report.state_truth(info.get("errors"), r.layout.names, info.get("system_bias"))
     lines += run_ekf_report.final_states(r.layout.names, r.state[-1], r.sigma[-1], truth)
     lines += run_ekf_report.truth_table(_results(r, s, info), _truth(info))
     return "\n".join(lines)

@@ -24,6 +24,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from inins.calibration.imu_model import compensate
+from inins.commands import run_ekf_post_report
 from inins.commands._compensation import scenario_terms
 from inins.core import earth, error_model, rotation, strapdown
 from inins.core.units import DEG, UG
@@ -32,7 +33,8 @@ from inins.ekf.tight_store import TightStore
 from inins.exceptions import InputError
 from inins.io import scratch, solution_layout
 from inins.io import solution_files as sf
-from inins.results import CommandResult, Series, format_table
+from inins.results import CommandResult, Series
+from inins.scenario.si.run_ekf_post import loose_config
 
 RESULT_NAMES = (
     "post_epochs",
@@ -132,15 +134,6 @@ def _uniform(tig, rates, dt, t0, t1):
     grid = np.arange(t0, t1 - 0.5 * dt, dt)
     mid = grid + 0.5 * dt
     return np.stack([np.interp(mid, tig, rates[:, i]) for i in range(3)], -1) * dt, grid
-
-
-def _antenna(quat, lla, lever, vel=None, offset=None):
-    """Antenna positions; with ``vel`` and the time ``offset`` (s, per epoch or one) carried
-    to the instant a solution with the same tag was taken (IMU time t + offset)."""
-    shift = rotation.mat_from_quat(quat) @ lever
-    if vel is not None and offset is not None:
-        shift = shift + vel * np.reshape(offset, (-1, 1))
-    return error_model.lla_offset(lla, shift)
 
 
 def run(scenario, seed, *, sink=None, progress=None):
@@ -252,35 +245,7 @@ def run(scenario, seed, *, sink=None, progress=None):
             [(t0 + a, t0 + b) for a, b in o.windows], t0, t_end, key="post.outages.windows"
         )
     wins = sorted(wins)
-    n = p.noise
-    k = n.factor
-    s0 = p.initial_sigma
-    sigma0 = [s0.position_m] * 3 + [s0.velocity_mps] * 3
-    sigma0 += [s0.tilt_deg * DEG] * 2 + [s0.heading_deg * DEG]
-    sigma0 += [s0.accel_bias_ug * UG] * 3 + [s0.gyro_bias_dps * DEG] * 3
-    sigma0 += [1e-3] * 9 if p.misalignments else []
-    cfg = loose.LooseConfig(
-        dt=dt,
-        misalignments=p.misalignments,
-        feedback=p.feedback,
-        lever_arm=lever,
-        arw=np.full(3, k * n.arw_dps_rthz * DEG),
-        vrw=np.full(3, k * n.vrw_ug_rthz * UG),
-        gyro_bias_rw=np.full(3, k * n.gyro_bias_walk_dps_rthz * DEG),
-        accel_bias_rw=np.full(3, k * n.accel_bias_walk_ug_rthz * UG),
-        sigma0=np.array(sigma0),
-        time_offset=p.time.state,
-        time_offset_sigma=p.time.state_sigma_s,
-        gate_probability=p.gate_probability,
-        nhc_sigma=p.aiding.nhc_sigma_mps,
-        odometer_sigma=p.aiding.odometer_sigma_mps,
-        zupt_sigma=p.aiding.zupt_sigma_mps,
-        zaru_sigma=p.aiding.zaru_sigma_dps * DEG,
-        mounting=np.radians(p.aiding.mounting_deg),
-        stationary_accel=p.aiding.stationary.accel_mps2,
-        stationary_gyro=p.aiding.stationary.gyro_dps * DEG,
-        stationary_window=p.aiding.stationary.window_s,
-    )
+    cfg = loose_config(p, dt, lever)
     stat_w = p.aiding.stationary_windows_s
     stat_w = None if stat_w is None else [(t0 + a, t0 + b) for a, b in stat_w]
     use_vel = g.use_velocity
@@ -342,11 +307,21 @@ def run(scenario, seed, *, sink=None, progress=None):
         ref = full.lla[ref_sel][idx[hit]]
         mats = rotation.mat_from_quat(quat)
         scores["fwd"] = outages.score(
-            time[hit], _antenna(quat, lla_f, lever, vel_f, off_f)[hit], None, ref, None, wins
+            time[hit],
+            loose.antenna_positions(quat, lla_f, lever, vel_f, off_f)[hit],
+            None,
+            ref,
+            None,
+            wins,
         )
         if sm is not None:
             scores["sm"] = outages.score(
-                time[hit], _antenna(sq, sl, lever, sv, off_s)[hit], None, ref, None, wins
+                time[hit],
+                loose.antenna_positions(sq, sl, lever, sv, off_s)[hit],
+                None,
+                ref,
+                None,
+                wins,
             )
         del mats
     td = cfg.n_base if p.time.state else None
@@ -371,14 +346,14 @@ def run(scenario, seed, *, sink=None, progress=None):
     if fit is not None:
         out.update(
             post_time_offset_fit_s=fit.offset,
-            post_time_offset_fit_sigma_s=_null(fit.offset_sigma),
+            post_time_offset_fit_sigma_s=run_ekf_post_report.null(fit.offset_sigma),
             post_clock_rate_ppm=fit.rate * 1e6,
             post_time_fit_residual_rms_s=float(
                 np.sqrt(
                     np.mean((fit.to_gnss(fit.lags[:, 0] - fit.lags[:, 1]) - fit.lags[:, 0]) ** 2)
                 )
             ),
-            post_clock_rate_sigma_ppm=_null(fit.rate_sigma * 1e6),
+            post_clock_rate_sigma_ppm=run_ekf_post_report.null(fit.rate_sigma * 1e6),
         )
     if td is not None:
         est, sd = float(x_last[td]), float(math.sqrt(P_last[td, td]))
@@ -433,7 +408,7 @@ def run(scenario, seed, *, sink=None, progress=None):
         datasets[f"post/outages/{key}/window"] = Series(sc.window - t0, "s", "", "from run start")
         datasets[f"post/outages/{key}/max_horizontal"] = Series(sc.max_horizontal, "m", "", "")
         datasets[f"post/outages/{key}/max_3d"] = Series(sc.max_3d, "m", "", "")
-    report = _report(p, out, scores, fit, t0, wins)
+    report = run_ekf_post_report.report(p, out, scores, fit, t0, wins)
     return CommandResult(
         command="run-ekf",
         results=out,
@@ -460,284 +435,6 @@ def _attitude_scores(out, time, quat, squat, tg, ref_att, t0, p):
         out[f"post_{key}heading_diff_std_deg"] = float(e[:, 2].std())
         tilt.append(float(np.abs(e[:, :2].mean(0)).max()))
     out["post_tilt_diff_max_deg"] = max(tilt)
-
-
-def _null(v):
-    return None if v is None or not np.isfinite(v) else float(v)
-
-
-def _sigma(v, unit):
-    return "off" if v <= 0 else f"{v:g} {unit}"
-
-
-def _fmt(v, spec=".3g"):
-    return "n/a" if v is None else format(v, spec)
-
-
-def _report(p, out, scores, fit, t0, wins):
-    lines = [
-        f"loosely coupled post-processing of {p.gnss.file.name} + {p.imu.file.name}: "
-        f"{out['post_epochs']} epochs, {out['post_gnss_used']} GNSS updates, "
-        f"{'24' if p.misalignments else '15'} states"
-        f"{' + time offset' if p.time.state else ''}, {'FB' if p.feedback else 'FF'}, "
-        f"smoother {p.smoother}",
-        f"filter {out['post_filter_wall_s']:.3g} s, smoother {_fmt(out['post_smoother_wall_s'])} s"
-        " (first run includes JIT compilation); position NIS mean "
-        f"{_fmt(out['post_nis_pos_mean'])}",
-        f"initial heading {out['post_initial_heading_deg']:.2f} deg ("
-        + (
-            "from the first motion)"
-            if p.init == "motion"
-            else "the reference's + init_heading_error_deg)"
-        ),
-        f"aiding: NHC {_sigma(p.aiding.nhc_sigma_mps, 'm/s')}, ZUPT "
-        f"{_sigma(p.aiding.zupt_sigma_mps, 'm/s')}, ZARU {_sigma(p.aiding.zaru_sigma_dps, 'deg/s')}"
-        f"; {out['post_stationary_epochs']} stationary epochs; mounting "
-        f"{list(p.aiding.mounting_deg)} deg",
-    ]
-    if fit is not None:
-        lines.append(
-            f"time mapping (turn-rate fit, {len(fit.lags)} windows): GNSS = IMU + "
-            f"{fit.offset:.4f} s (1-sigma {_fmt(out['post_time_offset_fit_sigma_s'])} s), rate "
-            f"{fit.rate * 1e6:.0f} ppm (1-sigma {_fmt(out['post_clock_rate_sigma_ppm'], '.0f')}); "
-            f"window lags scatter {1e3 * out['post_time_fit_residual_rms_s']:.0f} ms RMS about "
-            "the line"
-        )
-    if out["post_time_offset_state_s"] is not None:
-        lines.append(
-            f"residual time-offset state: {1e3 * out['post_time_offset_state_s']:.1f} ms "
-            f"+- {1e3 * out['post_time_offset_state_sigma_s']:.2f} ms (a solution tagged t "
-            "was taken at IMU time t + offset)"
-        )
-    if out["post_heading_diff_mean_deg"] is not None:
-        lines.append(
-            f"attitude against the reference from {p.score_from_s:g} s: heading "
-            f"{out['post_heading_diff_mean_deg']:.3f} deg mean "
-            f"(std {out['post_heading_diff_std_deg']:.3f}) forward, "
-            f"{_fmt(out['post_sm_heading_diff_mean_deg'], '.3f')} deg "
-            f"(std {_fmt(out['post_sm_heading_diff_std_deg'], '.3f')}) smoothed; "
-            f"roll/pitch mean within {out['post_tilt_diff_max_deg']:.3f} deg"
-        )
-    lines.append(
-        "sensor estimates: accel bias "
-        + ", ".join(f"{out[f'post_accel_bias_{a}_ug']:.0f}" for a in "xyz")
-        + " ug; gyro bias "
-        + ", ".join(f"{out[f'post_gyro_bias_{a}_dph']:.1f}" for a in "xyz")
-        + " deg/h"
-    )
-    if scores:
-        rows = []
-        f = scores["fwd"]
-        sm = scores.get("sm")
-        for i, (a, b) in enumerate(f.window):
-            rows.append(
-                [
-                    f"{a - t0:.0f}-{b - t0:.0f}",
-                    float(f.max_horizontal[i]),
-                    float(f.max_3d[i]),
-                    float(sm.max_horizontal[i]) if sm else math.nan,
-                    float(sm.max_3d[i]) if sm else math.nan,
-                ]
-            )
-        lines += [
-            "",
-            f"outages ({len(wins)}), max drift against the reference epochs (Q={p.reference_q}), m",
-            format_table(rows, ["window s", "fwd hor", "fwd 3D", "sm hor", "sm 3D"]),
-            f"RMS of the maxima: forward {out['post_fwd_drift_hor_rms_m']:.3g} m horizontal, "
-            f"{out['post_fwd_drift_3d_rms_m']:.3g} m 3D; smoothed "
-            f"{_fmt(out['post_sm_drift_hor_rms_m'])} m, {_fmt(out['post_sm_drift_3d_rms_m'])} m",
-        ]
-    return "\n".join(lines)
-
-
-# --------------------------------------------------------------------------- figures
-
-
-def _pyplot():
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    return plt
-
-
-def _local(lla, origin):
-    """East, north (m) of positions about ``origin`` (flat-Earth at the origin)."""
-    d = error_model.position_error_ned(lla, np.broadcast_to(origin, lla.shape))
-    return d[:, 1], d[:, 0]
-
-
-def _shade(ax, result):
-    for a, b in result.datasets["post/outage_windows"].data:
-        ax.axvspan(a, b, color="0.85", lw=0)
-
-
-def _antenna_of(ds, key, lever):
-    off = ds.get(f"post/{key}/time_offset")
-    return _antenna(
-        ds[f"post/{key}/quat_nb"].data,
-        ds[f"post/{key}/lla"].data,
-        lever,
-        ds[f"post/{key}/vel_n"].data,
-        None if off is None else off.data,
-    )
-
-
-def fig_trajectory(result, path):
-    """Trajectory on a local map: reference, forward and smoothed antenna positions."""
-    plt = _pyplot()
-    ds = result.datasets
-    ref = ds["post/reference/lla"].data
-    origin = ref[0]
-    fig, ax = plt.subplots(figsize=(7, 7), layout="constrained")
-    e, n = _local(ref, origin)
-    ax.plot(e, n, ".", ms=2, color="0.5", label="reference")
-    lever = ds["post/lever_arm"].data
-    for key, style in (("forward", "-"), ("smoothed", "--")):
-        if f"post/{key}/lla" in ds:
-            ant = _antenna_of(ds, key, lever)
-            e, n = _local(ant, origin)
-            ax.plot(e, n, style, lw=0.9, label=key)
-    ax.set_aspect("equal")
-    ax.set_xlabel("east (m)")
-    ax.set_ylabel("north (m)")
-    ax.legend(fontsize=8)
-    ax.grid(alpha=0.3)
-    fig.savefig(path, dpi=110, format="png")
-    plt.close(fig)
-
-
-def fig_errors(result, path):
-    """Horizontal position error against the reference vs time, with the filter's
-    +-3 sigma (horizontal, from the north and east sigmas), outages shaded."""
-    plt = _pyplot()
-    ds = result.datasets
-    t = ds["post/time"].data
-    rt, ref = ds["post/reference/time"].data, ds["post/reference/lla"].data
-    idx = np.clip(np.searchsorted(rt, t), 0, rt.size - 1)
-    hit = np.abs(rt[idx] - t) < 1e-6
-    lever = ds["post/lever_arm"].data
-    fig, ax = plt.subplots(figsize=(10, 4.5), layout="constrained")
-    _shade(ax, result)
-    for key in ("forward", "smoothed"):
-        if f"post/{key}/lla" not in ds:
-            continue
-        ant = _antenna_of(ds, key, lever)
-        err = error_model.position_error_ned(ant[hit], ref[idx[hit]])
-        sig = ds[f"post/{key}/sigma"].data[hit]
-        (line,) = ax.plot(t[hit], np.hypot(err[:, 0], err[:, 1]), lw=0.8, label=f"{key} error")
-        ax.plot(
-            t[hit],
-            3 * np.hypot(sig[:, 0], sig[:, 1]),
-            ":",
-            color=line.get_color(),
-            lw=0.8,
-            label=f"{key} 3 sigma",
-        )
-    ax.set_yscale("log")
-    ax.set_xlabel("time from the first GNSS epoch (s); outages shaded")
-    ax.set_ylabel("horizontal error (m)")
-    ax.legend(fontsize=8)
-    ax.grid(alpha=0.3)
-    fig.savefig(path, dpi=110, format="png")
-    plt.close(fig)
-
-
-def _sensor_figure(result, path, lo, scale, unit, title):
-    plt = _pyplot()
-    ds = result.datasets
-    t = ds["post/time"].data
-    fig, ax = plt.subplots(figsize=(10, 4.5), layout="constrained")
-    _shade(ax, result)
-    key = "smoothed" if "post/smoothed/sensors" in ds else "forward"
-    est = ds[f"post/{key}/sensors"].data[:, lo : lo + 3] * scale
-    sig = ds[f"post/{key}/sigma"].data[:, 9 + lo : 12 + lo] * scale
-    for i, axis in enumerate("xyz"):
-        (line,) = ax.plot(t, est[:, i], lw=0.9, label=f"{axis}")
-        ax.fill_between(
-            t,
-            est[:, i] - 3 * sig[:, i],
-            est[:, i] + 3 * sig[:, i],
-            color=line.get_color(),
-            alpha=0.15,
-            lw=0,
-        )
-    ax.set_xlabel("time (s); outages shaded; bands +-3 sigma")
-    ax.set_ylabel(f"{title} ({unit}), {key}")
-    ax.legend(fontsize=8)
-    ax.grid(alpha=0.3)
-    fig.savefig(path, dpi=110, format="png")
-    plt.close(fig)
-
-
-def fig_gyro_bias(result, path):
-    """Gyro bias estimates (deg/h) with +-3 sigma."""
-    _sensor_figure(result, path, 3, 3600.0 / DEG, "deg/h", "gyro bias")
-
-
-def fig_accel_bias(result, path):
-    """Accelerometer bias estimates (ug) with +-3 sigma."""
-    _sensor_figure(result, path, 0, 1.0 / UG, "ug", "accel bias")
-
-
-def fig_innovations(result, path):
-    """Position innovations (m) per axis over time."""
-    plt = _pyplot()
-    ds = result.datasets
-    t = ds["post/time"].data
-    y = ds["post/innovation"].data
-    fig, ax = plt.subplots(figsize=(10, 4.5), layout="constrained")
-    _shade(ax, result)
-    for i, axis in enumerate("NED"):
-        ax.plot(t, y[:, i], ".", ms=1.5, label=axis)
-    ax.set_xlabel("time (s); outages shaded")
-    ax.set_ylabel("position innovation (m)")
-    ax.legend(fontsize=8)
-    ax.grid(alpha=0.3)
-    fig.savefig(path, dpi=110, format="png")
-    plt.close(fig)
-
-
-POST_FIGURES = {
-    "run-ekf-heading-error.png": fig_errors,
-    "run-ekf-gyro-bias.png": fig_gyro_bias,
-    "run-ekf-misalignment.png": fig_accel_bias,
-    "run-ekf-fb-corrections.png": fig_innovations,
-    "run-ekf-trajectory.png": fig_trajectory,
-}
-"""A post run's figure for each of run-ekf's figure names (the names are fixed per
-command: a post run draws its own figure under each)."""
-
-
-def _tight_trajectory(result, path):
-    """Tight runs: the corrected trajectory on a local map."""
-    plt = _pyplot()
-    lla = result.datasets["nav/lla"].data
-    e, n = _local(lla, lla[0])
-    fig, ax = plt.subplots(figsize=(7, 7), layout="constrained")
-    ax.plot(e, n, lw=0.9)
-    ax.set_aspect("equal")
-    ax.set_xlabel("east (m)")
-    ax.set_ylabel("north (m)")
-    ax.grid(alpha=0.3)
-    fig.savefig(path, dpi=110, format="png")
-    plt.close(fig)
-
-
-def with_post_figures(tight):
-    """run-ekf's figure table: each name draws the tight figure or the post one."""
-
-    def pick(name):
-        def draw(result, path):
-            if "post" in result.attrs:
-                return POST_FIGURES[name](result, path)
-            return tight.get(name, _tight_trajectory)(result, path)
-
-        draw.__doc__ = (POST_FIGURES[name].__doc__ or "").strip()
-        return draw
-
-    return {name: pick(name) for name in (*tight, *(k for k in POST_FIGURES if k not in tight))}
 
 
 # --------------------------------------------------------------------------- tight smoothing

@@ -27,6 +27,7 @@ _UNITS = (  # state-name prefix -> (lab unit, SI per lab unit)
     ("mg_", "arcsec", ARCSEC),
     ("clock_bias", "m", 1.0),
     ("clock_drift", "m/s", 1.0),
+    ("isb_", "m", 1.0),
 )
 _GYRO_MIS = ("mg_xy", "mg_xz", "mg_yx", "mg_yz", "mg_zx", "mg_zy")
 _ACCEL_MIS = ("ma_yx", "ma_zx", "ma_zy")
@@ -40,12 +41,13 @@ def lab_unit(name):
     return "SI", 1.0
 
 
-def state_truth(errors, names):
+def state_truth(errors, names, system_bias=None):
     """``{state: true value (SI)}`` of the sensor states of a simulated flight (biases,
-    misalignments), empty without truth (``errors`` None, a recording)."""
+    misalignments) and of its inter-system bias states (``system_bias``: ``{name: m}``),
+    empty without truth (``errors`` None, a recording)."""
     if errors is None:
         return {}
-    truth = {}
+    truth = dict(system_bias or {})
     for i, axis in enumerate("xyz"):
         truth[f"bg_{axis}"] = float(errors.gyro_bias[i])
         truth[f"ba_{axis}"] = float(errors.accel_bias[i])

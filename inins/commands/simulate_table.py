@@ -8,9 +8,10 @@ summary numbers and the report.
 import numpy as np
 
 from inins.commands import figures
-from inins.commands._table import stream, table_estimate, table_layout, table_simulation
+from inins.commands._table import stream, table_estimate, table_layout
 from inins.core.units import DEG_RTH, DPH, PPM, UG, UG_RTHZ
 from inins.results import CommandResult, NullSink, format_table
+from inins.scenario.si.table import table_simulation
 from inins.scenario.simulate_table import SimulateTableScenario
 
 SCENARIO_MODEL = SimulateTableScenario

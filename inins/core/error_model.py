@@ -158,9 +158,17 @@ UNITS = {n: u for g, u in _GROUP_UNITS for n in GROUPS[g]} | {
 }
 """SI unit of every state name."""
 
+SYSTEM_BIASES = ("isb_R", "isb_E", "isb_C", "isb_J")
+"""Receiver inter-system code bias (m) of GLONASS, Galileo, BeiDou and QZSS pseudoranges
+against the reference system's clock: the tightly coupled filter appends one per further
+system it uses (:class:`inins.ekf.config.FilterConfig`). Filter states only, outside
+:data:`GROUPS` (the error model of :func:`system_matrix` has no use for them)."""
+UNITS |= dict.fromkeys(SYSTEM_BIASES, "m")
+
 _ALL = tuple(name for names in GROUPS.values() for name in names)
 _POS = {name: i for i, name in enumerate(_ALL)}
 _GROUP_OF = {name: group for group, names in GROUPS.items() for name in names}
+_GROUP_OF |= dict.fromkeys(SYSTEM_BIASES, "inter_system_bias")
 
 
 @dataclass(frozen=True)
@@ -178,7 +186,7 @@ class StateLayout:
     def __post_init__(self):
         names = tuple(self.names)
         object.__setattr__(self, "names", names)
-        unknown = [n for n in names if n not in _POS]
+        unknown = [n for n in names if n not in _GROUP_OF]
         if unknown:
             raise ValueError(f"unknown state names {unknown}; known: {list(_ALL)}")
         if len(set(names)) != len(names):

@@ -6,7 +6,8 @@ from enum import Enum
 
 import numpy as np
 
-from inins.core.error_model import EKF17, EKF26
+from inins.core.error_model import EKF17, EKF26, SYSTEM_BIASES, StateLayout
+from inins.core.satellites import LETTERS
 from inins.ekf.measurements import GnssEpoch
 from inins.exceptions import InputError
 from inins.gnss.orbit import C
@@ -49,7 +50,8 @@ def _vec(name, value, low, high):
 
 @dataclass(frozen=True, eq=False)
 class InitialSigma:
-    """Initial 1-sigma of the error states (SI: m, m/s, rad, m/s^2, rad/s, rad, m, m/s)."""
+    """Initial 1-sigma of the error states (SI: m, m/s, rad, m/s^2, rad/s, rad, m, m/s;
+    ``system_bias`` m, each inter-system bias state)."""
 
     position: float = 5.0
     velocity: float = 0.1
@@ -61,13 +63,15 @@ class InitialSigma:
     gyro_misalignment: float = 2e-4
     clock_bias: float = 30.0
     clock_drift: float = 3.0
+    system_bias: float = 100.0
 
-    def covariance(self, n):
-        """Diagonal ``P0`` (n, n) for 17 or 26 states."""
+    def covariance(self, n, n_bias=0):
+        """Diagonal ``P0`` (n + n_bias, n + n_bias) for 17 or 26 states and ``n_bias``
+        inter-system bias states after them."""
         s = [self.position] * 3 + [self.velocity] * 3 + [self.tilt] * 2 + [self.heading]
         s += [self.accel_bias] * 3 + [self.gyro_bias] * 3 + [self.clock_bias, self.clock_drift]
         s += [self.accel_misalignment] * 3 + [self.gyro_misalignment] * 6
-        return np.diag(np.square(s[:n]))
+        return np.diag(np.square(s[:n] + [self.system_bias] * n_bias))
 
 
 @dataclass(frozen=True, eq=False)
@@ -103,6 +107,13 @@ class FilterConfig:
     pps_storage : bool
         True: the update uses the INS state stored at the 1PPS epoch (003 §2.1).
         False: the naive pairing with the INS state at the data's arrival (for study).
+    systems : str
+        RINEX letters of the systems whose pseudoranges the filter takes (``"GR"``): the
+        first carries the receiver clock alone, each further one adds an inter-system
+        bias state (m) after the 17 or 26 states (:data:`SYSTEM_BIASES` order of the
+        letters R E C J). An epoch with a satellite of another system is refused.
+    system_bias_psd : float
+        Random-walk density of each inter-system bias state (m^2/s); 0: constant.
     """
 
     model: Model
@@ -121,6 +132,8 @@ class FilterConfig:
     outages: tuple = ()
     use_range_rate: bool = True
     pps_storage: bool = True
+    systems: str = "G"
+    system_bias_psd: float = 0.0
 
     def __post_init__(self):
         if not isinstance(self.model, Model) or not isinstance(self.coupling, Coupling):
@@ -146,11 +159,40 @@ class FilterConfig:
             if not b > a:
                 raise InputError(f"outage end {b} s not after start {a} s", key=f"outages.{i}")
         object.__setattr__(self, "outages", outages)
+        systems = str(self.systems)
+        if not systems or len(set(systems)) != len(systems) or set(systems) - set("GRECJ"):
+            raise InputError(
+                f"systems must be distinct letters of G R E C J, got {systems!r}", key="systems"
+            )
+        if not 0.0 <= self.system_bias_psd < 1e6:
+            raise InputError(
+                f"must be in [0, 1e6), got {self.system_bias_psd}", key="system_bias_psd"
+            )
+        object.__setattr__(self, "systems", systems)
+
+    @property
+    def bias_names(self):
+        """Names of the inter-system bias states, in state order (empty for one system)."""
+        others = set(self.systems[1:])
+        return tuple(n for n in SYSTEM_BIASES if n[-1] in others)
 
     @property
     def layout(self):
-        """State layout of the model."""
-        return self.model.layout
+        """State layout: the model's 17 or 26 states, then the inter-system biases."""
+        if len(self.systems) == 1:
+            return self.model.layout
+        return self.model.layout + StateLayout(self.bias_names)
+
+    def bias_columns(self):
+        """State column of each satellite system's inter-system bias (int64 array over the
+        system indices of :data:`inins.core.satellites.LETTERS`): -1 for the reference
+        system (the receiver clock alone), -2 for a system the filter does not take."""
+        out = np.full(len(LETTERS), -2, np.int64)
+        out[LETTERS.index(self.systems[0])] = -1
+        base = len(self.model.layout)
+        for j, name in enumerate(self.bias_names):
+            out[LETTERS.index(name[-1])] = base + j
+        return out
 
     def in_outage(self, time):
         """True if ``time`` (s) falls in a configured outage window."""
@@ -162,7 +204,11 @@ class TruthEpoch:
     """Truth at a 1PPS epoch (simulation only): IMU ``mat_nb`` (3, 3), ``vel_n`` (3) m/s,
     ``lla`` (3) rad, rad, m, receiver clock bias (m) and drift (m/s); ``at_arrival``
     the IMU ``(mat_nb, vel_n, lla)`` at the data arrival, which scores the naive
-    pairing (optional: None where the source gives none)."""
+    pairing (optional: None where the source gives none); ``system_bias`` the bias (m)
+    the receiver adds to each system's pseudoranges, over the system indices of
+    :data:`inins.core.satellites.LETTERS` (None: none; the filter's clock then
+    estimates ``clock_bias`` plus its reference system's bias, and each bias state the
+    difference to the reference)."""
 
     mat_nb: np.ndarray
     vel_n: np.ndarray
@@ -170,6 +216,7 @@ class TruthEpoch:
     clock_bias: float
     clock_drift: float
     at_arrival: tuple | None = None
+    system_bias: np.ndarray | None = None
 
 
 @dataclass(frozen=True, eq=False)

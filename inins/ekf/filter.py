@@ -19,7 +19,10 @@ Per epoch ``k`` (1PPS time ``t_k``, data arriving at ``t_k + tau``):
 3. Update at ``t_k`` with the stored state: scalar Joseph updates per pseudorange
    and range rate, each gated on chi-square(1) (:func:`inins.ekf.kernels.sequential_update`).
    The measurement is predicted at the corrected INS state ``nav (-) x``; epochs
-   without satellites or inside an outage window are coasted.
+   without satellites or inside an outage window are coasted. With several systems
+   (:attr:`inins.ekf.config.FilterConfig.systems`) a pseudorange of a further system
+   also has 1 at its inter-system bias state (appended after the 17 or 26 states,
+   random walk, never reset by the feedback; docs/gnss.md).
 4. FF: nothing else; the output is ``nav (-) x``. FB: the correction, carried over
    the latency by ``I + F tau``, is applied to the current INS state, the sensor
    estimates are added to the compensation, those states reset to zero and the
@@ -48,6 +51,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from inins.core import error_model, rotation
+from inins.core.satellites import LETTERS
 from inins.core.stats import chi2_ppf
 from inins.core.strapdown import FreeInertial
 from inins.ekf import step
@@ -162,12 +166,14 @@ class _Run:
     def __init__(self, config, initial, t0):
         self.cfg = config
         n = self.n = len(config.layout)
+        base = len(config.model.layout)  # 17 or 26; inter-system biases after them
         self.keep_phi = False  # accumulate Phi over sub-intervals (a smoother's store)
         self.x = np.zeros(n)
-        self.P = config.initial_sigma.covariance(n)
+        self.P = config.initial_sigma.covariance(base, n - base)
         self.comp = np.zeros(15)
         self.cum = np.zeros(9)
-        self.sens = _sensor_index(n)
+        self.sens = _sensor_index(base)
+        self.bias_columns = config.bias_columns()
         self.nav = FreeInertial(initial)
         self.t_prev = t0
         self.clock_ready = False
@@ -183,6 +189,7 @@ class _Run:
                 config.accel_bias_rw,
                 config.gyro_bias_rw,
                 [config.clock_bias_psd, config.clock_drift_psd],
+                [config.system_bias_psd] * (n - base),
             ]
         )
         self.lever = np.asarray(config.lever_arm, dtype=float)
@@ -246,6 +253,14 @@ class _Run:
         rows = np.arange(2 * k) if self.cfg.use_range_rate else np.arange(0, 2 * k, 2)
         acc = np.zeros(rows.size, dtype=np.bool_)
         y, s = np.empty(rows.size), np.empty(rows.size)
+        bias_col = self.bias_columns[gnss.system]
+        if bias_col.min() < -1:
+            letters = sorted({LETTERS[i] for i in gnss.system[bias_col < -1].tolist()})
+            raise InputError(
+                f"satellites of system {''.join(letters)} at t = {gnss.time:.3f} s, which the "
+                f"filter does not take (systems {self.cfg.systems})",
+                key="systems",
+            )
         step.update(
             self.x,
             self.P,
@@ -263,6 +278,7 @@ class _Run:
             gnss.sat_clock_drift,
             gnss.sigma_pr,
             gnss.sigma_rr,
+            bias_col,
             self.threshold,
             self.cfg.use_range_rate,
             not self.clock_ready,
@@ -383,11 +399,30 @@ def run_filter(config, initial, t0, epochs, true_sensor=None, store=None):
         raise InputError("no satellites above the mask in any epoch of the run", key="gnss")
     result = EkfResult.from_log(cfg, log, t_end - t0, wall)
     if log.truth and len(log.truth) == len(log.time):
-        result = score(result, log, true_sensor, pps_storage=cfg.pps_storage)
+        result = score(result, log, true_sensor, pps_storage=cfg.pps_storage, systems=cfg.systems)
     return result
 
 
-def score(result, log, true_sensor=None, *, pps_storage=True):
+def _bias_names(layout):
+    """The inter-system bias states of a layout (the last states)."""
+    return tuple(n for n in layout.names if n in error_model.SYSTEM_BIASES)
+
+
+def _true_biases(truths, names, systems):
+    """(m, 1 + len(names)) true biases: the reference system's (the clock carries it),
+    then each bias state's (its system's minus the reference's); None if no truth
+    carries a ``system_bias`` (one without counts as no bias)."""
+    if all(t.system_bias is None for t in truths):
+        return None
+    index = [LETTERS.index(systems[0])] + [LETTERS.index(n[-1]) for n in names]
+    zero = np.zeros(len(LETTERS))
+    b = np.array([zero if t.system_bias is None else t.system_bias for t in truths])
+    b = b.reshape(-1, len(LETTERS))[:, index]
+    b[:, 1:] -= b[:, :1]
+    return b
+
+
+def score(result, log, true_sensor=None, *, pps_storage=True, systems="G"):
     """The result with its errors against truth: output error, heading error, NEES.
 
     Vectorised over the epochs, after the run. The navigation truth is the one at
@@ -402,6 +437,9 @@ def score(result, log, true_sensor=None, *, pps_storage=True):
     true_sensor : inins.core.imu.SensorErrors, optional
         Constant true sensor errors: with them the NEES of all states.
     pps_storage : bool
+    systems : str
+        The filter's systems (:class:`~inins.ekf.config.FilterConfig`), the first the
+        reference of the inter-system biases.
 
     Returns
     -------
@@ -431,6 +469,10 @@ def score(result, log, true_sensor=None, *, pps_storage=True):
     if true_sensor is not None:
         n = result.state.shape[1]
         clock = np.array([[t.clock_bias, t.clock_drift] for t in truths]).reshape(-1, 2)
+        base = n - len(_bias_names(result.layout))
+        biases = _true_biases(truths, _bias_names(result.layout), systems)
+        if biases is not None:
+            clock[:, 0] += biases[:, 0]  # the clock carries the reference system's bias
         true = np.concatenate(
             [
                 np.zeros((len(truths), 9)),
@@ -445,7 +487,9 @@ def score(result, log, true_sensor=None, *, pps_storage=True):
                 ),
             ],
             axis=1,
-        )[:, :n]
+        )[:, :base]
+        if biases is not None:
+            true = np.concatenate([true, biases[:, 1:]], axis=1)
         # the navigation states estimate the INS error: their estimation error is minus
         # the output error; sensor and clock states estimate the quantity itself
         e = result.state - true

@@ -9,7 +9,8 @@ against the core to rounding and the discretisation against van Loan.
 
 State order is :data:`inins.core.error_model.EKF26`; :data:`~inins.core.error_model.EKF17`
 is its first 17 states, so every function takes the size ``n`` (17 or 26) and
-uses the leading block.
+uses the leading block; the inter-system bias states a multi-system filter appends
+(at most 4: ``n`` < 26 stays EKF17) have zero rows of ``F``.
 """
 
 import math
@@ -115,7 +116,7 @@ def system_matrix26(lat, h, vel, f_b, mat_nb, omega_b, F):
             F[ATT + i, VEL + j] = j_v[i, j]
             F[ATT + i, BG + j] = -mat_nb[i, j]
     F[CLK, CLK + 1] = 1.0
-    if n > MA:
+    if n >= MG + 6:  # EKF26 (+ inter-system biases, constant states: rows left zero)
         for k in range(3):
             a, b = _MA_PAIRS[k]
             for i in range(3):

@@ -47,7 +47,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from inins.core import earth, jit, rotation, stats, strapdown
+from inins.core import earth, error_model, jit, rotation, stats, strapdown
 from inins.ekf import aiding, kernels, step
 from inins.exceptions import InputError
 
@@ -716,3 +716,14 @@ def _epoch_grid(t):
     times.append(t[lo + 1 :])
     idx.append(np.arange(lo + 1, t.size))
     return np.concatenate(times), np.concatenate(idx)
+
+
+def antenna_positions(quat, lla, lever, vel=None, offset=None):
+    """Antenna positions (lla, (m, 3)) of IMU states ``quat`` (m, 4), ``lla`` (m, 3) with the
+    body lever arm ``lever`` (3,); with ``vel`` (m, 3) and the time ``offset`` (s, per
+    epoch or one) carried to the instant a solution with the same tag was taken (IMU
+    time t + offset): ``lla + C_nb l_b + v offset``."""
+    shift = rotation.mat_from_quat(quat) @ lever
+    if vel is not None and offset is not None:
+        shift = shift + vel * np.reshape(offset, (-1, 1))
+    return error_model.lla_offset(lla, shift)

@@ -3,10 +3,11 @@
 The GNSS layer (or a recording) delivers, per 1PPS epoch, one :class:`GnssEpoch`.
 Models (spec §6a, clock terms in metres)::
 
-    rho    = |r_sat - r_ant| + b - sat_clock + delay + noise
+    rho    = |r_sat - r_ant| + b + b_s - sat_clock + delay + noise
     rhodot = (v_sat - v_ant) . e + d - sat_clock_drift + noise,   e = (r_sat - r_ant) / |.|
 
-with the receiver clock bias ``b`` (m) and drift ``d`` (m/s), the antenna at
+with the receiver clock bias ``b`` (m) and drift ``d`` (m/s), ``b_s`` the inter-system
+bias (m) of the satellite's system (zero for the filter's reference system), the antenna at
 ``r_ant = r_imu + mat_en mat_nb l_b`` and moving at
 ``v_ant = mat_en (v_n + mat_nb (omega_eb_b x l_b))`` (003 eqs. 8-9).
 """
@@ -39,7 +40,8 @@ class GnssEpoch:
     time : float
         Receiver time of the epoch on the IMU time axis (s).
     prn : ndarray, shape (k,)
-        Satellite numbers (int).
+        Satellite numbers (int, ``100 * system + number``: GPS PRN 5 is 5, GLONASS slot
+        9 is 109; :attr:`system` gives the system index).
     sat_pos, sat_vel : ndarray, shape (k, 3)
         Satellite ECEF position (m) and velocity (m/s) at transmit time, already
         rotated into the ECEF frame of the receive time (Sagnac).
@@ -102,6 +104,12 @@ class GnssEpoch:
     def __len__(self):
         return self.prn.size
 
+    @property
+    def system(self):
+        """System index of each satellite (k,) int64, ``prn // 100``
+        (:data:`inins.core.satellites.LETTERS`: 0 GPS, 1 GLONASS, 2 Galileo, 3 BeiDou)."""
+        return self.prn // 100
+
 
 def antenna(lla, vel_n, mat_nb, omega_eb_b, lever_b):
     """Antenna ECEF position (m) and velocity (m/s), each (3,), from the IMU state.
@@ -120,13 +128,14 @@ def antenna(lla, vel_n, mat_nb, omega_eb_b, lever_b):
     return r[0], v[0]
 
 
-def predict(epoch, r_ant, v_ant, clock_bias, clock_drift):
-    """Predicted pseudoranges (m) and range rates (m/s), each (k,), of an epoch."""
+def predict(epoch, r_ant, v_ant, clock_bias, clock_drift, system_bias=0.0):
+    """Predicted pseudoranges (m) and range rates (m/s), each (k,), of an epoch;
+    ``system_bias`` (scalar or (k,), m) the inter-system bias of each row."""
     d = epoch.sat_pos - r_ant
     rho = np.linalg.norm(d, axis=1)
     e = d / rho[:, None]
     rr = np.einsum("ij,ij->i", epoch.sat_vel - v_ant, e)
     return (
-        rho + clock_bias - epoch.sat_clock + epoch.delay,
+        rho + clock_bias + system_bias - epoch.sat_clock + epoch.delay,
         rr + clock_drift - epoch.sat_clock_drift,
     )

@@ -14,7 +14,7 @@ import numpy as np
 from inins.core import earth, rotation, strapdown
 from inins.ekf import sources
 from inins.exceptions import InputError
-from inins.gnss import ephemeris, measurements, simulate, spp
+from inins.gnss import broadcast, ephemeris, measurements, simulate, spp
 
 
 def imu_position(antenna_ecef, mat_nb, lever_b):
@@ -85,6 +85,7 @@ def prepare(
     motion_speed,
     lever_arm,
     source=None,
+    glonass=None,
 ):
     """Epochs, SPP fixes and the initial state of a recording (module docstring).
 
@@ -110,6 +111,9 @@ def prepare(
         Antenna minus IMU, body axes (m).
     source : str, optional
         File name for the messages.
+    glonass : inins.gnss.glonass.GlonassEphemeris, optional
+        GLONASS sets for GLONASS rows of ``obs`` (the Keplerian sets of every other
+        system are in ``eph_columns``).
 
     Returns
     -------
@@ -124,9 +128,10 @@ def prepare(
     inside = np.flatnonzero((t > imu_time[0] - 1.0) & (t < imu_time[-1] + 1.0))
     if inside.size == 0:
         raise InputError("no GNSS epoch during the IMU record", source=source, key="gnss")
-    epochs = measurements.attach_satellites(
-        obs.take_epochs(inside), ephemeris.from_columns(eph_columns), source=source
-    )
+    eph = ephemeris.from_columns(eph_columns)
+    if glonass is not None:
+        eph = broadcast.Navigation(kepler=eph, glonass=glonass)
+    epochs = measurements.attach_satellites(obs.take_epochs(inside), eph, source=source)
     t = epochs.obs.time - imu_t0_sow
     fix = spp.solve(epochs, spp.SppOptions(mask_rad=mask, klobuchar=klobuchar))
     fixed = np.flatnonzero(np.isfinite(fix.pos[:, 0]))
@@ -145,7 +150,7 @@ def prepare(
     )
 
 
-def epoch_stream(start, imu_time, dtheta, dv, latency, sigma_pr, sigma_rr):
+def epoch_stream(start, imu_time, dtheta, dv, latency, sigma_pr, sigma_rr, sigma_scale=None):
     """The :class:`~inins.ekf.config.EpochInput` stream of a prepared recording.
 
     Parameters
@@ -157,6 +162,8 @@ def epoch_stream(start, imu_time, dtheta, dv, latency, sigma_pr, sigma_rr):
         Data arrival after the epoch (s).
     sigma_pr, sigma_rr : float
         Measurement 1-sigma the filter uses (m, m/s).
+    sigma_scale : ndarray, shape (6,), optional
+        Factor on ``sigma_pr`` per system index.
     """
     gnss_list, _ = sources.filter_epochs(
         start.epochs,
@@ -167,6 +174,7 @@ def epoch_stream(start, imu_time, dtheta, dv, latency, sigma_pr, sigma_rr):
         start.mask,
         start.first_fix,
         start.klobuchar,
+        sigma_scale,
     )
     return sources.recorded_epochs(imu_time, dtheta, dv, start.t_start, gnss_list)
 

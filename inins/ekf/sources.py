@@ -19,6 +19,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from inins.core import earth, rotation, strapdown
+from inins.core.satellites import LETTERS
 from inins.ekf.config import EpochInput, TruthEpoch
 from inins.ekf.flight import imu_stream
 from inins.ekf.measurements import GnssEpoch
@@ -42,7 +43,17 @@ def _fill_fixes(pos, fallback):
     return out
 
 
-def filter_epochs(epochs, times, arrival, sigma_pr, sigma_rr, mask, fallback_pos, klobuchar=None):
+def filter_epochs(
+    epochs,
+    times,
+    arrival,
+    sigma_pr,
+    sigma_rr,
+    mask,
+    fallback_pos,
+    klobuchar=None,
+    sigma_scale=None,
+):
     """:class:`~inins.ekf.measurements.GnssEpoch` per epoch of a :class:`GnssEpochs`.
 
     Parameters
@@ -57,6 +68,9 @@ def filter_epochs(epochs, times, arrival, sigma_pr, sigma_rr, mask, fallback_pos
     fallback_pos : ndarray, shape (3,)
         ECEF position (m) used before the first SPP fix.
     klobuchar : tuple of two (4,) arrays, optional
+    sigma_scale : ndarray, shape (6,), optional
+        Factor on ``sigma_pr`` per system index (GLONASS's inter-frequency biases: a
+        larger sigma); default 1.
 
     Returns
     -------
@@ -71,6 +85,9 @@ def filter_epochs(epochs, times, arrival, sigma_pr, sigma_rr, mask, fallback_pos
     vel = propagation.sagnac_rotate(epochs.sat_vel, rng / C)
     pred = measurements.predict(epochs, rx, 0.0, 0.0, 0.0, klobuchar=klobuchar)
     keep = (pred.elevation >= mask) & np.isfinite(obs.range_rate)
+    row_sigma = np.full(obs.prn.size, float(sigma_pr))
+    if sigma_scale is not None:
+        row_sigma = row_sigma * np.asarray(sigma_scale, float)[obs.prn // 100]
     out = []
     for k in range(obs.n_epochs):
         rows = np.arange(obs.start[k], obs.start[k + 1])
@@ -86,7 +103,7 @@ def filter_epochs(epochs, times, arrival, sigma_pr, sigma_rr, mask, fallback_pos
                 epochs.sat_drift[rows],
                 obs.pseudorange[rows],
                 obs.range_rate[rows],
-                np.full(m, sigma_pr),
+                row_sigma[rows],
                 np.full(m, sigma_rr),
                 delay=pred.delay[rows],
                 arrival=float(arrival[k]),
@@ -99,7 +116,10 @@ def filter_epochs(epochs, times, arrival, sigma_pr, sigma_rr, mask, fallback_pos
 class Receiver:
     """Simulated receiver (SI): antenna lever arm (3,) m in body axes, mask (rad),
     white noise 1-sigma (m, m/s), TCXO Allan ``h0`` (s) and ``h_2`` (1/s), initial
-    clock bias (m) and drift (m/s), data latency (s), and the sigmas the filter uses."""
+    clock bias (m) and drift (m/s), data latency (s), the sigmas the filter uses, and
+    ``system_bias``: (system index, m) pairs, the inter-system bias the receiver adds
+    to that system's pseudoranges (constant); ``filter_sigma_scale`` the filter's factor
+    on its pseudorange sigma per system index (None: 1)."""
 
     lever_arm: tuple
     mask: float
@@ -112,6 +132,8 @@ class Receiver:
     latency: float
     filter_sigma_pr: float
     filter_sigma_rr: float
+    system_bias: tuple = ()
+    filter_sigma_scale: tuple | None = None
 
 
 def simulated_epochs(truth, base, errors, dt, duration, eph, week, sow0, rx, seed, *, nodes=3):
@@ -154,8 +176,17 @@ def simulated_epochs(truth, base, errors, dt, duration, eph, week, sow0, rx, see
     edges = np.minimum(edges, round(duration / dt))
     chunks = imu_stream(truth, errors, dt, edges, rng_imu, nodes=nodes)
     options = simulate.SimulationOptions(
-        mask_rad=rx.mask, sigma_pr_m=rx.sigma_pr, sigma_rate_mps=rx.sigma_rr, troposphere=True
+        mask_rad=rx.mask,
+        sigma_pr_m=rx.sigma_pr,
+        sigma_rate_mps=rx.sigma_rr,
+        troposphere=True,
+        system_bias_m=tuple(rx.system_bias),
     )
+    true_bias = None
+    if rx.system_bias:
+        true_bias = np.zeros(len(LETTERS))
+        for system, value in rx.system_bias:
+            true_bias[system] = value
     _, _, lla0 = base.state([0.0])
     last = earth.ecef_from_llh(*lla0[0])
     for lo in range(0, count, BLOCK_EPOCHS):
@@ -170,7 +201,14 @@ def simulated_epochs(truth, base, errors, dt, duration, eph, week, sow0, rx, see
             gnss_list = [_empty_epoch(tk, tk + rx.latency) for tk in t]
         else:
             gnss_list, last = filter_epochs(
-                gnss, t, t + rx.latency, rx.filter_sigma_pr, rx.filter_sigma_rr, rx.mask, last
+                gnss,
+                t,
+                t + rx.latency,
+                rx.filter_sigma_pr,
+                rx.filter_sigma_rr,
+                rx.mask,
+                last,
+                sigma_scale=rx.filter_sigma_scale,
             )
         mat, vel, lla = truth.state(t)
         late = truth.state(t + rx.latency)
@@ -189,6 +227,7 @@ def simulated_epochs(truth, base, errors, dt, duration, eph, week, sow0, rx, see
                     clock[k],
                     drift[k],
                     at_arrival=(late[0][j], late[1][j], late[2][j]),
+                    system_bias=true_bias,
                 ),
             )
 

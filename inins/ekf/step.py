@@ -81,7 +81,12 @@ def correct(quat, vel, lla, dx, out_quat, out_vel, out_lla):
 
 @jit.njit(cache=True)
 def propagate(x, P, F, Qc, Phi, Qd, quat, vel, lla, omega_b, f_b, dt_k, noise):
-    """Model at the mid-interval state, discretise, predict (``dt_k`` > 0)."""
+    """Model at the mid-interval state, discretise, predict (``dt_k`` > 0).
+
+    ``noise``: arw (3), vrw (3), accel and gyro bias walks (3 each), clock bias and drift
+    densities, then one random-walk density (m^2/s) per inter-system bias state (the
+    last ``noise.size - 14`` states).
+    """
     mat_nb = mat_from_quat(quat)
     kernels.system_matrix26(lla[0], lla[2], vel, f_b, mat_nb, omega_b, F)
     if dt_k <= 0.0:
@@ -89,6 +94,9 @@ def propagate(x, P, F, Qc, Phi, Qd, quat, vel, lla, omega_b, f_b, dt_k, noise):
     kernels.noise26(
         mat_nb, noise[0:3], noise[3:6], noise[6:9], noise[9:12], noise[12], noise[13], Qc
     )
+    base = x.shape[0] - (noise.shape[0] - 14)
+    for j in range(noise.shape[0] - 14):
+        Qc[base + j, base + j] = noise[14 + j]
     kernels.discretize(F, Qc, dt_k, Phi, Qd)
     kernels.predict(x, P, Phi, Qd)
 
@@ -111,6 +119,7 @@ def update(
     sat_clock_drift,
     sigma_pr,
     sigma_rr,
+    bias_col,
     threshold,
     use_rr,
     init_clock,
@@ -121,12 +130,17 @@ def update(
     """Measurement update at the PPS state (``k`` satellites, ``n`` states).
 
     Per satellite (k,): pseudorange (m), satellite clock (m), delay (m), range rate
-    (m/s), satellite clock drift (m/s), pseudorange and range-rate 1-sigma (m, m/s).
+    (m/s), satellite clock drift (m/s), pseudorange and range-rate 1-sigma (m, m/s),
+    and ``bias_col`` (int) the state of its system's inter-system bias, or -1 (the
+    reference system: the receiver clock alone). A pseudorange row has 1 at the clock
+    bias and 1 at its ``bias_col`` (the bias is common to code, not to range rate).
     ``sat_pos``, ``sat_vel`` (k, 3) ECEF; ``x`` (n,), ``P`` (n, n) updated in place.
     The rows are pseudorange, range rate per satellite (range rates skipped unless
     ``use_rr``): ``acc``, ``y``, ``s`` hold, per row used (2 k or k), the gate's
     verdict, the innovation and its variance. ``init_clock``: the clock states are
-    first set to the median residuals. Returns the number of accepted rows.
+    first set to the median residuals (the bias from the reference system's rows, or
+    all rows without one; each inter-system bias to its rows' median minus that).
+    Returns the number of accepted rows.
     """
     n, k = x.shape[0], sat_pos.shape[0]
     cq, cv, cl = np.empty(4), np.empty(3), np.empty(3)
@@ -156,15 +170,26 @@ def update(
         z[2 * i + 1] = range_rate[i] + sat_clock_drift[i]
         r[2 * i] = sigma_pr[i] ** 2
         r[2 * i + 1] = sigma_rr[i] ** 2
+    for i in range(k):
+        if bias_col[i] >= 0:
+            H[2 * i, bias_col[i]] = 1.0
     if init_clock:  # receiver clock from the first epoch's residuals
-        x[kernels.CLK] = np.median(z[0::2] - zhat[0::2])
+        res = z[0::2] - zhat[0::2]
+        ref = bias_col < 0
+        x[kernels.CLK] = np.median(res[ref]) if ref.any() else np.median(res)
         x[kernels.CLK + 1] = np.median(z[1::2] - zhat[1::2])
+        for c in range(kernels.CLK + 2, n):
+            own = bias_col == c
+            if own.any():
+                x[c] = np.median(res[own]) - x[kernels.CLK]
     step = 1 if use_rr else 2
     m = (2 * k + step - 1) // step
     y0, Hs, rs = np.empty(m), np.empty((m, n)), np.empty(m)
     for j in range(m):
         i = j * step
         y0[j] = z[i] - zhat[i] - x[kernels.CLK + i % 2]
+        if i % 2 == 0 and bias_col[i // 2] >= 0:
+            y0[j] -= x[bias_col[i // 2]]
         Hs[j] = H[i]
         rs[j] = r[i]
     return kernels.sequential_update(x, P, Hs, y0, rs, threshold, acc, y, s)

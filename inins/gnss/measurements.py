@@ -131,9 +131,9 @@ def code_pseudorange(p1, p2, c1, sat=None):
     """Pseudorange and its :class:`Signal` per row from RINEX code observables.
 
     Ionosphere-free ``(f1^2 P1 - f2^2 P2) / (f1^2 - f2^2)`` where P1 and P2 both
-    exist, else P1, else C1 (single-frequency L1). NaN where none exists. GLONASS
-    rows (``sat`` given) use their band ratio ``f1 / f2 = 9 / 7`` (the same for every
-    channel).
+    exist, else P1, else C1 (single-frequency L1). NaN where none exists. Rows of other
+    systems (``sat`` given) use their pair's ratio (:data:`inins.gnss.systems.GAMMA_DUAL`:
+    GLONASS G1/G2 ``9 / 7`` for every channel, Galileo E1/E5a, BeiDou B1I/B3I).
 
     Parameters
     ----------
@@ -149,11 +149,10 @@ def code_pseudorange(p1, p2, c1, sat=None):
     dual = np.isfinite(p1) & np.isfinite(p2)
     single = np.where(np.isfinite(p1), p1, c1)
     free = ionosphere_free(p1, p2)
-    if sat is not None and np.any(systems.system_of(sat) == systems.GLONASS):
-        gamma = (9.0 / 7.0) ** 2
-        free = np.where(
-            systems.system_of(sat) == systems.GLONASS, (gamma * p1 - p2) / (gamma - 1.0), free
-        )
+    if sat is not None and np.any(systems.system_of(sat) != systems.GPS):
+        system = systems.system_of(sat)
+        gamma = systems.GAMMA_DUAL[np.where(system < systems.SBAS, system, systems.GPS)]
+        free = np.where(system == systems.GPS, free, (gamma * p1 - p2) / (gamma - 1.0))
     pr = np.where(dual, free, single)
     return pr, np.where(dual, Signal.IONO_FREE, Signal.L1).astype(np.int8)
 
@@ -323,7 +322,9 @@ def attach_satellites(obs, eph, *, max_age_s=7200.0, source=None):
     obs = obs.take_rows(keep)
     index, week, t_sv = index[keep], week[keep], t_sv[keep]
     single = obs.signal == Signal.L1
-    tgd = np.where(single, C * broadcast.group_delay(nav, obs.prn, index), 0.0)
+    delay = C * broadcast.group_delay(nav, obs.prn, index)
+    dual = systems.dual_group_delay_factor(obs.prn)  # BeiDou B1I/B3I: 2.94 TGD1
+    tgd = np.where(single, delay, np.where(dual != 0.0, dual * delay, 0.0))
     t_tx = t_sv
     for _ in range(2):
         states = broadcast.satellite_states(nav, obs.prn, index, week, t_tx)
@@ -497,8 +498,16 @@ def ionosphere_rows(signal, choice, has_klobuchar):
     )
 
 
+def system_rows(obs, system_indices):
+    """The rows of ``obs`` whose satellite is of one of ``system_indices``
+    (:data:`inins.gnss.systems.SYSTEMS` values)."""
+    keep = np.isin(systems.system_of(obs.prn), np.asarray(system_indices, np.int64))
+    return obs if keep.all() else obs.take_rows(keep)
+
+
 def gps_rows(obs):
-    """The GPS rows of ``obs`` (a consumer with one receiver clock and no inter-system bias,
-    such as the tightly coupled filter, must not mix systems)."""
+    """The GPS rows of ``obs`` (for a consumer with one receiver clock and no inter-system
+    bias, which must not mix systems; the tightly coupled filter takes the systems it
+    has bias states for, :func:`system_rows`)."""
     gps = systems.system_of(obs.prn) == systems.GPS
     return obs if gps.all() else obs.take_rows(gps)

@@ -250,8 +250,12 @@ def _states(eph, nav, prn, index, week, t_tx, single, have):
     )
     pos[have], vel[have], drift[have] = flat.pos, flat.vel, flat.drift
     clock[have] = flat.clock
+    delay = C * broadcast.group_delay(nav, prn[have], index[have])
     if single:
-        clock[have] -= C * broadcast.group_delay(nav, prn[have], index[have])
+        clock[have] -= delay
+    else:  # the ionosphere-free pair's group delay (BeiDou B1I/B3I: 2.94 TGD1)
+        dual = systems.dual_group_delay_factor(prn[have])
+        clock[have] -= np.where(dual != 0.0, dual * delay, 0.0)
     return orbit.SatelliteStates(pos=pos, vel=vel, clock=clock, drift=drift)
 
 

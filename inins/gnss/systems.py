@@ -53,6 +53,10 @@ F_L2 = 1227.60e6
 """GPS L2 (Hz)."""
 F_B1I = 1561.098e6
 """BeiDou B1I carrier (Hz)."""
+F_E5A = 1176.45e6
+"""Galileo E5a (and GPS L5) carrier (Hz)."""
+F_B3I = 1268.52e6
+"""BeiDou B3I carrier (Hz), the reference of the broadcast BeiDou clock."""
 F_G1 = 1602.0e6
 """GLONASS G1 centre (Hz); channel k: ``F_G1 + k * DF_G1``."""
 DF_G1 = 0.5625e6
@@ -64,6 +68,33 @@ DF_G2 = 0.4375e6
 
 BEIDOU_GEO = frozenset((1, 2, 3, 4, 5, 59, 60, 61, 62, 63))
 """BeiDou PRNs in geostationary orbit (BDS-2 C01-C05, BDS-3 C59-C63)."""
+
+
+GAMMA_DUAL = np.array(
+    [
+        (F_L1 / F_L2) ** 2,
+        (9.0 / 7.0) ** 2,
+        (F_L1 / F_E5A) ** 2,
+        (F_B1I / F_B3I) ** 2,
+        (F_L1 / F_L2) ** 2,
+        (F_L1 / F_L2) ** 2,
+    ]
+)
+"""``(f1 / f2)^2`` of each system's dual-frequency code pair, by system index: GPS and
+QZSS L1/L2 P(Y), GLONASS G1/G2 (9/7, every channel), Galileo E1/E5a, BeiDou B1I/B3I
+(SBAS: unused)."""
+
+
+def dual_group_delay_factor(sat):
+    """Factor on the broadcast group delay (``tgd``, the band-1 one) that an ionosphere-free
+    pseudorange of each satellite carries, relative to the broadcast clock (1 (m,)):
+    0 where the clock refers to that combination (GPS and QZSS P1/P2, Galileo E1/E5a
+    with an F/NAV clock; GLONASS has no group delay), BeiDou ``gamma / (gamma - 1)``
+    with ``gamma = (f_B1I / f_B3I)^2`` (2.94): the clock refers to B3I, and B1I is
+    late by TGD1, so ``(gamma B1I - B3I) / (gamma - 1)`` is late by that many TGD1
+    (BDS-SIS-ICD-B1I 3.0 §5.2.4.10)."""
+    g = GAMMA_DUAL[BEIDOU]
+    return np.where(system_of(sat) == BEIDOU, g / (g - 1.0), 0.0)
 
 
 def system_of(sat):

@@ -15,8 +15,9 @@ antenna ECEF position, m, or NaN: a static station), optional ``iono_alpha``,
 
 ``/gnss/epoch/*`` one row per epoch; ``/gnss/obs/*`` one row per satellite
 measurement, rows of epoch ``k`` being ``start[k]:start[k + 1]``;
-``/gnss/ephemeris/*`` one row per broadcast ephemeris set; ``/imu/*`` one row
-per IMU sample (absent without IMU).
+``/gnss/ephemeris/*`` one row per broadcast ephemeris set (Keplerian: GPS, Galileo,
+BeiDou, QZSS); ``/gnss/glonass/*`` one row per GLONASS broadcast set (state vectors;
+absent without GLONASS); ``/imu/*`` one row per IMU sample (absent without IMU).
 """
 
 from dataclasses import dataclass
@@ -34,6 +35,22 @@ LAYOUT_VERSION = 1
 
 EPHEMERIS_FIELDS = FIELDS
 """(name, dtype, unit, description) of ``/gnss/ephemeris/<name>``."""
+
+
+GLONASS_FIELDS = (
+    ("sat", "int64", "(n_glo,)", "", "satellite number 100 + GLONASS slot"),
+    ("week", "int64", "(n_glo,)", "week", "GPS week of tb"),
+    ("toe", "float64", "(n_glo,)", "s", "tb, GPS seconds of week"),
+    ("clock_bias", "float64", "(n_glo,)", "s", "-tau_n (satellite clock at tb)"),
+    ("gamma", "float64", "(n_glo,)", "1", "relative frequency bias gamma_n"),
+    ("pos", "float64", "(n_glo, 3)", "m", "PZ-90.11 position at tb"),
+    ("vel", "float64", "(n_glo, 3)", "m/s", "PZ-90.11 velocity at tb"),
+    ("acc", "float64", "(n_glo, 3)", "m/s^2", "lunisolar acceleration at tb"),
+    ("health", "int64", "(n_glo,)", "", "0 healthy"),
+    ("channel", "int64", "(n_glo,)", "", "frequency channel k (-7 .. +6)"),
+)
+"""(name, dtype, shape, unit, description) of ``/gnss/glonass/<name>`` (optional group:
+all or none; the fields of :class:`inins.gnss.glonass.GlonassEphemeris`)."""
 
 
 @dataclass(frozen=True)
@@ -167,6 +184,8 @@ class RecordedFlight:
     reference_pos_e: np.ndarray
     iono_alpha: np.ndarray | None = None
     iono_beta: np.ndarray | None = None
+    glonass: dict | None = None
+    """GLONASS sets: ``{name: array}`` of :data:`GLONASS_FIELDS` (None: none)."""
     dropped: tuple = ()
     """What the edge checks dropped (counted), one line each
     (:func:`inins.io.flight_checks.checked_flight`); the commands report it."""
@@ -180,6 +199,10 @@ def layout_text():
     rows += [
         f"/gnss/ephemeris/{n:9s} {dt:8s} {'(n_sets,)':16s} {u:6s} {desc}"
         for n, dt, u, desc in EPHEMERIS_FIELDS
+    ]
+    rows += [
+        f"/gnss/glonass/{n:11s} {dt:8s} {shape:16s} {u:6s} {desc}"
+        for n, dt, shape, u, desc in GLONASS_FIELDS
     ]
     rows += [f"@{n:24s} {dt:25s} {u:6s} {desc}" for n, dt, u, desc in ROOT_ATTRS]
     return rows
@@ -218,6 +241,47 @@ def flight_arrays(flight):
     eph = ephemeris_array(flight.ephemeris)
     for name, dtype, unit, desc in EPHEMERIS_FIELDS:
         out[f"gnss/ephemeris/{name}"] = (eph[name].astype(dtype), unit, desc)
+    glonass = getattr(flight, "glonass", None)
+    if glonass is not None:
+        for name, dtype, _, unit, desc in GLONASS_FIELDS:
+            out[f"gnss/glonass/{name}"] = (np.asarray(glonass[name], dtype), unit, desc)
+    return out
+
+
+def glonass_columns(eph):
+    """``{name: array}`` of :data:`GLONASS_FIELDS` from a GLONASS ephemeris object (its
+    attributes), or None if it has no set."""
+    if eph is None or len(eph.sat) == 0:
+        return None
+    return {name: np.asarray(getattr(eph, name), dtype) for name, dtype, *_ in GLONASS_FIELDS}
+
+
+def _read_glonass(f, path):
+    """The optional ``gnss/glonass`` group: None if absent; every field, finite, of one
+    length and its shape, else bad input naming the dataset."""
+    if "gnss/glonass" not in f:
+        return None
+    out, n = {}, None
+    for name, dtype, shape, _, _ in GLONASS_FIELDS:
+        key = f"gnss/glonass/{name}"
+        if key not in f:
+            raise InputError(
+                "dataset missing (gnss/glonass needs all fields)", source=str(path), key=key
+            )
+        value = _read_dataset(f, key, dtype, path)
+        width = (3,) if shape.endswith("3)") else ()
+        n = len(value) if n is None else n
+        if value.shape != (n, *width) or not np.all(np.isfinite(value)):
+            raise InputError(
+                f"has shape {value.shape}, expected ({n}{', 3' if width else ''},) finite values",
+                source=str(path),
+                key=key,
+            )
+        if np.dtype(dtype).kind == "i":
+            if not np.all(value == np.round(value)):
+                raise InputError("expected whole numbers", source=str(path), key=key)
+            value = value.astype(dtype)
+        out[name] = value
     return out
 
 
@@ -313,7 +377,8 @@ def read_flight(path):
                 eph = np.zeros(len(column), dtype=eph.dtype)
             eph[name] = column
         attrs = {k: f.attrs[k] for k in f.attrs}
-    return _assemble(values, eph, attrs, path)
+        glonass = _read_glonass(f, path)
+    return _assemble(values, eph, attrs, path, glonass)
 
 
 def _read_dataset(f, key, dtype, path):
@@ -337,7 +402,7 @@ def _read_dataset(f, key, dtype, path):
         ) from None
 
 
-def _assemble(values, eph, attrs, path):
+def _assemble(values, eph, attrs, path, glonass=None):
     from inins.io.flight_checks import checked_flight
 
     m = len(values["gnss/obs/prn"])
@@ -373,6 +438,7 @@ def _assemble(values, eph, attrs, path):
             reference_pos_e=_vector(attrs, "reference_pos_e", 3, path),
             iono_alpha=_optional_vector(attrs, "iono_alpha", path),
             iono_beta=_optional_vector(attrs, "iono_beta", path),
+            glonass=glonass,
         )
     except (TypeError, ValueError, IndexError):
         raise InputError(

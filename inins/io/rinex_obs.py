@@ -423,12 +423,16 @@ RINEX3_SYSTEM_NAMES = {
     },
     "E": {
         "C1": ("C1C", "C1X", "C1B"),
+        "P1": ("C1C", "C1X", "C1B"),
+        "P2": ("C5Q", "C5X", "C5I"),
         "D1": ("D1C", "D1X", "D1B"),
         "S1": ("S1C", "S1X", "S1B"),
         "L1": ("L1C", "L1X", "L1B"),
     },
     "C": {
         "C1": ("C2I", "C1I", "C2X"),
+        "P1": ("C2I", "C1I", "C2X"),
+        "P2": ("C6I", "C6Q", "C6X"),
         "D1": ("D2I", "D1I", "D2X"),
         "S1": ("S2I", "S1I", "S2X"),
         "L1": ("L2I", "L1I", "L2X"),
@@ -437,7 +441,10 @@ RINEX3_SYSTEM_NAMES = {
 """Priority list per system: RINEX 3 codes (first the file has wins) for each RINEX 2
 name. Band 1 is GPS/QZSS L1 C/A, GLONASS G1 C/A (P1, P2: the P code on G1, G2),
 Galileo E1 (C, X, B: pilot, combined, data), BeiDou B1I (``2I`` since RINEX 3.02,
-``1I`` in 3.01). Galileo and BeiDou have no P1/P2: they are read single-frequency."""
+``1I`` in 3.01). P1/P2 name the dual-frequency pair: for Galileo E1 and E5a
+(``C5Q/X/I``, the pair of the F/NAV clock), for BeiDou B1I and B3I (``C6I/Q/X``, B3I
+being the reference of the broadcast clock); where both are observed the
+ionosphere-free combination is formed (:func:`inins.gnss.measurements.code_pseudorange`)."""
 
 
 @dataclass(frozen=True)

@@ -130,8 +130,9 @@ class Constellation(Section):
         "abpo",
         description="abpo: the shipped broadcast navigation file data/abpo0080.15n.gz "
         "(2015-01-08); walker: a nominal Walker 55 deg constellation; mixed: GPS, GLONASS, "
-        "Galileo and BeiDou of the shipped smartLoc mixed RINEX 3 file (2016-06-06; the "
-        "simulated receiver has no inter-system bias: the filter has one receiver clock)",
+        "Galileo and BeiDou of the shipped smartLoc mixed RINEX 3 file (2016-06-06; its "
+        "Galileo and BeiDou sets span about 09:00-23:00: at Berlin start_hour_s 64800 sees "
+        "2 and 3 of them, 21600 none; inter-system biases from gnss.system_bias_m)",
     )
     start_hour_s: NonNegFloat = Field(
         21600.0,
@@ -166,6 +167,12 @@ class Gnss(Section):
     latency_s: NonNegFloat = Field(
         0.15, le=0.9, description="data arrival after the 1PPS epoch (s)"
     )
+    system_bias_m: dict[Literal["G", "R", "E", "C"], float] = Field(
+        default_factory=dict,
+        description="inter-system bias the receiver adds to a system's pseudoranges, by "
+        "RINEX letter (m, constant; e.g. {R: 30}): the GLONASS-GPS time offset and the "
+        "receiver's code biases; the filter estimates each against its first system",
+    )
 
     def receiver_si(self):
         """The simulated receiver in SI: keywords of :class:`inins.ekf.sources.Receiver`
@@ -180,6 +187,9 @@ class Gnss(Section):
             "clock_bias": self.clock_bias_m,
             "clock_drift": self.clock_drift_mps,
             "latency": self.latency_s,
+            "system_bias": tuple(
+                ("GREC".index(k), float(v)) for k, v in sorted(self.system_bias_m.items())
+            ),
         }
 
 
@@ -229,6 +239,9 @@ class InitialSigma(Section):
     gyro_misalignment_arcsec: PositiveFloat = Field(60.0, description="gyro misalignment (arcsec)")
     clock_bias_m: PositiveFloat = Field(1e4, description="receiver clock bias (m)")
     clock_drift_mps: PositiveFloat = Field(10.0, description="receiver clock drift (m/s)")
+    system_bias_m: PositiveFloat = Field(
+        100.0, description="each inter-system bias state (m), set first from the residuals"
+    )
 
 
 class FilterNoise(Section):
@@ -248,6 +261,11 @@ class FilterNoise(Section):
     )
     clock_h0_s: NonNegFloat = Field(2e-19, le=1e-15, description="clock model h0 (s)")
     clock_hm2_per_s: NonNegFloat = Field(2e-20, le=1e-15, description="clock model h-2 (1/s)")
+    system_bias_walk_m: NonNegFloat = Field(
+        0.5,
+        le=1e3,
+        description="inter-system bias random walk: 1-sigma growth over one hour (m); 0: constant",
+    )
 
 
 class FilterSettings(Section):
@@ -291,6 +309,20 @@ class FilterSettings(Section):
     smoother: Literal["none", "rts"] = Field(
         "none", description="rts: a Rauch-Tung-Striebel pass over the stored forward run"
     )
+    systems: str | None = Field(
+        None,
+        pattern="^[GREC]+$",
+        description="satellite systems the filter takes, RINEX letters (G GPS, R GLONASS, "
+        "E Galileo, C BeiDou), e.g. GR: the first carries the receiver clock, each further "
+        "one adds an inter-system bias state (m) after the 17 or 26 states; default: every "
+        "system of the constellation or the recording (GPS first)",
+    )
+    system_sigma_scale: dict[Literal["G", "R", "E", "C"], PositiveFloat] = Field(
+        default_factory=dict,
+        description="pseudorange 1-sigma of a system's rows as a multiple of "
+        "pseudorange_sigma_m, by RINEX letter (1); e.g. {R: 1.5} for GLONASS, whose "
+        "inter-frequency biases the one GLONASS bias state leaves in the residuals",
+    )
 
     def to_si(self):
         """Keyword arguments in SI of :class:`inins.ekf.config.FilterConfig` (model and
@@ -308,6 +340,7 @@ class FilterSettings(Section):
             "accel_bias_rw": (n.accel_bias_walk_ug * UG / 60.0,) * 3,
             "clock_h0": n.clock_h0_s,
             "clock_h_2": n.clock_hm2_per_s,
+            "system_bias_psd": (n.system_bias_walk_m / 60.0) ** 2,  # m^2/s
             "initial_sigma": {
                 "position": s.position_m,
                 "velocity": s.velocity_mps,
@@ -319,6 +352,7 @@ class FilterSettings(Section):
                 "gyro_misalignment": s.gyro_misalignment_arcsec * ARCSEC,
                 "clock_bias": s.clock_bias_m,
                 "clock_drift": s.clock_drift_mps,
+                "system_bias": s.system_bias_m,
             },
             "gate_probability": self.gate_probability,
             "outages": tuple(self.outages_s),
@@ -333,7 +367,16 @@ class FilterSettings(Section):
                 raise KeyPathError(("outages_s", i), f"end {b} s not after start {a} s")
         if isinstance(self.dither_window, int) and self.dither_window < 1:
             raise KeyPathError(("dither_window",), "must be >= 1 sample")
+        if self.systems is not None and len(set(self.systems)) != len(self.systems):
+            raise KeyPathError(("systems",), f"a system given twice in {self.systems!r}")
         return self
+
+    def sigma_scale(self):
+        """Factor on the pseudorange sigma per system index (6,) (1 where not given)."""
+        out = [1.0] * 6
+        for letter, value in self.system_sigma_scale.items():
+            out["GREC".index(letter)] = float(value)
+        return tuple(out)
 
 
 class RunEkfScenario(ScenarioModel):

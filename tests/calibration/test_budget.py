@@ -18,10 +18,10 @@ import pytest
 from scipy import stats
 
 from inins.calibration import bias, budget
-from inins.commands import calibrate_bias
 from inins.commands._table import load_record
 from inins.core.units import ARCSEC, DPH, PPM, UG
 from inins.scenario.calibrate_bias import CalibrateBiasScenario
+from inins.scenario.si.calibrate_bias import method_settings
 from tests.helpers import shipped
 
 BETA = [0.01, -0.02, 0.0]
@@ -48,7 +48,7 @@ def calibrate(method="gyrocompass", seed=1, stated=STATED, rate=10, **updates):
         },
     )
     record, sensor = load_record(model.data, model.simulate, seed)
-    settings = replace(calibrate_bias.method_settings(model, sensor), stated=stated)
+    settings = replace(method_settings(model, sensor), stated=stated)
     return bias.calibrate_bias(record, settings)
 
 

@@ -10,9 +10,10 @@ import numpy as np
 import pytest
 
 from inins.calibration import discrete, imu_model
-from inins.commands._table import memory_record, table_simulation
+from inins.commands._table import memory_record
 from inins.core import imu as core_imu
 from inins.core.units import ARCSEC, DEG_RTH, UG_RTHZ
+from inins.scenario.si.table import table_simulation
 from inins.scenario.simulate_table import TableSetup
 from inins.table import simulate
 
@@ -154,7 +155,7 @@ def test_monte_carlo_sigma_is_consistent_and_the_planner_predicts_it():
     for seed in range(50):
         _, rec, ivs = simulated(s, seed)
         if planned is None:
-            from inins.commands.calibrate_imu import plan_intervals
+            from inins.commands.calibrate_imu_plan import plan_intervals
 
             p_ivs, _ = plan_intervals(s, 1.0, 1.0 * ARCSEC)
             planned = discrete.plan(p_ivs, NAMES, NOISE_MC).sigma
@@ -196,7 +197,7 @@ def test_planner_names_what_a_level_only_schedule_cannot_separate():
     # never see gravity, the gyro rate tests are missing
     s = setup(steps=motion(pitches=(0, 180), spins=False))
     table_simulation(s)
-    from inins.commands.calibrate_imu import plan_intervals
+    from inins.commands.calibrate_imu_plan import plan_intervals
 
     ivs, _ = plan_intervals(s, 1.0)
     planned = discrete.plan(ivs, NAMES, NOISE)

@@ -9,8 +9,9 @@ import yaml
 from helpers import CONFIGS
 
 from inins.calibration import imu_model, systemlevel
-from inins.commands._table import memory_record, table_simulation
+from inins.commands._table import memory_record
 from inins.core.units import ARCSEC, DPH, PPM, UG
+from inins.scenario.si.table import table_simulation
 from inins.scenario.simulate_table import TableSetup
 from inins.table import simulate
 
@@ -66,7 +67,7 @@ def test_noise_free_19_positions_recover_all_21_terms():
     reason="50-seed Monte Carlo of the system-level method (about a minute): ININS_LONG=1",
 )
 def test_monte_carlo_sigma_and_planner():
-    from inins.commands.calibrate_imu import plan_system_level
+    from inins.commands.calibrate_imu_plan import plan_system_level
     from inins.core.units import DEG_RTH, UG_RTHZ
     from inins.scenario.calibrate_imu import CalibrateImuScenario
 

@@ -8,11 +8,12 @@ import pytest
 from helpers import CONFIGS, SHARED_DATA, shipped
 
 from inins.calibration import imu_model, tablefree
-from inins.commands._table import memory_record, table_simulation
+from inins.commands._table import memory_record
 from inins.core import earth
 from inins.core.units import DPH
 from inins.io.rawlog import read_raw_log
 from inins.scenario.calibrate_imu import CalibrateImuScenario
+from inins.scenario.si.table import table_simulation
 from inins.table import simulate
 
 DETECTOR = tablefree.Detector(window=1.0, init=15.0, threshold_factor=6.0, min_interval=2.0)

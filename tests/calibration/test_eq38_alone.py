@@ -12,9 +12,9 @@ import numpy as np
 import pytest
 
 from inins.calibration import bias
-from inins.commands import calibrate_bias
 from inins.commands._table import load_record
 from inins.scenario.calibrate_bias import CalibrateBiasScenario
+from inins.scenario.si.calibrate_bias import method_settings
 from tests.helpers import shipped
 
 X, Y = 0, 1
@@ -44,7 +44,7 @@ def calibrate(angle_deg, **updates):
         },
     )
     record, sensor = load_record(model.data, model.simulate, 1)
-    return bias.calibrate_bias(record, calibrate_bias.method_settings(model, sensor))
+    return bias.calibrate_bias(record, method_settings(model, sensor))
 
 
 @pytest.mark.parametrize("angle", [0.01, 0.05])

@@ -9,12 +9,12 @@ import yaml
 from scipy.stats import chi2
 
 from inins.calibration import ett
-from inins.commands import align_ett
 from inins.commands._table import load_record
 from inins.core import earth, rotation
 from inins.core.units import ARCSEC, DEG, DPH, UG
 from inins.exceptions import InputError
 from inins.scenario.align_ett import AlignEttScenario
+from inins.scenario.si.align_ett import options as align_options
 from inins.scenario.simulate_table import TableSetup
 from tests.helpers import shipped
 
@@ -67,7 +67,7 @@ def test_paper_claim_ett_error_is_a_tenth_of_the_gyrocompass_error():
     45 deg gives a 0.054 deg gyrocompass error, and ETT errs by at most a tenth of it."""
     scenario = shipped(AlignEttScenario, "align-ett/default.yaml")
     rec = record(scenario.simulate, seed=3)
-    est = ett.align_ett(rec, align_ett.options(scenario))
+    est = ett.align_ett(rec, align_options(scenario))
     # the east gyro at the level position carries 0.01 deg/h
     t = rec.truth
     east = (rotation.mat_from_quat(t.quat_nb[-1]) @ t.gyro_bias[-1])[1]

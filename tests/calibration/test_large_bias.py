@@ -13,9 +13,9 @@ import numpy as np
 import pytest
 
 from inins.calibration import bias
-from inins.commands import calibrate_bias
 from inins.commands._table import load_record
 from inins.scenario.calibrate_bias import CalibrateBiasScenario
+from inins.scenario.si.calibrate_bias import method_settings
 from tests.helpers import shipped
 
 CASE1 = "paper000/case1-no-disturbance.yaml"
@@ -33,7 +33,7 @@ def calibrate(beta_dph, lat_deg, rate_hz=50, **updates):
         },
     )
     record, sensor = load_record(model.data, model.simulate, 1)
-    return bias.calibrate_bias(record, calibrate_bias.method_settings(model, sensor))
+    return bias.calibrate_bias(record, method_settings(model, sensor))
 
 
 def relative_errors(outcome):

@@ -24,10 +24,11 @@ import pytest
 from scipy import stats
 
 from inins.calibration import bias
-from inins.commands import calibrate_bias, calibrate_bias_report
+from inins.commands import calibrate_bias_report
 from inins.commands._table import load_record
 from inins.core.units import DEG_RTH
 from inins.scenario.calibrate_bias import CalibrateBiasScenario
+from inins.scenario.si.calibrate_bias import method_settings
 from tests.helpers import shipped
 
 SEEDS = 50
@@ -71,7 +72,7 @@ def monte_carlo():
     runs = []
     for seed in range(SEEDS):
         record, sensor = load_record(m.data, m.simulate, seed)
-        outcome = bias.calibrate_bias(record, calibrate_bias.method_settings(m, sensor))
+        outcome = bias.calibrate_bias(record, method_settings(m, sensor))
         runs.append(outcome)
     return runs
 

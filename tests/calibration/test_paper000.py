@@ -19,11 +19,11 @@ import pytest
 import yaml
 
 from inins.calibration import bias, methods, navigate
-from inins.commands import calibrate_bias
 from inins.commands._table import load_record
 from inins.core import earth
 from inins.core.units import DPH, UG
 from inins.scenario.calibrate_bias import CalibrateBiasScenario
+from inins.scenario.si.calibrate_bias import method_settings
 from inins.scenario.simulate_table import SimulateTableScenario
 from tests.helpers import shipped
 
@@ -48,7 +48,7 @@ def scenario(case, **simulate):
 
 def run(model, seed=1):
     record, sensor = load_record(model.data, model.simulate, seed)
-    return bias.calibrate_bias(record, calibrate_bias.method_settings(model, sensor))
+    return bias.calibrate_bias(record, method_settings(model, sensor))
 
 
 @pytest.fixture(scope="module")
@@ -171,7 +171,7 @@ def test_stationary_navigation_avoids_the_schuler_error():
     track is built here with the library's navigation and the attitude method on it.)"""
     model = scenario(1)
     record, sensor = load_record(model.data, model.simulate, 1)
-    stationary = bias.calibrate_bias(record, calibrate_bias.method_settings(model, sensor))
+    stationary = bias.calibrate_bias(record, method_settings(model, sensor))
     seq = stationary.seq
     free_track = navigate.navigate(
         record, stationary.align.mat_nb, seq.nav_start, seq.nav_end, 10.0, free=True

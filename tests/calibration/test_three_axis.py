@@ -8,10 +8,10 @@ import numpy as np
 import pytest
 
 from inins.calibration import three_axis
-from inins.commands import calibrate_bias
 from inins.commands._table import load_record
 from inins.core.units import DPH
 from inins.scenario.calibrate_bias import CalibrateBiasScenario
+from inins.scenario.si.calibrate_bias import method_settings
 from tests.helpers import shipped
 
 QUIET = {
@@ -34,7 +34,7 @@ CASES = {
 def calibrate(case):
     model = shipped(CalibrateBiasScenario, "calibrate-bias/three-axis.yaml", **QUIET, **CASES[case])
     record, sensor = load_record(model.data, model.simulate, 7)
-    return three_axis.calibrate_three_axis(record, calibrate_bias.method_settings(model, sensor))
+    return three_axis.calibrate_three_axis(record, method_settings(model, sensor))
 
 
 def rel_err(outcome, axis):
@@ -85,5 +85,5 @@ def test_beta_z_with_accelerometer_errors_within_the_levelling_term():
 def test_no_pitched_sequence_leaves_beta_z_null():
     model = shipped(CalibrateBiasScenario, "paper000/case1-no-disturbance.yaml", **QUIET)
     record, sensor = load_record(model.data, model.simulate, 1)
-    found = three_axis.calibrate_three_axis(record, calibrate_bias.method_settings(model, sensor))
+    found = three_axis.calibrate_three_axis(record, method_settings(model, sensor))
     assert found.pitched is None

@@ -256,8 +256,11 @@ def test_four_systems_simulated_from_the_mixed_file_and_solved():
         assert seen.sum() >= 20 and np.abs(sol.isb[seen, k] - value).max() < 0.05
 
 
-def test_the_single_clock_filter_takes_gps_rows_only(drive):
+def test_rows_of_chosen_systems(drive):
     obs = drive[0]
     gps = measurements.gps_rows(obs)
     assert (gps.prn < 100).all() and len(gps.prn) == np.count_nonzero(obs.prn < 100)
     assert gps.n_epochs == obs.n_epochs
+    glo = measurements.system_rows(obs, [1])
+    assert (glo.prn // 100 == 1).all() and len(glo.prn) == np.count_nonzero(obs.prn // 100 == 1)
+    assert measurements.system_rows(obs, [0, 1]) is obs  # nothing else in the drive

@@ -12,6 +12,7 @@ from typer.testing import CliRunner
 
 from inins.cli import app
 from inins.exceptions import InputError
+from inins.io.flight_layout import read_flight
 from inins.io.rinex_nav import read_nav, read_navigation
 from inins.io.rinex_obs import read_obs, system_observable, write_obs_v3
 
@@ -161,6 +162,13 @@ def test_the_shipped_scenario_passes(tmp_path):
     assert result.exit_code == 0, result.output
     report = (tmp_path / "import-flight.txt").read_text()
     assert "against the reference trajectory: 1372 accepted fixes of 1372 epochs" in report
+    # the GLONASS sets go into the recorded-flight layout beside the GPS table, so that
+    # run-ekf can take the GLONASS rows of the recording
+    flight = read_flight(tmp_path / "import-flight.h5")
+    assert flight.glonass is not None and flight.glonass["pos"].shape[1] == 3
+    slots = set(flight.glonass["sat"].tolist())
+    observed = set(flight.gnss.prn[flight.gnss.prn // 100 == 1].tolist())
+    assert observed <= slots and len(flight.glonass["sat"]) > len(slots)
 
 
 @pytest.mark.parametrize(

@@ -3,11 +3,11 @@
 import numpy as np
 import pytest
 
-from inins.commands._table import table_simulation
 from inins.commands.simulate_table import stream
 from inins.core import earth, error_model, rotation, strapdown
 from inins.core.units import ARCSEC, DEG_RTH, DPH, UG
 from inins.results import MemorySink
+from inins.scenario.si.table import table_simulation
 from inins.scenario.simulate_table import SimulateTableScenario
 from inins.table import simulate
 from tests.helpers import shipped

@@ -1,0 +1,252 @@
+"""calibrate-imu's planner: the noise figures, the schedule's intervals and the predicted
+1-sigma of every requested term from the motion program alone, and the refusal of a
+schedule that cannot separate a term (before anything is estimated)."""
+
+import numpy as np
+
+from inins.calibration import discrete, systemlevel, tablefree
+from inins.commands._calibrate_imu_units import lab
+from inins.commands.calibrate_imu_report import certificate_info
+from inins.core import earth
+from inins.core.units import ARCSEC, DEG_RTH, PPM, UG_RTHZ, UG_S
+from inins.exceptions import InputError
+from inins.results import CommandResult, Series, format_table
+from inins.scenario.si.calibrate_imu import tablefree_detector
+from inins.scenario.si.table import table_simulation
+
+
+def noise_figures(scenario, sensor, record=None, ivs=None):
+    """White-noise figures (SI): the scenario's, else the simulation's, else estimated
+    from the scatter of 1-s block means within the holds."""
+    n = scenario.noise
+    est = None
+
+    def pick(given, unit, sim_value, index):
+        nonlocal est
+        if given is not None:
+            return np.asarray(given, float) * unit
+        if sim_value is not None:
+            return np.asarray(sim_value, float)
+        if est is None:
+            est = _estimate_noise(record, ivs)
+        return est[index]
+
+    arw = pick(n.arw_deg_rth, DEG_RTH, None if sensor is None else sensor.gyro_arw, 0)
+    vrw = pick(n.vrw_ug_rthz, UG_RTHZ, None if sensor is None else sensor.accel_vrw, 1)
+    gq = (
+        np.asarray(n.gyro_pulse_weight_arcsec, float) * ARCSEC
+        if n.gyro_pulse_weight_arcsec is not None
+        else (np.zeros(3) if sensor is None else sensor.gyro_pulse_weight)
+    )
+    aq = (
+        np.asarray(n.accel_pulse_weight_ug_s, float) * UG_S
+        if n.accel_pulse_weight_ug_s is not None
+        else (np.zeros(3) if sensor is None else sensor.accel_pulse_weight)
+    )
+    return discrete.Noise(arw, vrw, gq, aq)
+
+
+def _estimate_noise(record, ivs):
+    """ARW and VRW from the scatter of 1-s block means within the holds (rad/sqrt(s),
+    m/s/sqrt(s))."""
+    if record is None:
+        raise InputError("no noise figures given and no data to estimate them", key="noise")
+    if ivs is None:  # the holds of the schedule
+        spans = [(s.start_index, s.stop_index) for s in record.steps if str(s.kind) == "hold"]
+    else:
+        spans = [(iv.start, iv.stop) for iv in ivs if iv.kind == "hold"]
+    block = max(1, round(1.0 / record.dt))
+    parts = ([], [])
+    for start, stop in spans:
+        if stop - start < 4 * block:
+            continue
+        dtheta, dv = record.imu(start, stop)
+        m = (dtheta.shape[0] // block) * block
+        for k, x in enumerate((dtheta, dv)):
+            means = x[:m].reshape(-1, block, 3).sum(axis=1) / (block * record.dt)
+            parts[k].append(means - means.mean(axis=0))
+    if not parts[0]:
+        raise InputError("no hold long enough (4 s) to estimate the noise", key="noise")
+    t_block = block * record.dt
+    return tuple(np.sqrt(np.mean(np.vstack(p) ** 2, axis=0) * t_block) for p in parts)
+
+
+def encoder_sigma(scenario):
+    if scenario.noise.encoder_noise_arcsec is not None:
+        return scenario.noise.encoder_noise_arcsec * ARCSEC
+    if scenario.simulate is not None:
+        return scenario.simulate.table.encoder_noise_arcsec * ARCSEC
+    return 0.0
+
+
+def combination_text(combo):
+    """An inseparable direction in lab units (largest coefficient 1, terms below 1e-5 of
+    it left out): ``+1 ba_x[ug] +0.206 mount_y[arcsec]``."""
+    lab_coef = {n: c / lab(n)[1] for n, c in combo.items()}
+    top = max(abs(c) for c in lab_coef.values())
+    return " ".join(
+        f"{c / top:+.3g} {n}[{lab(n)[0]}]" for n, c in lab_coef.items() if abs(c) > 1e-5 * top
+    )
+
+
+def refuse(planned, scenario):
+    """Bad input when the schedule cannot separate a requested term (or gives a scale
+    factor worse than ``plan.max_sigma_ppm``), unless combinations are allowed."""
+    bad = planned.inseparable
+    if bad and not scenario.plan.allow_combinations:
+        combos = "; ".join(combination_text(c) for c in planned.combinations[:4])
+        raise InputError(
+            f"the schedule cannot separate {', '.join(bad)} (inseparable: {combos}); "
+            "add positions or rate tests, drop the group from estimate, or set "
+            "plan.allow_combinations: true",
+            key="estimate",
+        )
+    limit = scenario.plan.max_sigma_ppm
+    if limit is not None:
+        worse = [
+            n
+            for n, s in zip(planned.names, planned.sigma, strict=True)
+            if n[:2] in ("sa", "sg") and np.isfinite(s) and s / PPM > limit
+        ]
+        if worse:
+            raise InputError(
+                f"predicted 1-sigma above {limit:g} ppm for {', '.join(worse)}",
+                key="plan.max_sigma_ppm",
+            )
+
+
+def plan_intervals(setup, settle, encoder_sigma=0.0):
+    """The intervals of a simulate: section's motion program, from the program alone
+    (gimbal angles of the compiled program on the truth grid; nothing simulated)."""
+    from inins.table import simulate
+
+    sim = table_simulation(setup)
+    steps = simulate.schedule(sim)
+    grid = np.arange(0.0, sim.trajectory.program.duration, 1.0 / setup.output.truth_rate_hz)
+    angles, _ = sim.trajectory.program.segments.evaluate(grid)
+    traj = sim.trajectory
+    geometry = discrete.Geometry(traj.axes, traj.mat_n_base, setup.mount.nominal(), traj.lla)
+    ivs = discrete.intervals(
+        steps, grid, angles, geometry, 0.0, sim.dt, sim.n_samples, settle, encoder_sigma
+    )
+    return ivs, sim
+
+
+def plan_only(scenario, names):
+    if scenario.simulate is None:
+        raise InputError("plan.only needs the motion program: a simulate: section", key="plan")
+    results, text, datasets, attrs = {}, [], {}, {}
+    if "discrete" in scenario.methods:
+        ivs, sim = plan_intervals(scenario.simulate, scenario.settle_s, encoder_sigma(scenario))
+        noise = noise_figures(scenario, sim.sensor)
+        planned = discrete.plan(ivs, names, noise)
+        for n, s, ok in zip(planned.names, planned.sigma, planned.separable, strict=True):
+            unit, scale = lab(n)
+            results[f"plan_{n}_sigma_{unit}"] = float(s / scale) if ok else None
+        results["plan_inseparable"] = len(planned.inseparable)
+        rows = [
+            [n, "yes" if ok else "NO", (s / lab(n)[1]) if ok else float("nan"), lab(n)[0]]
+            for n, s, ok in zip(planned.names, planned.sigma, planned.separable, strict=True)
+        ]
+        text += [
+            f"planner, discrete: {len(ivs)} intervals "
+            f"({sum(iv.kind == 'hold' for iv in ivs)} holds, "
+            f"{sum(iv.kind == 'spin' for iv in ivs)} spins) from the motion program alone",
+            format_table(rows, ["term", "separable", "predicted 1-sigma", "unit"], fmt=".4g"),
+        ]
+        if planned.combinations:
+            text.append("inseparable combinations (the data fix nothing along them):")
+            text += ["  " + combination_text(combo) for combo in planned.combinations]
+        if planned.inseparable and not scenario.plan.allow_combinations:
+            refuse(planned, scenario)
+        datasets["plan/sigma"] = Series(planned.sigma, "SI", "b", "predicted 1-sigma per term")
+        datasets["plan/information"] = Series(planned.information, "SI", "", "information")
+        attrs["plan"] = {"names": list(planned.names), "inseparable": list(planned.inseparable)}
+    if "system-level" in scenario.methods:
+        names_s, sigma = plan_system_level(scenario)
+        rows = []
+        for n, s in zip(names_s, sigma, strict=True):
+            unit, scale = lab(n)
+            results[f"plan_system_{n}_sigma_{unit}"] = float(s / scale)
+            rows.append([n, s / scale, unit])
+        text += [
+            "planner, system-level: the filter's covariance along the motion program "
+            "(an ideal unit's increments, the scenario's noise)",
+            format_table(rows, ["term", "predicted 1-sigma", "unit"], fmt=".4g"),
+        ]
+        datasets["plan_system/sigma"] = Series(sigma, "SI", "b", "predicted 1-sigma per term")
+    if "table-free" in scenario.methods:
+        planned_tf = plan_table_free(scenario)
+        rows = []
+        for n, s_, ok in zip(planned_tf.names, planned_tf.sigma, planned_tf.separable, strict=True):
+            unit, scale = lab(n)
+            results[f"plan_table_free_{n}_sigma_{unit}"] = float(s_ / scale) if ok else None
+            rows.append([n, s_ / scale if ok else float("nan"), unit])
+        text += [
+            f"planner, table-free: {planned_tf.positions} static positions found in the "
+            "motion program (an ideal unit's increments, the scenario's noise; the gyro "
+            "bias is the initial interval's mean, the Earth rate is outside the model)",
+            format_table(rows, ["term", "predicted 1-sigma", "unit"], fmt=".4g"),
+        ]
+    if not text:
+        raise InputError("the planner needs a method to plan", key="plan")
+    attrs[""] = {
+        "unit_name": scenario.unit.name,
+        "methods": [],
+        "plan_only": True,
+        "certificate": certificate_info(scenario),
+    }
+    return CommandResult(
+        "calibrate-imu", results, datasets=datasets, attrs=attrs, report="\n".join(text)
+    )
+
+
+def plan_table_free(scenario):
+    """Predicted 1-sigma of the table-free terms from the motion program alone."""
+    from dataclasses import replace
+
+    from inins.commands._table import memory_record
+    from inins.core import imu
+    from inins.table import simulate
+
+    sim = table_simulation(scenario.simulate)
+    noise = noise_figures(scenario, sim.sensor)
+    ideal = replace(sim, sensor=imu.SensorErrors.none(), encoder_noise=0.0)
+    rec = memory_record(ideal, simulate.simulation_chunks(ideal, np.random.default_rng(0)))
+    time = rec.t0 + rec.dt * (np.arange(rec.n_samples) + 1)
+    gravity = scenario.table_free.gravity_mps2 or float(earth.gravity(rec.lla[0], rec.lla[2]))
+    det = tablefree_detector(scenario)
+    return tablefree.plan(
+        time, rec.dv / rec.dt, rec.dtheta / rec.dt, gravity, noise.vrw, noise.arw, det
+    )
+
+
+def plan_system_level(scenario):
+    """Predicted 1-sigma of the system-level terms from the motion program alone: the
+    filter's covariance over the increments of an ideal unit on the same program (the
+    covariance of a linear filter depends on the trajectory, not on the errors)."""
+    from dataclasses import replace
+
+    from inins.commands._table import memory_record
+    from inins.core import imu
+    from inins.table import simulate
+
+    sim = table_simulation(scenario.simulate)
+    noise = noise_figures(scenario, sim.sensor)
+    ideal = replace(sim, sensor=imu.SensorErrors.none(), encoder_noise=0.0)
+    record = memory_record(ideal, simulate.simulation_chunks(ideal, np.random.default_rng(0)))
+    step = max(1, round(scenario.system_level.step_s / record.dt))
+    first = record.steps[0]
+    fit = systemlevel.calibrate(
+        record.dtheta,
+        record.dv,
+        record.dt,
+        np.asarray(record.lla, float),
+        first.stop_index - first.start_index,
+        step,
+        float(np.mean(noise.arw)) or 1e-12,
+        float(np.mean(noise.vrw)) or 1e-12,
+        scenario.system_level.velocity_noise_mps,
+        passes=1,
+    )
+    return fit.names, fit.sigma

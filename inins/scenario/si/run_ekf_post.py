@@ -1,0 +1,51 @@
+"""A run-ekf ``post:`` section in SI: the loosely coupled filter's configuration
+(:class:`inins.ekf.loose.LooseConfig`)."""
+
+import numpy as np
+
+from inins.core.units import DEG, UG
+from inins.ekf import loose
+
+
+def loose_config(p, dt, lever):
+    """:class:`~inins.ekf.loose.LooseConfig` of the ``post:`` section ``p``.
+
+    Parameters
+    ----------
+    p : inins.scenario.run_ekf_post.PostProcess
+        The validated section (lab units).
+    dt : float
+        IMU sample interval (s).
+    lever : ndarray, shape (3,)
+        IMU-to-antenna lever arm in the body frame (m).
+    """
+    n = p.noise
+    k = n.factor
+    s0 = p.initial_sigma
+    sigma0 = [s0.position_m] * 3 + [s0.velocity_mps] * 3
+    sigma0 += [s0.tilt_deg * DEG] * 2 + [s0.heading_deg * DEG]
+    sigma0 += [s0.accel_bias_ug * UG] * 3 + [s0.gyro_bias_dps * DEG] * 3
+    sigma0 += [1e-3] * 9 if p.misalignments else []
+    cfg = loose.LooseConfig(
+        dt=dt,
+        misalignments=p.misalignments,
+        feedback=p.feedback,
+        lever_arm=lever,
+        arw=np.full(3, k * n.arw_dps_rthz * DEG),
+        vrw=np.full(3, k * n.vrw_ug_rthz * UG),
+        gyro_bias_rw=np.full(3, k * n.gyro_bias_walk_dps_rthz * DEG),
+        accel_bias_rw=np.full(3, k * n.accel_bias_walk_ug_rthz * UG),
+        sigma0=np.array(sigma0),
+        time_offset=p.time.state,
+        time_offset_sigma=p.time.state_sigma_s,
+        gate_probability=p.gate_probability,
+        nhc_sigma=p.aiding.nhc_sigma_mps,
+        odometer_sigma=p.aiding.odometer_sigma_mps,
+        zupt_sigma=p.aiding.zupt_sigma_mps,
+        zaru_sigma=p.aiding.zaru_sigma_dps * DEG,
+        mounting=np.radians(p.aiding.mounting_deg),
+        stationary_accel=p.aiding.stationary.accel_mps2,
+        stationary_gyro=p.aiding.stationary.gyro_dps * DEG,
+        stationary_window=p.aiding.stationary.window_s,
+    )
+    return cfg
