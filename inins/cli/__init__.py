@@ -11,6 +11,10 @@ The commands are the table :data:`inins.commands.COMMANDS`; each runs through
 called by :mod:`inins.cli._runner`, which turns exceptions into messages and exit
 codes. Keep this package cheap to import: ``inins --help`` must not load numpy,
 scipy, numba, h5py or pydantic.
+
+The Typer app (:mod:`inins.cli._app`) is built on first use: the plain command line
+of a run (:mod:`inins.cli._argv`) goes straight to the runner, and a run printing to
+a pipe does not load rich either (:func:`inins.cli._display.plain_outcome`).
 """
 
 import io

@@ -11,7 +11,6 @@ listed extra problems) on stderr; tracebacks only with ``--debug``.
 
 import sys
 import time
-import traceback
 from pathlib import Path
 from typing import Annotated
 
@@ -138,6 +137,8 @@ def guarded(label: str, debug: bool, body) -> int:
         return EXIT_BAD_INPUT
     except Exception as exc:
         if debug:
+            import traceback
+
             traceback.print_exception(exc, file=sys.stderr)
         message = input_message(exc)
         if message is not None:
