@@ -31,11 +31,12 @@ outside that (the folder, the tasks, the table and aggregates at the end; its wa
 time is ``serial_wall_s``) and ``amdahl_2_workers`` the speedup these imply on two
 otherwise idle cores::
 
-    T1 = serial + N w,   T2 = serial + w + ((N - 1) w + N p) / 2
+    T1 = serial + N w,   T2 = serial + w + ((N - 1) w2 + N p) / 2
 
-(``w`` the worker CPU a point, ``p`` the parent's, ``serial`` its serial CPU; the
-first point runs alone, as a probe; on two cores the sweep process takes its share
-from the workers).
+(``w``, ``w2`` the worker CPU a point with one and with two workers -- two busy
+cores share caches and memory, so ``w2`` is a few per cent larger --, ``p`` the
+parent's, ``serial`` its serial CPU; the first point runs alone, as a probe; on
+two cores the sweep process takes its share from the workers).
 """
 
 import argparse
@@ -199,10 +200,11 @@ def _throughput(folder, points):
     figures["speedup_2_workers"] = figures["local_2_points_per_s"] / figures["local_1_points_per_s"]
     # Amdahl on two idle cores, from CPU times (module docstring)
     w = used[1]["workers_s"] / points
+    w2 = used[2]["workers_s"] / points  # a point on each core costs a little more
     p = used[1]["dispatch_cpu_s"] / points
     serial = used[1]["serial_cpu_s"]  # the probe point, run alone, is the "+ w" of T2
     t1 = serial + points * w
-    t2 = serial + w + ((points - 1) * w + points * p) / 2.0
+    t2 = serial + w + ((points - 1) * w2 + points * p) / 2.0
     figures["parent_cpu_ms_per_point"] = 1e3 * p
     figures["serial_cpu_s"] = serial
     figures["serial_wall_s"] = used[1]["serial_wall_s"]
