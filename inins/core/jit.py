@@ -33,8 +33,11 @@ The library sits next to the package's bytecode (``inins/__pycache__``), under
 ``$NUMBA_CACHE_DIR/inins`` when that is set, or in ``$ININS_KERNEL_DIR``. It is
 used only while the Python, numpy and numba it was built with are installed and
 the kernel sources hash as they did at the build; otherwise calls go to numba,
-silently and correctly. Builds are serialised by a lock file; each build writes a
-new file and then the manifest naming it, so a reader sees one build whole.
+silently and correctly. (A run compares the sources' sizes and modification times
+with the build's first, as Python's bytecode cache does, and hashes them only when
+those differ; the check costs a short run no ``hashlib``, ``sysconfig`` or package
+metadata.) Builds are serialised by a lock file; each build writes a new file and
+then the manifest naming it, so a reader sees one build whole.
 
 numba marks ``pycc`` for deprecation (0.57) without a removal date; it exists in
 every release ``pyproject.toml`` allows (0.59-0.68, upper bound ``<0.69``). Where
