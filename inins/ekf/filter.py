@@ -14,8 +14,7 @@ Per epoch ``k`` (1PPS time ``t_k``, data arriving at ``t_k + tau``):
    interval (a roll transient: ``omega_b`` or ``f_b`` at the middles of
    :data:`SUB_STEPS` sub-intervals differ from the mid-interval value by more than
    :data:`RATE_CHANGE` or :data:`FORCE_CHANGE`), ``F`` and ``Qd`` are evaluated
-   on each sub-interval and the prediction made sub-interval by sub-interval
-   (:func:`inins.ekf.step.propagate_split`).
+   on each sub-interval and the prediction made sub-interval by sub-interval.
 3. Update at ``t_k`` with the stored state: scalar Joseph updates per pseudorange
    and range rate, each gated on chi-square(1) (:func:`inins.ekf.kernels.sequential_update`).
    The measurement is predicted at the corrected INS state ``nav (-) x``; epochs
@@ -39,6 +38,12 @@ scored against the truth there (the measurements of ``t_k`` pulled onto the stat
 of ``t_k + tau`` leave it ``v tau`` behind along track, which a score at ``t_k``
 hides).
 
+All four steps of an epoch, and its log, are one call of the compiled
+:func:`inins.ekf.step.epoch`, which composes the building-block kernels of
+:mod:`inins.ekf.step` (the per-epoch Python glue of one call per block cost as much
+as the arithmetic; ``tests/ekf/test_fused_epoch.py`` holds it bit for bit to that
+loop). The log goes into preallocated arrays, doubled when full.
+
 With truth (simulation) the output error, the heading error and the NEES of all
 states are computed after the run (:func:`score`), vectorised over the epochs; the
 navigation states estimate the INS error, so their estimation error is minus the
@@ -46,7 +51,7 @@ output error.
 """
 
 import time as _time
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -68,6 +73,8 @@ RATE_CHANGE = 5.0 * np.pi / 180.0
 within a second, ~100 deg/s, is far above)."""
 FORCE_CHANGE = 2.0
 """m/s^2: a change of ``f_b`` within an interval beyond this splits the propagation."""
+LOG_CAPACITY = 256
+"""Epochs the log holds before it first doubles (8 innovation rows per epoch)."""
 
 
 def _sensor_index(n):
@@ -91,73 +98,138 @@ def correct(quat, vel, lla, dx):
     return out
 
 
-def _state_at(start, series, index):
-    """(quat, vel, lla) after ``index`` samples of a chunk (0: the chunk start)."""
-    if index == 0:
-        return start
-    i = index - 1
-    return series[0][i], series[1][i], series[2][i]
-
-
 @dataclass
 class EpochLog:
-    """What a run records per epoch (``m`` epochs so far), stacked by :meth:`stack`.
+    """What a run records, ``m`` epochs (:func:`run_filter` fills it after the run).
 
     Attributes
     ----------
-    time : list of float
+    time : ndarray, shape (m,)
         The time the logged state refers to (s): the PPS, or the arrival (naive pairing).
-    gnss_time : list of float
+    gnss_time : ndarray, shape (m,)
         The measurement epoch (PPS) (s).
-    quat, vel, lla : list of ndarray
-        Output solution after the update, (4,), (3,), (3,).
-    state, sigma, cumulative : list of ndarray
-        Error-state estimate (sensor totals), its 1-sigma, FB cumulative corrections, (n,).
-    covariance : list of ndarray
-        ``P`` (n, n) after the update; kept only when the epochs carry truth (NEES).
+    quat, vel, lla : ndarray, shapes (m, 4), (m, 3), (m, 3)
+        Output solution after the update.
+    state, sigma, cumulative : ndarray, shape (m, n)
+        Error-state estimate (sensor totals), its 1-sigma, FB cumulative corrections.
+    covariance : ndarray, shape (j, n, n)
+        ``P`` after the update of the ``j`` epochs that carry truth (NEES).
     truth : list of TruthEpoch
-    n_sats, n_used, n_rejected : list of int
-    coasted : list of bool
-    nis, update_s : list of float
-    rows : list of tuple
-        Per updated epoch: its index and the ``(prn, kind, innovation, variance,
-        accepted)`` arrays of the scalar measurements used.
+    n_sats, n_used, n_rejected : ndarray, shape (m,), int
+    coasted : ndarray, shape (m,), bool
+    nis, update_s : ndarray, shape (m,)
+    measurements : Innovations
+        Every scalar measurement processed.
     """
 
-    time: list = field(default_factory=list)
-    gnss_time: list = field(default_factory=list)
-    quat: list = field(default_factory=list)
-    vel: list = field(default_factory=list)
-    lla: list = field(default_factory=list)
-    state: list = field(default_factory=list)
-    sigma: list = field(default_factory=list)
-    cumulative: list = field(default_factory=list)
-    covariance: list = field(default_factory=list)
-    truth: list = field(default_factory=list)
-    n_sats: list = field(default_factory=list)
-    n_used: list = field(default_factory=list)
-    n_rejected: list = field(default_factory=list)
-    coasted: list = field(default_factory=list)
-    nis: list = field(default_factory=list)
-    update_s: list = field(default_factory=list)
-    rows: list = field(default_factory=list)
+    time: np.ndarray
+    gnss_time: np.ndarray
+    quat: np.ndarray
+    vel: np.ndarray
+    lla: np.ndarray
+    state: np.ndarray
+    sigma: np.ndarray
+    cumulative: np.ndarray
+    covariance: np.ndarray
+    truth: list
+    n_sats: np.ndarray
+    n_used: np.ndarray
+    n_rejected: np.ndarray
+    coasted: np.ndarray
+    nis: np.ndarray
+    update_s: np.ndarray
+    measurements: Innovations
 
     def innovations(self):
         """:class:`~inins.ekf.result.Innovations` of every scalar measurement processed."""
+        return self.measurements
 
-        def cat(i, dtype):
-            parts = [r[i] for r in self.rows]
-            return np.concatenate(parts).astype(dtype) if parts else np.zeros(0, dtype)
 
-        sizes = [r[2].size for r in self.rows]
-        return Innovations(
-            np.repeat(np.array([r[0] for r in self.rows], np.int64), sizes),
-            cat(1, np.int64),
-            cat(2, np.int8),
-            cat(3, float),
-            cat(4, float),
-            cat(5, bool),
+class _Log:
+    """The arrays :func:`inins.ekf.step.epoch` writes its log into, grown by doubling."""
+
+    def __init__(self, n):
+        self.n = n
+        capacity = LOG_CAPACITY
+        self.flog = np.zeros((capacity, step.LOG_STATE + 3 * n))
+        self.ilog = np.zeros((capacity, 4), np.int64)
+        self.cov = np.zeros((0, n, n))
+        self.inn_f = np.zeros((8 * capacity, 2))
+        self.inn_i = np.zeros((8 * capacity, 4), np.int64)
+        self.rows = 0  # innovation rows written
+        self.truth = []  # (epoch index, TruthEpoch)
+        self.update_s = []
+        self._sizes()
+
+    def _sizes(self):
+        self.capacity, self.row_capacity = self.flog.shape[0], self.inn_f.shape[0]
+        self.cov_capacity = self.cov.shape[0]
+
+    def full(self, index, rows, cov):
+        """True unless there is room for epoch ``index``, ``rows`` more innovation rows
+        and, if ``cov``, its ``P``."""
+        return (
+            index >= self.capacity
+            or self.rows + rows > self.row_capacity
+            or (cov and index >= self.cov_capacity)
         )
+
+    def reserve(self, index, rows, cov):
+        """Room for epoch ``index``, ``rows`` more innovation rows, and its ``P`` if ``cov``."""
+        if index >= self.capacity:
+            self.flog, self.ilog = _grown(self.flog, index), _grown(self.ilog, index)
+        if self.rows + rows > self.row_capacity:
+            self.inn_f = _grown(self.inn_f, self.rows + rows)
+            self.inn_i = _grown(self.inn_i, self.rows + rows)
+        if cov and index >= self.cov_capacity:
+            self.cov = _grown(self.cov, index)
+        self._sizes()
+
+    def epochs(self):
+        """The :class:`EpochLog` of the epochs written (views of the filled rows)."""
+        m, n = len(self.update_s), self.n
+        f, i = self.flog[:m], self.ilog[:m]
+        inn_f, inn_i = self.inn_f[: self.rows], self.inn_i[: self.rows]
+
+        def col(first, width):
+            return f[:, first : first + width]
+
+        return EpochLog(
+            time=f[:, step.LOG_TIME],
+            gnss_time=f[:, step.LOG_GNSS_TIME],
+            quat=col(step.LOG_QUAT, 4),
+            vel=col(step.LOG_VEL, 3),
+            lla=col(step.LOG_LLA, 3),
+            state=col(step.LOG_STATE, n),
+            sigma=col(step.LOG_STATE + n, n),
+            cumulative=col(step.LOG_STATE + 2 * n, n),
+            covariance=self.cov[[index for index, _ in self.truth]],
+            truth=[truth for _, truth in self.truth],
+            n_sats=i[:, step.N_SATS],
+            n_used=i[:, step.N_USED],
+            n_rejected=i[:, step.N_REJECTED],
+            coasted=i[:, step.COASTED].astype(bool),
+            nis=f[:, step.LOG_NIS],
+            update_s=np.array(self.update_s),
+            measurements=Innovations(
+                inn_i[:, 0].copy(),
+                inn_i[:, 1].copy(),
+                inn_i[:, 2].astype(np.int8),
+                inn_f[:, 0].copy(),
+                inn_f[:, 1].copy(),
+                inn_i[:, 3].astype(bool),
+            ),
+        )
+
+
+def _grown(array, index):
+    """``array`` with its first axis doubled until it holds ``index`` (zeros appended)."""
+    size = max(array.shape[0], 1)
+    while size <= index:
+        size *= 2
+    out = np.zeros((size, *array.shape[1:]), array.dtype)
+    out[: array.shape[0]] = array
+    return out
 
 
 class _Run:
@@ -165,21 +237,20 @@ class _Run:
 
     def __init__(self, config, initial, t0):
         self.cfg = config
+        self.t_prev = t0  # the time the last epoch's state referred to
         n = self.n = len(config.layout)
         base = len(config.model.layout)  # 17 or 26; inter-system biases after them
-        self.keep_phi = False  # accumulate Phi over sub-intervals (a smoother's store)
         self.x = np.zeros(n)
         self.P = config.initial_sigma.covariance(base, n - base)
+        self.mats = np.zeros((7, n, n))  # slots step.F_ ... (F, Qc, Phi, Qd, store)
         self.comp = np.zeros(15)
         self.cum = np.zeros(9)
         self.sens = _sensor_index(base)
         self.bias_columns = config.bias_columns()
         self.nav = FreeInertial(initial)
-        self.t_prev = t0
-        self.clock_ready = False
+        self.home = np.zeros(8)  # Earth terms of the strapdown's fixed modes; unused (free)
         self.rates = np.zeros((2, 3))  # omega_b, f_b at the last PPS (dither-filtered)
         self.rates_sub = np.zeros((SUB_STEPS + 1, 2, 3))
-        self.F, self.Qc, self.Phi, self.Qd = (np.zeros((n, n)) for _ in range(4))
         # chi-square(1) quantile: P(chi2_1 <= threshold) = gate_probability
         self.threshold = float(chi2_ppf(config.gate_probability, 1))
         self.noise = np.concatenate(
@@ -194,111 +265,46 @@ class _Run:
         )
         self.lever = np.asarray(config.lever_arm, dtype=float)
         self.limits = np.array([RATE_CHANGE, FORCE_CHANGE])
-        self.offsets = {}  # interval length (samples) -> probe offsets before the PPS
+        self.kept = np.zeros(n + 25)  # a smoother's store: x, INS state, compensation
 
-    def propagate(self, start, series, dth, dv, p, dt_k):
-        """Predict over ``dt_k`` ending at sample ``p`` of the chunk (module docstring, 2)."""
-        cfg = self.cfg
-        span = round(dt_k / cfg.dt)
-        offsets = self.offsets.get(span)
-        if offsets is None:  # sub-interval middles, then the whole interval's, before p
-            offsets = np.append(
-                span - (2 * np.arange(SUB_STEPS) + 1) * span // (2 * SUB_STEPS),
-                round(0.5 * dt_k / cfg.dt),
-            )
-            self.offsets[span] = offsets
-        probes = np.maximum(p - offsets, 0)
-        mids, mid = probes[:SUB_STEPS], int(probes[SUB_STEPS])
-        step.mean_rates_at(dth, dv, probes, cfg.dither_window, cfg.dt, self.rates_sub)
-        split = dt_k > 0.0 and step.rates_change(self.rates_sub, self.limits)
-        self.Phi_k = self.Phi  # the interval's transition (for a smoother's store)
-        if not split:
-            step.propagate(
-                self.x,
-                self.P,
-                self.F,
-                self.Qc,
-                self.Phi,
-                self.Qd,
-                *_state_at(start, series, mid),
-                self.rates_sub[-1, 0],
-                self.rates_sub[-1, 1],
-                dt_k,
-                self.noise,
-            )
-            return
-        total = np.eye(self.n) if self.keep_phi else None
-        for j in range(SUB_STEPS):
-            if total is not None and j:
-                total = self.Phi @ total
-            step.propagate(
-                self.x,
-                self.P,
-                self.F,
-                self.Qc,
-                self.Phi,
-                self.Qd,
-                *_state_at(start, series, int(mids[j])),
-                self.rates_sub[j, 0],
-                self.rates_sub[j, 1],
-                dt_k / SUB_STEPS,
-                self.noise,
-            )
-        if total is not None:
-            self.Phi_k = self.Phi @ total
 
-    def update(self, gnss, quat, vel, lla, omega_b):
-        """Measurement update at the stored PPS state; per-row arrays of the rows used."""
-        k = len(gnss)
-        rows = np.arange(2 * k) if self.cfg.use_range_rate else np.arange(0, 2 * k, 2)
-        acc = np.zeros(rows.size, dtype=np.bool_)
-        y, s = np.empty(rows.size), np.empty(rows.size)
-        bias_col = self.bias_columns[gnss.system]
-        if bias_col.min() < -1:
-            letters = sorted({LETTERS[i] for i in gnss.system[bias_col < -1].tolist()})
-            raise InputError(
-                f"satellites of system {''.join(letters)} at t = {gnss.time:.3f} s, which the "
-                f"filter does not take (systems {self.cfg.systems})",
-                key="systems",
-            )
-        step.update(
-            self.x,
-            self.P,
-            quat,
-            vel,
-            lla,
-            omega_b,
-            self.lever,
-            gnss.sat_pos,
-            gnss.sat_vel,
-            gnss.pseudorange,
-            gnss.sat_clock,
-            gnss.delay,
-            gnss.range_rate,
-            gnss.sat_clock_drift,
-            gnss.sigma_pr,
-            gnss.sigma_rr,
-            bias_col,
-            self.threshold,
-            self.cfg.use_range_rate,
-            not self.clock_ready,
-            acc,
-            y,
-            s,
-        )
-        self.clock_ready = True
-        return rows, acc, y, s
+def _refuse_systems(gnss, bias_columns, systems):
+    """The error for an epoch with satellites of a system the filter does not take."""
+    system = gnss.system
+    column = np.where(system < bias_columns.size, bias_columns[system % bias_columns.size], -2)
+    letters = sorted({LETTERS[i] if i < len(LETTERS) else str(i) for i in system[column < -1]})
+    raise InputError(
+        f"satellites of system {''.join(letters)} at t = {gnss.time:.3f} s, which the "
+        f"filter does not take (systems {systems})",
+        key="systems",
+    )
 
-    def feedback(self, tau):
-        """FB: apply the correction to the current state (carried over ``tau``), reset."""
-        nav = self.nav
-        step.feedback(
-            self.x, self.F, tau, nav.quat, nav.vel, nav.lla, self.comp, self.cum, self.sens
-        )
+
+def _store(store, row, mats, kept, n, sens, time, feedback):
+    """Hand a smoother's store the epoch's record (:func:`inins.ekf.step.epoch`, ``keep``)."""
+    store.predicted(mats[step.P_PRED], mats[step.PHI_K])
+    store.updated(
+        time,
+        kept[:n],
+        mats[step.P_UPD],
+        np.r_[0:9, sens],
+        feedback,
+        (kept[n : n + 4], kept[n + 4 : n + 7], kept[n + 7 : n + 10]),
+        (
+            row[step.LOG_QUAT : step.LOG_QUAT + 4],
+            row[step.LOG_VEL : step.LOG_VEL + 3],
+            row[step.LOG_LLA : step.LOG_LLA + 3],
+        ),
+        kept[n + 10 : n + 25],
+    )
 
 
 def run_filter(config, initial, t0, epochs, true_sensor=None, store=None):
     """Run the tightly coupled filter over a stream of epochs (module docstring).
+
+    Each epoch is one call of the compiled :func:`inins.ekf.step.epoch` (strapdown,
+    propagation, update, feedback and the epoch's log); this loop only reads the
+    epoch's fields, makes room in the log and hands a smoother's store its record.
 
     Parameters
     ----------
@@ -327,79 +333,88 @@ def run_filter(config, initial, t0, epochs, true_sensor=None, store=None):
         If no epoch had a satellite (nothing to couple with).
     """
     cfg, run = config, _Run(config, initial, t0)
-    run.keep_phi = store is not None
     fb = cfg.coupling is Coupling.FB
-    log = EpochLog()
+    keep = store is not None
+    pps, outages = cfg.pps_storage, bool(cfg.outages)
+    x, P, mats, kept, n, nav = run.x, run.P, run.mats, run.kept, run.n, run.nav
+    static = (nav.quat, nav.vel, nav.lla, nav.prev)  # the INS state, updated in place
+    model = (run.comp, run.cum, run.sens, run.rates, run.rates_sub, cfg.dt, cfg.dither_window)
+    model += (run.noise, run.lever, run.limits, run.threshold, cfg.use_range_rate, fb, keep)
+    log = _Log(n)
     wall = 0.0  # the filter's own time: producing the epochs (simulation, file) is not counted
-    t_end = t0
-    n = run.n
+    t_prev = t_end = t0
+    clock_ready = False
     for index, ep in enumerate(epochs):
         start_wall = _time.perf_counter()
-        dth, dv = step.compensate(ep.dtheta, ep.dv, cfg.dt, run.comp) if fb else (ep.dtheta, ep.dv)
-        start, series = run.nav.run(dth, dv, cfg.dt)
-        t_k = ep.gnss.time
+        gnss = ep.gnss
+        t_k, arrival, k = gnss.time, gnss.arrival, gnss.prn.size
+        dtheta, dv = np.ascontiguousarray(ep.dtheta), np.ascontiguousarray(ep.dv)
         # naive pairing updates the state at arrival itself: nothing to carry over
-        tau = ep.gnss.arrival - t_k if cfg.pps_storage else 0.0
-        t_state = t_k if cfg.pps_storage else ep.gnss.arrival
-        t_end = ep.gnss.arrival
-        p = ep.pps_index if cfg.pps_storage else dth.shape[0]
+        tau, t_state, p = (arrival - t_k, t_k, ep.pps_index) if pps else (0.0, arrival, len(dtheta))
+        t_end = arrival
+        coasted = k == 0 or (outages and cfg.in_outage(t_k))
+        truth = ep.truth is not None
+        if log.full(index, 2 * k, truth):
+            log.reserve(index, 2 * k, truth)
         tick = _time.perf_counter()
-        run.propagate(start, series, dth, dv, p, t_state - run.t_prev)
-        if store is not None:
-            store.predicted(run.P, run.Phi_k)
-        quat, vel, lla = _state_at(start, series, p)
-        step.mean_rates(dth, dv, p, cfg.dither_window, cfg.dt, run.rates)
-        coasted = len(ep.gnss) == 0 or cfg.in_outage(t_k)
-        update = None if coasted else run.update(ep.gnss, quat, vel, lla, run.rates[0])
-        out = np.empty(4), np.empty(3), np.empty(3)
-        step.correct(quat, vel, lla, run.x, *out)
-        estimate = run.x.copy()
-        estimate[run.sens] += run.comp[: run.sens.size]
-        if coasted:
-            log.n_used.append(0)
-            log.n_rejected.append(0)
-            log.nis.append(0.0)
-        else:
-            rows, acc, y, s = update
-            used = int(np.count_nonzero(acc))
-            log.n_used.append(used)
-            log.n_rejected.append(acc.size - used)
-            log.nis.append(float(np.dot(y * y / s, acc)))
-            log.rows.append((index, ep.gnss.prn[rows // 2], rows % 2, y, s, acc))
-        log.state.append(estimate)
-        log.sigma.append(np.sqrt(run.P.ravel()[:: n + 1]))  # the diagonal
-        if ep.truth is not None:
-            log.truth.append(ep.truth)
-            log.covariance.append(run.P.copy())
-        if store is not None:
-            after = run.comp.copy()
-            if fb and not coasted:
-                after[: run.sens.size] += run.x[run.sens]
-            reset = np.r_[0:9, run.sens]
-            store.updated(
-                t_state, run.x, run.P, reset, fb and not coasted, (quat, vel, lla), out, after
-            )
-        if fb and not coasted:
-            run.feedback(tau)
+        rows = step.epoch(
+            x,
+            P,
+            mats,
+            *static,
+            nav.count,
+            run.home,
+            *model,
+            dtheta,
+            dv,
+            p,
+            t_state - t_prev,
+            tau,
+            coasted,
+            not clock_ready,
+            t_state,
+            t_k,
+            gnss.prn,
+            gnss.sat_pos,
+            gnss.sat_vel,
+            gnss.pseudorange,
+            gnss.sat_clock,
+            gnss.delay,
+            gnss.range_rate,
+            gnss.sat_clock_drift,
+            gnss.sigma_pr,
+            gnss.sigma_rr,
+            run.bias_columns,
+            index,
+            log.flog,
+            log.ilog,
+            truth,
+            log.cov,
+            log.rows,
+            log.inn_f,
+            log.inn_i,
+            kept,
+        )
+        if rows < 0:
+            _refuse_systems(gnss, run.bias_columns, cfg.systems)
         log.update_s.append(_time.perf_counter() - tick)
-        run.t_prev = t_state
-        cum = np.zeros(n)
-        cum[_NAV] = run.cum
-        cum[run.sens] = run.comp[: run.sens.size]
-        log.time.append(t_state)
-        log.gnss_time.append(t_k)
-        log.quat.append(out[0])
-        log.vel.append(out[1])
-        log.lla.append(out[2])
-        log.n_sats.append(len(ep.gnss))
-        log.coasted.append(coasted)
-        log.cumulative.append(cum)
+        nav.count += len(dtheta)
+        log.rows += rows
+        clock_ready = clock_ready or not coasted
+        t_prev = t_state
+        if truth:
+            log.truth.append((index, ep.truth))
+        if keep:
+            _store(store, log.flog[index], mats, kept, n, run.sens, t_state, fb and not coasted)
         wall += _time.perf_counter() - start_wall
-    if log.n_sats and max(log.n_sats) == 0:
+    epochs_log = log.epochs()
+    if epochs_log.n_sats.size and epochs_log.n_sats.max() == 0:
         raise InputError("no satellites above the mask in any epoch of the run", key="gnss")
-    result = EkfResult.from_log(cfg, log, t_end - t0, wall)
-    if log.truth and len(log.truth) == len(log.time):
-        result = score(result, log, true_sensor, pps_storage=cfg.pps_storage, systems=cfg.systems)
+    result = EkfResult.from_log(cfg, epochs_log, t_end - t0, wall)
+    if epochs_log.truth and len(epochs_log.truth) == epochs_log.time.size:
+        result = score(
+            result, epochs_log, true_sensor, pps_storage=cfg.pps_storage, systems=cfg.systems
+        )
     return result
 
 

@@ -160,19 +160,28 @@ def discretize(F, Qc, dt, Phi, Qd):
     n = F.shape[0]
     A = F * dt
     A2 = A @ A
-    Phi[:, :] = A + 0.5 * A2 + (A2 @ A) / 6.0
-    for i in range(n):
-        Phi[i, i] += 1.0
+    A3 = A2 @ A
     FQ = F @ Qc
-    Qd[:, :] = Qc * dt + (FQ + FQ.T) * (0.5 * dt * dt) + (FQ @ F.T) * (dt**3 / 3.0)
+    FQF = FQ @ F.T
+    c2, c3 = 0.5 * dt * dt, dt**3 / 3.0
+    for i in range(n):  # the sums element by element, straight into the outputs
+        for j in range(n):
+            Phi[i, j] = A[i, j] + 0.5 * A2[i, j] + A3[i, j] / 6.0
+            Qd[i, j] = Qc[i, j] * dt + (FQ[i, j] + FQ[j, i]) * c2 + FQF[i, j] * c3
+        Phi[i, i] += 1.0
 
 
 @jit.njit(cache=True)
 def predict(x, P, Phi, Qd):
     """``x = Phi x``, ``P = Phi P Phi^T + Qd``, symmetrised (in place)."""
+    n = x.shape[0]
     x[:] = Phi @ x
-    M = Phi @ P @ Phi.T + Qd
-    P[:, :] = 0.5 * (M + M.T)
+    M = Phi @ P @ Phi.T
+    for i in range(n):  # (M + Qd) symmetrised, upper triangle mirrored
+        for j in range(i, n):
+            v = 0.5 * ((M[i, j] + Qd[i, j]) + (M[j, i] + Qd[j, i]))
+            P[i, j] = v
+            P[j, i] = v
 
 
 @jit.njit(cache=True)
@@ -195,30 +204,44 @@ def pseudorange_rows(r_ant, v_ant, mat_ne, j_v, lever_n, lever_vel_n, sat_pos, s
     (the estimated NED frame is turned by ``J_v dr``).
     """
     H.fill(0.0)
+    va = mat_ne @ v_ant  # the antenna velocity (NED), the same for every satellite
+    l0, l1, l2 = lever_n[0], lever_n[1], lever_n[2]
+    u0, u1, u2 = lever_vel_n[0], lever_vel_n[1], lever_vel_n[2]
+    exv = np.empty(3)
     for i in range(sat_pos.shape[0]):
         d = sat_pos[i] - r_ant
         rho = math.sqrt(d[0] ** 2 + d[1] ** 2 + d[2] ** 2)
         e = mat_ne @ (d / rho)
         dv = mat_ne @ (sat_vel[i] - v_ant)
-        zhat[2 * i] = rho
-        zhat[2 * i + 1] = 0.0
+        edv = 0.0
         for k in range(3):
-            zhat[2 * i + 1] += dv[k] * e[k]
-        edv = zhat[2 * i + 1]
-        g = -(dv - edv * e) / rho
-        va = mat_ne @ v_ant
+            edv += dv[k] * e[k]
+        zhat[2 * i], zhat[2 * i + 1] = rho, edv
+        e0, e1, e2 = e[0], e[1], e[2]
+        g0 = -(dv[0] - edv * e0) / rho
+        g1 = -(dv[1] - edv * e1) / rho
+        g2 = -(dv[2] - edv * e2) / rho
         # a^T [b x] phi = a . (b x phi) = (a x b) . phi: the row of a^T [b x] is a x b
-        h_att_pr = np.cross(lever_n, e)  # -e^T [l x]
-        h_att_rr = np.cross(lever_vel_n, e) + np.cross(g, lever_n)  # -e^T [u x] + G [l x]
-        evj = np.cross(e, va) @ j_v  # e^T [v x] J_v
-        for k in range(3):
-            H[2 * i, POS + k] = e[k]
-            H[2 * i, ATT + k] = -h_att_pr[k]
-            H[2 * i + 1, POS + k] = -evj[k] - g[k]
-            H[2 * i + 1, VEL + k] = e[k]
-            H[2 * i + 1, ATT + k] = -h_att_rr[k]
-        H[2 * i, CLK] = 1.0
-        H[2 * i + 1, CLK + 1] = 1.0
+        exv[0], exv[1], exv[2] = (
+            e1 * va[2] - e2 * va[1],
+            e2 * va[0] - e0 * va[2],
+            e0 * va[1] - e1 * va[0],
+        )
+        evj = exv @ j_v  # e^T [v x] J_v
+        pr, rr = H[2 * i], H[2 * i + 1]
+        pr[POS], pr[POS + 1], pr[POS + 2] = e0, e1, e2
+        # -e^T [l x] = l x e
+        pr[ATT] = -(l1 * e2 - l2 * e1)
+        pr[ATT + 1] = -(l2 * e0 - l0 * e2)
+        pr[ATT + 2] = -(l0 * e1 - l1 * e0)
+        pr[CLK] = 1.0
+        rr[POS], rr[POS + 1], rr[POS + 2] = -evj[0] - g0, -evj[1] - g1, -evj[2] - g2
+        rr[VEL], rr[VEL + 1], rr[VEL + 2] = e0, e1, e2
+        # -e^T [u x] + G [l x] = u x e + g x l
+        rr[ATT] = -((u1 * e2 - u2 * e1) + (g1 * l2 - g2 * l1))
+        rr[ATT + 1] = -((u2 * e0 - u0 * e2) + (g2 * l0 - g0 * l2))
+        rr[ATT + 2] = -((u0 * e1 - u1 * e0) + (g0 * l1 - g1 * l0))
+        rr[CLK + 1] = 1.0
 
 
 @jit.njit(cache=True)
@@ -235,11 +258,11 @@ def sequential_update(x, P, H, y0, r, threshold, accepted, y_out, s_out):
     ``s_out`` (innovation and its variance, per row) are written in place.
     """
     n = x.shape[0]
-    dx = np.zeros(n)
+    dx, ph, k = np.zeros(n), np.empty(n), np.empty(n)
     count = 0
     for i in range(H.shape[0]):
         h = H[i]
-        ph = P @ h
+        np.dot(P, h, ph)
         s = h @ ph + r[i]
         y = y0[i] - h @ dx
         y_out[i] = y
@@ -249,12 +272,17 @@ def sequential_update(x, P, H, y0, r, threshold, accepted, y_out, s_out):
             continue
         accepted[i] = True
         count += 1
-        k = ph / s
-        dx += k * y
         for a in range(n):
-            for b in range(a, n):
-                v = P[a, b] - k[a] * ph[b] - ph[a] * k[b] + s * k[a] * k[b]
-                P[a, b] = v
-                P[b, a] = v
+            k[a] = ph[a] / s
+            dx[a] += k[a] * y
+        for a in range(n):  # the upper triangle, row by row (contiguous: vectorised)
+            ka, pa = k[a], ph[a]
+            ska = s * ka
+            row, k_b, ph_b = P[a, a:], k[a:], ph[a:]
+            for b in range(n - a):
+                row[b] = row[b] - ka * ph_b[b] - pa * k_b[b] + ska * k_b[b]
+        for a in range(1, n):  # mirrored
+            for b in range(a):
+                P[a, b] = P[b, a]
     x += dx
     return count

@@ -91,7 +91,8 @@ class EkfResult:
     nis : ndarray, shape (m,)
         Sum of the accepted measurements' NIS per epoch.
     update_time : ndarray, shape (m,)
-        Wall time of propagation + update per epoch (s).
+        Wall time of the epoch's compiled step per epoch (s): strapdown, propagation,
+        update and feedback (:func:`inins.ekf.step.epoch`).
     innovations : Innovations
     flight_time, wall_time : float
         Data span and the filter's own wall time (s): producing the epochs (a

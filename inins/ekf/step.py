@@ -1,21 +1,24 @@
 """One filter epoch in compiled code: propagation, update at the 1PPS state, FB feedback.
 
-:func:`inins.ekf.filter.run_filter` calls, once per GPS epoch and with preallocated
-arrays, :func:`compensate` (FB), :func:`mean_rates_at` / :func:`mean_rates`,
-:func:`propagate` (once, or once per sub-interval when the rates change fast),
-:func:`update`, :func:`correct` and (FB) :func:`feedback`, so that an epoch costs
-tens of microseconds besides the strapdown. The equations are those of
-:mod:`inins.ekf.filter` (module docstring) and :mod:`inins.ekf.kernels`; the
-navigation helpers here are the scalar forms of :func:`inins.core.earth.mat_en`,
-:func:`~inins.core.earth.ecef_from_llh`, :func:`inins.core.rotation.mat_from_quat`
-and :func:`inins.ekf.measurements.antenna` (tested equal in ``tests/ekf/test_step.py``).
+:func:`epoch` is the whole epoch of :func:`inins.ekf.filter.run_filter`, one call
+per GPS epoch with preallocated arrays: :func:`compensate` (FB), the strapdown,
+:func:`mean_rates_at` / :func:`mean_rates`, :func:`propagate` (once, or once per
+sub-interval when the rates change fast), :func:`update`, :func:`correct`, (FB)
+:func:`feedback`, and the epoch's log. The building blocks stay separate kernels
+(tested on their own, and the loosely coupled filter uses some); an epoch of
+EKF2 with ten satellites costs about 50 us, a quarter of it the strapdown's 200
+samples. The equations are those of :mod:`inins.ekf.filter` (module docstring) and
+:mod:`inins.ekf.kernels`; the navigation helpers here are the scalar forms of
+:func:`inins.core.earth.mat_en`, :func:`~inins.core.earth.ecef_from_llh`,
+:func:`inins.core.rotation.mat_from_quat` and :func:`inins.ekf.measurements.antenna`
+(tested equal in ``tests/ekf/test_step.py``).
 """
 
 import math
 
 import numpy as np
 
-from inins.core import earth, jit
+from inins.core import earth, jit, strapdown
 from inins.ekf import kernels
 
 _radii = jit.njit(cache=True)(earth.principal_radii)
@@ -268,3 +271,261 @@ def compensate(dtheta, dv, dt, comp):
             out_t[k, i] = a
             out_v[k, i] = b
     return out_t, out_v
+
+
+# The fused epoch (:func:`epoch`): slots of its matrix work array and columns of its logs.
+F_, QC, PHI, QD, P_PRED, PHI_K, P_UPD = range(7)
+"""Slots of ``mats`` (7, n, n): the model, its noise, transition and discrete noise of
+the last (sub-)interval, then what a smoother's store keeps: ``P`` predicted, the
+interval's ``Phi_k`` (the product over sub-intervals) and ``P`` updated."""
+LOG_TIME, LOG_GNSS_TIME, LOG_NIS, LOG_QUAT, LOG_VEL, LOG_LLA, LOG_STATE = 0, 1, 2, 3, 7, 10, 13
+"""Columns of an epoch's row of ``flog`` (13 + 3 n): the time the state refers to, the
+PPS, the NIS sum, the output quaternion, velocity, position, then the state estimate
+(sensor totals), its 1-sigma and the cumulative corrections (``n`` each)."""
+N_SATS, N_USED, N_REJECTED, COASTED = 0, 1, 2, 3
+"""Columns of an epoch's row of ``ilog`` (4, int)."""
+
+
+@jit.njit(cache=True)
+def _state_at(start_q, start_v, start_l, out_q, out_v, out_l, index):
+    """(quat, vel, lla) after ``index`` samples of a chunk (0: the chunk start)."""
+    if index == 0:
+        return start_q, start_v, start_l
+    return out_q[index - 1], out_v[index - 1], out_l[index - 1]
+
+
+@jit.njit(cache=True)
+def epoch(
+    x,
+    P,
+    mats,
+    quat,
+    vel,
+    lla,
+    prev,
+    count,
+    home,
+    comp,
+    cum,
+    sens,
+    rates,
+    rates_sub,
+    dt,
+    window,
+    noise,
+    lever,
+    limits,
+    threshold,
+    use_rr,
+    fb,
+    keep,
+    dtheta,
+    dv,
+    p,
+    dt_k,
+    tau,
+    coasted,
+    init_clock,
+    t_state,
+    t_k,
+    prn,
+    sat_pos,
+    sat_vel,
+    pseudorange,
+    sat_clock,
+    delay,
+    range_rate,
+    sat_clock_drift,
+    sigma_pr,
+    sigma_rr,
+    bias_columns,
+    index,
+    flog,
+    ilog,
+    keep_cov,
+    cov,
+    inn_start,
+    inn_f,
+    inn_i,
+    kept,
+):
+    """One filter epoch (:mod:`inins.ekf.filter`, module docstring, steps 1-4) in place.
+
+    The building blocks in the order :func:`inins.ekf.filter.run_filter` used to call
+    them from Python: (FB) :func:`compensate`, the strapdown
+    (:func:`inins.core.strapdown._navigate`, free mode, coning and sculling, every
+    sample), :func:`mean_rates_at` and :func:`rates_change` at the sub-interval
+    middles, :func:`propagate` once or per sub-interval, :func:`mean_rates` at the
+    PPS, :func:`update` (unless ``coasted``), :func:`correct` for the output, (FB)
+    :func:`feedback`.
+
+    State, updated in place: ``x`` (n,), ``P`` (n, n), ``mats`` (7, n, n) (slots
+    :data:`F_` ...), the INS ``quat``, ``vel``, ``lla``, ``prev`` (6,) after ``count``
+    samples, the FB compensation ``comp`` (15,) and cumulative navigation corrections
+    ``cum`` (9,), ``sens`` the sensor states in ``comp`` order, the dither-filtered
+    rates ``rates`` (2, 3) and ``rates_sub`` (j + 1, 2, 3) of the ``j`` sub-intervals.
+    Settings: IMU interval ``dt`` (s), dither ``window`` (samples), ``noise`` of
+    :func:`propagate`, ``lever`` (3,) m, ``limits`` of :func:`rates_change`, the
+    gate ``threshold``, ``use_rr``, ``fb``, ``keep`` (fill the store slots of
+    ``mats`` and ``kept``: a smoother's store). Epoch: increments ``dtheta``, ``dv``
+    (s, 3) up to the data arrival, ``p`` samples to the state the update uses,
+    interval ``dt_k`` (s) to it, FB latency ``tau`` (s), ``coasted``,
+    ``init_clock`` (the first update sets the clock), the logged times ``t_state``,
+    ``t_k`` (s), the measurements of :func:`update` and their ``prn``;
+    ``bias_columns`` the inter-system bias state of each system
+    (:meth:`inins.ekf.config.FilterConfig.bias_columns`: -1 the reference, -2 a system
+    the filter does not take).
+
+    Logs: row ``index`` of ``flog`` (columns :data:`LOG_TIME` ...) and ``ilog``
+    (:data:`N_SATS` ...), ``cov[index]`` = ``P`` if ``keep_cov``; the innovation rows
+    from ``inn_start`` on: ``inn_f`` (value, variance), ``inn_i`` (epoch, prn, kind
+    0 pseudorange / 1 range rate, accepted). ``kept`` (n + 25,): with ``keep``, the
+    updated ``x``, the INS (quat, vel, lla) at the update and the compensation after
+    the reset. Returns the number of innovation rows written, or -1 (nothing updated
+    or logged) if a satellite is of a system the filter does not take.
+    """
+    n = x.shape[0]
+    F, Qc, Phi, Qd = mats[F_], mats[QC], mats[PHI], mats[QD]
+    # 1. strapdown over the chunk (FB: compensated increments)
+    if fb:
+        dth, dvc = compensate(dtheta, dv, dt, comp)
+    else:
+        dth, dvc = dtheta, dv
+    samples = dth.shape[0]
+    q0, v0, l0 = quat.copy(), vel.copy(), lla.copy()
+    out_q, out_v, out_l = np.empty((samples, 4)), np.empty((samples, 3)), np.empty((samples, 3))
+    strapdown._navigate(
+        quat,
+        vel,
+        lla,
+        prev,
+        count,
+        dth,
+        dvc,
+        dt,
+        0,  # free navigation
+        True,
+        True,
+        1,
+        home,
+        np.empty(samples, np.int64),
+        out_q,
+        out_v,
+        out_l,
+    )
+    # 2. propagation over dt_k, split when the rates change fast within it
+    sub = rates_sub.shape[0] - 1
+    span = round(dt_k / dt)
+    probes = np.empty(sub + 1, np.int64)  # sub-interval middles, then the interval's
+    for j in range(sub):
+        probes[j] = max(p - (span - (2 * j + 1) * span // (2 * sub)), 0)
+    probes[sub] = max(p - round(0.5 * dt_k / dt), 0)
+    mean_rates_at(dth, dvc, probes, window, dt, rates_sub)
+    split = dt_k > 0.0 and rates_change(rates_sub, limits)
+    if not split:
+        q, v, l = _state_at(q0, v0, l0, out_q, out_v, out_l, probes[sub])
+        propagate(x, P, F, Qc, Phi, Qd, q, v, l, rates_sub[sub, 0], rates_sub[sub, 1], dt_k, noise)
+        if keep:
+            mats[PHI_K] = Phi
+    else:
+        total = mats[PHI_K]
+        if keep:
+            total[:] = np.eye(n)
+        for j in range(sub):
+            if keep and j:
+                total[:] = Phi @ total
+            q, v, l = _state_at(q0, v0, l0, out_q, out_v, out_l, probes[j])
+            propagate(
+                x, P, F, Qc, Phi, Qd, q, v, l, rates_sub[j, 0], rates_sub[j, 1], dt_k / sub, noise
+            )
+        if keep:
+            total[:] = Phi @ total
+    if keep:
+        mats[P_PRED] = P
+    # 3. update at the stored state
+    q, v, l = _state_at(q0, v0, l0, out_q, out_v, out_l, p)
+    mean_rates(dth, dvc, p, window, dt, rates)
+    k = sat_pos.shape[0]
+    flag = ilog[index]
+    flag[N_SATS], flag[N_USED], flag[N_REJECTED], flag[COASTED] = k, 0, 0, coasted
+    row = flog[index]
+    row[LOG_NIS] = 0.0
+    rows = 0
+    if not coasted:
+        bias_col = np.empty(k, np.int64)
+        for i in range(k):
+            system = prn[i] // 100  # inins.ekf.measurements.GnssEpoch.system
+            column = bias_columns[system] if 0 <= system < bias_columns.size else -2
+            if column < -1:
+                return -1
+            bias_col[i] = column
+        rows = 2 * k if use_rr else k
+        acc = np.zeros(rows, dtype=np.bool_)
+        y, s = np.empty(rows), np.empty(rows)
+        update(
+            x,
+            P,
+            q,
+            v,
+            l,
+            rates[0],
+            lever,
+            sat_pos,
+            sat_vel,
+            pseudorange,
+            sat_clock,
+            delay,
+            range_rate,
+            sat_clock_drift,
+            sigma_pr,
+            sigma_rr,
+            bias_col,
+            threshold,
+            use_rr,
+            init_clock,
+            acc,
+            y,
+            s,
+        )
+        used = 0
+        for j in range(rows):
+            i = j if use_rr else 2 * j  # row 2 i pseudorange, 2 i + 1 range rate
+            inn_f[inn_start + j, 0], inn_f[inn_start + j, 1] = y[j], s[j]
+            out = inn_i[inn_start + j]
+            out[0], out[1], out[2], out[3] = index, prn[i // 2], i % 2, acc[j]
+            used += acc[j]
+        flag[N_USED], flag[N_REJECTED] = used, rows - used
+        row[LOG_NIS] = np.dot(y * y / s, acc.astype(np.float64))
+    # the output: nav (-) x, the estimate (sensor totals), its sigma
+    out_quat, out_vel, out_lla = np.empty(4), np.empty(3), np.empty(3)
+    correct(q, v, l, x, out_quat, out_vel, out_lla)
+    row[LOG_TIME], row[LOG_GNSS_TIME] = t_state, t_k
+    row[LOG_QUAT : LOG_QUAT + 4] = out_quat
+    row[LOG_VEL : LOG_VEL + 3] = out_vel
+    row[LOG_LLA : LOG_LLA + 3] = out_lla
+    estimate = x.copy()
+    for j in range(sens.size):
+        estimate[sens[j]] += comp[j]
+    row[LOG_STATE : LOG_STATE + n] = estimate
+    for i in range(n):
+        row[LOG_STATE + n + i] = np.sqrt(P[i, i])
+    if keep_cov:
+        cov[index] = P
+    if keep:
+        mats[P_UPD] = P
+        kept[:n] = x
+        kept[n : n + 4], kept[n + 4 : n + 7], kept[n + 7 : n + 10] = q, v, l
+        after = kept[n + 10 : n + 25]
+        after[:] = comp
+        if fb and not coasted:
+            for j in range(sens.size):
+                after[j] += x[sens[j]]
+    # 4. FB: the correction carried over the latency to the current state, reset
+    if fb and not coasted:
+        feedback(x, F, tau, quat, vel, lla, comp, cum, sens)
+    cumulative = row[LOG_STATE + 2 * n : LOG_STATE + 3 * n]
+    cumulative[:] = 0.0
+    cumulative[:9] = cum
+    for j in range(sens.size):
+        cumulative[sens[j]] = comp[j]
+    return rows

@@ -1,0 +1,203 @@
+"""The fused epoch kernel (:func:`inins.ekf.step.epoch`) against the filter loop it
+replaced (``stepwise_filter.run_stepwise``: the Python loop as it was, calling the
+building-block kernels one by one, the propagation and update ones in their frozen
+form of ``frozen_kernels``): EKF2-FB with a GPS outage, an epoch without satellites
+and a bank turn whose roll-in and roll-out split the propagation; EKF1-FF on
+pseudoranges alone; the naive pairing; the smoother's store. Every output array is
+equal bit for bit.
+
+The reference is recomputed in the test from the same epochs, so nothing here is a
+stored number: a change to how the fused kernel composes the steps, or to the
+arithmetic of a rewritten kernel, fails.
+"""
+
+import math
+from dataclasses import replace
+
+import numpy as np
+import pytest
+from ekf_sim import Receiver, epoch_stream
+from stepwise_filter import run_stepwise
+
+from inins.core import imu, strapdown
+from inins.core.units import ARCSEC, DEG, DEG_RTH, DPH, UG
+from inins.ekf.config import Coupling, FilterConfig, InitialSigma, Model
+from inins.ekf.filter import run_filter
+from inins.ekf.flight import (
+    Dither,
+    Dithered,
+    FlightPlan,
+    Leg,
+    LegKind,
+    dither_window,
+    flight_trajectory,
+    gyrocompass_attitude,
+)
+from inins.ekf.measurements import GnssEpoch
+from inins.ekf.tight_store import TightStore
+
+DT = 0.005
+ERRORS = imu.SensorErrors(
+    gyro_bias=np.array([0.01, -0.01, 0.0]) * DPH,
+    accel_bias=np.array([50, -40, 30]) * UG,
+    gyro_misalignment=np.array([-30, 20, 50, 200, -40, 200]) * 1e-6,
+    accel_misalignment=np.array([20, -30, 10]) * 1e-6,
+    gyro_arw=0.002 * DEG_RTH,
+    accel_vrw=20 * UG,
+)
+DITHER = Dither(60 * ARCSEC, 40.0)
+EMPTY_EPOCH = 7
+"""Index of the epoch whose satellites are removed (coasted: no measurement)."""
+
+
+def _no_satellites(index, epoch):
+    if index != EMPTY_EPOCH:
+        return epoch
+    none = np.zeros(0)
+    return GnssEpoch(
+        epoch.time,
+        np.zeros(0, np.int64),
+        np.zeros((0, 3)),
+        np.zeros((0, 3)),
+        *([none] * 6),
+        arrival=epoch.arrival,
+    )
+
+
+@pytest.fixture(scope="module")
+def flight():
+    """64 s: wait, take-off, a 1-deg turn at 30 deg bank (rolled in and out within half
+    a second), straight; dithered IMU."""
+    plan = FlightPlan(
+        37 * DEG,
+        127 * DEG,
+        100.0,
+        math.pi,
+        (
+            Leg(LegKind.WAIT, 10),
+            Leg(LegKind.TAKEOFF, 40, speed=80.0),
+            Leg(LegKind.STRAIGHT, 5.45),
+            Leg(LegKind.TURN, bank=30 * DEG, angle=1 * DEG),
+            Leg(LegKind.STRAIGHT, 8),
+        ),
+    )
+    base = flight_trajectory(plan)
+    truth = Dithered(base, DITHER)
+    rx = Receiver()
+    epochs = list(
+        epoch_stream(truth, base, ERRORS, DT, plan.duration, rx, seed=3, on_gnss=_no_satellites)
+    )
+    mat0, vel0, lla0 = truth.state([0.0])
+    mat_base, _, _ = base.state([0.0])
+    aligned = gyrocompass_attitude(mat_base[0], lla0[0, 0], lla0[0, 2], ERRORS)
+    initial = strapdown.NavState.from_attitude(aligned @ mat_base[0].T @ mat0[0], vel0[0], lla0[0])
+    config = FilterConfig(
+        Model.EKF2,
+        Coupling.FB,
+        DT,
+        lever_arm=rx.lever_arm,
+        arw=np.full(3, 0.002 * DEG_RTH),
+        vrw=np.full(3, 20 * UG),
+        dither_window=dither_window(DITHER, DT),
+        initial_sigma=InitialSigma(heading=0.1 * DEG, gyro_bias=0.02 * DPH, clock_bias=1e4),
+        outages=((30.0, 34.0),),
+    )
+    return config, initial, epochs
+
+
+def _assert_same(name, got, want):
+    got, want = np.asarray(got), np.asarray(want)
+    assert got.dtype == want.dtype, name
+    np.testing.assert_array_equal(got, want, err_msg=name, strict=True)
+
+
+def _assert_results_agree(got, want):
+    for name in (
+        "time",
+        "gnss_time",
+        "quat_nb",
+        "vel_n",
+        "lla",
+        "state",
+        "sigma",
+        "cumulative",
+        "nav_error",
+        "heading_error",
+        "nees",
+        "n_sats",
+        "n_used",
+        "n_rejected",
+        "coasted",
+        "nis",
+    ):
+        _assert_same(name, getattr(got, name), getattr(want, name))
+    for name in ("epoch", "prn", "kind", "value", "variance", "accepted"):
+        _assert_same(
+            f"innovations.{name}", getattr(got.innovations, name), getattr(want.innovations, name)
+        )
+    assert got.flight_time == want.flight_time
+    assert got.update_time.shape == want.update_time.shape
+    assert got.model == want.model and got.coupling == want.coupling
+
+
+def test_ekf2_fb_with_outage_empty_epoch_and_split_propagation(flight):
+    config, initial, epochs = flight
+    want, splits = run_stepwise(config, initial, 0.0, epochs, ERRORS)
+    got = run_filter(config, initial, 0.0, epochs, ERRORS)
+    assert splits >= 1  # the interval of the roll was propagated in sub-intervals
+    assert want.coasted[EMPTY_EPOCH] and want.n_sats[EMPTY_EPOCH] == 0
+    assert want.coasted[(want.time >= 30.0) & (want.time < 34.0)].all()
+    assert want.nees.size == want.time.size  # scored with truth
+    _assert_results_agree(got, want)
+
+
+def test_ekf1_ff_pseudoranges_alone(flight):
+    config, initial, epochs = flight
+    config = replace(config, model=Model.EKF1, coupling=Coupling.FF, use_range_rate=False)
+    want, _ = run_stepwise(config, initial, 0.0, epochs, ERRORS)
+    got = run_filter(config, initial, 0.0, epochs, ERRORS)
+    assert want.state.shape[1] == 17 and not np.any(want.innovations.kind)
+    _assert_results_agree(got, want)
+
+
+def test_naive_pairing(flight):
+    config, initial, epochs = flight
+    config = replace(config, pps_storage=False)
+    want, _ = run_stepwise(config, initial, 0.0, epochs, ERRORS)
+    got = run_filter(config, initial, 0.0, epochs, ERRORS)
+    assert np.all(want.time > want.gnss_time)  # the state at the arrival
+    _assert_results_agree(got, want)
+
+
+@pytest.mark.parametrize("coupling", [Coupling.FB, Coupling.FF])
+def test_smoother_store(flight, coupling):
+    config, initial, epochs = flight
+    config = replace(config, coupling=coupling)
+    store_want, store_got = TightStore(), TightStore()
+    want, splits = run_stepwise(config, initial, 0.0, epochs, store=store_want)
+    got = run_filter(config, initial, 0.0, epochs, store=store_got)
+    assert splits >= 1  # a Phi_k the product over sub-intervals
+    _assert_results_agree(got, want)
+    run_want, run_got = store_want.run(), store_got.run()
+    for name in ("time", "quat", "vel", "lla", "comp", "x", "r", "P", "P_pred", "Phi"):
+        _assert_same(f"store.{name}", getattr(run_got, name), getattr(run_want, name))
+
+
+def test_log_grown_by_doubling(flight, monkeypatch):
+    """A log that starts with room for one epoch (and 8 innovation rows) doubles its
+    arrays as the run goes: the result is the one of a log with room from the start."""
+    from inins.ekf import filter as ekf_filter
+
+    config, initial, epochs = flight
+    want = run_filter(config, initial, 0.0, epochs, ERRORS)
+    monkeypatch.setattr(ekf_filter, "LOG_CAPACITY", 1)
+    got = run_filter(config, initial, 0.0, epochs, ERRORS)
+    _assert_results_agree(got, want)
+
+
+def test_epochs_consumed_as_a_stream(flight):
+    """A generator of epochs (consumed once) gives the run of the list."""
+    config, initial, epochs = flight
+    want = run_filter(config, initial, 0.0, epochs)
+    got = run_filter(config, initial, 0.0, (e for e in epochs))
+    _assert_results_agree(got, want)
