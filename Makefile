@@ -18,8 +18,10 @@ venv: $(STAMP)
 # numba's cache of every kernel, and the kernel library short runs load without
 # numba: compiled at install (about 40 s), checked again when a source changed
 KERNELS := $(VENV)/.kernels
+# (one BLAS thread: the short runs' small matrices, e.g. the 26-state Gramian's matrix
+# exponentials, took 3-10 times the CPU with threaded OpenBLAS on a busy machine)
 $(KERNELS): $(STAMP) $(shell find inins -name '*.py')
-	$(BIN)/python -m inins.commands.warmup
+	OPENBLAS_NUM_THREADS=1 OMP_NUM_THREADS=1 $(BIN)/python -m inins.commands.warmup
 	touch $(KERNELS)
 
 kernels: $(KERNELS)
@@ -33,8 +35,10 @@ lint: $(STAMP)
 	$(BIN)/ruff format --check inins tests benchmarks
 	$(BIN)/lint-imports
 
+# PYTHONDONTWRITEBYTECODE cleared: pytest keeps its rewrite of the test modules (their
+# asserts) as bytecode, which every worker would otherwise redo (3 s of CPU each)
 test: lint kernels
-	$(BIN)/python -m pytest -n auto --dist loadscope
+	PYTHONDONTWRITEBYTECODE= $(BIN)/python -m pytest -n auto --dist loadscope
 
 # More examples of the property tests (tests/cli/test_fuzz.py), random seed:
 # FUZZ_EXAMPLES per test (make test runs 150 of each, derandomized).

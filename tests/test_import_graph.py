@@ -3,6 +3,7 @@ imports a sibling command (shared code lives in ``commands._*``, a method packag
 ``scenario/``), and no two modules of ``inins`` import each other through a circle."""
 
 import ast
+import functools
 from pathlib import Path
 
 import inins
@@ -15,8 +16,10 @@ def _module_name(path):
     return ".".join(parts[:-1] if parts[-1] == "__init__" else parts)
 
 
+@functools.cache
 def _graph():
-    """module -> the inins modules it imports anywhere in its source."""
+    """module -> the inins modules it imports anywhere in its source (parsed once a
+    process: both tests read it, neither changes it)."""
     modules = {_module_name(p): p for p in ROOT.rglob("*.py")}
     graph = {}
     for name, path in modules.items():

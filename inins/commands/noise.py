@@ -155,7 +155,7 @@ class Pass:
 def _pass(source, dt, ms, cfg, start, stop, keep):
     block_n = max(1, round(cfg.static.block_s / dt))
     acc = allan.AllanAccumulator(dt, 6, ms, cfg.deviation.offsets, block_n=block_n)
-    kept, batch, rows = [], [], 0
+    kept = []
     sat = _saturation_limits(cfg, dt)
     n = 0
     for k0, dtheta, dv in source.chunks(start, stop):
@@ -168,11 +168,9 @@ def _pass(source, dt, ms, cfg, start, stop, keep):
                     f"({(k0 + row) * dt:.6g} s): at its range (static.*_range_*)",
                     source=source.name,
                 )
-        batch.append((k0, dtheta, dv))
-        rows += dtheta.shape[0]
-        if rows >= BATCH_ROWS:
-            _add(acc, batch, source.name)
-            batch, rows = [], 0
+        bad = acc.add(dtheta, dv)
+        if bad >= 0:
+            raise InputError(f"non-finite increments at sample {k0 + bad}", source=source.name)
         n += dtheta.shape[0]
         if keep:
             if n > cfg.deviation.in_memory_limit:
@@ -183,29 +181,10 @@ def _pass(source, dt, ms, cfg, start, stop, keep):
                     key="deviation.in_memory_limit",
                 )
             kept.append(np.hstack([dtheta, dv]))
-    if batch:
-        _add(acc, batch, source.name)
     dev = acc.finish() if n else None
     record = np.vstack(kept) if keep and kept else None
     blocks, spread = acc.blocks()
     return Pass(dev, blocks, spread / dt, block_n, n, record)
-
-
-BATCH_ROWS = 1 << 20
-"""Rows gathered from the reader's chunks before each pass of the accumulator (fewer,
-longer kernel calls)."""
-
-
-def _add(acc, batch, name):
-    if len(batch) == 1:
-        k0, dtheta, dv = batch[0]
-    else:
-        k0 = batch[0][0]
-        dtheta = np.concatenate([b[1] for b in batch])
-        dv = np.concatenate([b[2] for b in batch])
-    bad = acc.add(dtheta, dv)
-    if bad >= 0:
-        raise InputError(f"non-finite increments at sample {k0 + bad}", source=name)
 
 
 def _saturation_limits(cfg, dt):

@@ -21,6 +21,7 @@ header t0, or 0 without a time column. Steps given in the scenario are in
 this same time base.
 """
 
+import functools
 import time
 from dataclasses import dataclass
 from pathlib import Path
@@ -256,7 +257,17 @@ def _finite(block, keys, source):
 
 def _axis_map(mat_bl):
     """The signed permutation ``mat_bl`` as (log column, sign) per body axis."""
-    return [(int(np.flatnonzero(row)[0]), float(row[np.flatnonzero(row)[0]])) for row in mat_bl]
+    return _axis_map_of(np.asarray(mat_bl, dtype=float).tobytes())
+
+
+@functools.lru_cache(maxsize=16)
+def _axis_map_of(key):
+    """:func:`_axis_map` of the matrix with these bytes, found once (six flatnonzero
+    per block and sensor were 4 ns a row)."""
+    mat_bl = np.frombuffer(key).reshape(3, 3)
+    return tuple(
+        (int(np.flatnonzero(row)[0]), float(row[np.flatnonzero(row)[0]])) for row in mat_bl
+    )
 
 
 def _increments(block, c0, sensor, pw, dt, mat_bl, keys, source):

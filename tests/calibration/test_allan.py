@@ -1,7 +1,10 @@
 """Allan deviation numerics: Stable32 tables, the Greenhall & Riley edf, streaming against
 in memory, the five-term fit's coverage on simulated noise."""
 
+import itertools
 import math
+from decimal import Decimal
+from fractions import Fraction
 from pathlib import Path
 
 import numpy as np
@@ -30,46 +33,89 @@ def _printed(values):
 
 
 def test_allan_deviation_matches_stable32_all_tau():
-    """Stable32's non-overlapping Allan deviation of the OCXO at 271 tau, every printed
+    """Stable32's non-overlapping Allan deviation of the OCXO at 261 tau, every printed
     digit; and the number of differences."""
     tab = _table("stable32_adev_alltau.txt")
     dev = allan.deviations(_ocxo()[:, None], 1.0, ms=tab[:, 0].astype(int), kinds=("adev",))
     d = dev["adev"]
     np.testing.assert_array_equal(_printed(d.dev[:, 0]), tab[:, 5])
     np.testing.assert_array_equal(d.terms, tab[:, 2])
+    # this run had the fractional frequency: Stable32's sums of the data normalised to 1
+    # (which give the octave table below) give only 139 of these
+    f = np.loadtxt(REFERENCE / "ocxo_frequency.txt") / 1e7
+    normalised = [_stable32_adev(f, int(m)) for m in tab[:, 0]]
+    assert (_printed(normalised) == tab[:, 5]).sum() == 139
+
+
+def _stable32_adev(y, m):
+    """Non-overlapping Allan deviation as Stable32 sums it: each block average a
+    sequential float64 sum (``np.add.accumulate``; numpy's own sum is pairwise)
+    divided by m."""
+    k = y.size // m
+    avg = np.add.accumulate(y[: k * m].reshape(k, m), axis=1)[:, -1] / m
+    return math.sqrt(0.5 * np.mean(np.diff(avg) ** 2))
+
+
+def _exact_adev(ms):
+    """The record's non-overlapping Allan deviation at each m of ``ms`` in exact rational
+    arithmetic (the file's decimal digits as given)."""
+    lines = (REFERENCE / "ocxo_frequency.txt").read_text().split("\n")
+    y = [(Fraction(Decimal(t.split()[0])) - 10**7) / 10**7 for t in lines if t and t[0] != "#"]
+    out = []
+    for m in ms:
+        k = len(y) // m
+        avg = [sum(y[i * m : (i + 1) * m]) / m for i in range(k)]
+        var = sum((b - a) ** 2 for a, b in itertools.pairwise(avg)) / (2 * (k - 1))
+        out.append(float(Decimal(var.numerator).sqrt() / Decimal(var.denominator).sqrt()))
+    return out
 
 
 def test_allan_deviation_matches_stable32_octave_and_its_intervals():
-    """The octave table: 10 of 12 deviations to every printed digit. At AF 512 and 2048
-    Stable32 printed 5.3758e-12 and 9.2304e-12 where the record gives 5.3757e-12 and
-    9.2314e-12 (1.8e-5 and 1.1e-4 relative). This cannot be matched, and why:
+    """The octave table (Stable32's file .001 of the record). Our deviation matches 10
+    of 12 to every printed digit; at AF 512 and 2048 Stable32 printed 5.3758e-12 and
+    9.2304e-12, ours is 5.3757e-12 and 9.2314e-12, and ours is the record's: exact
+    rational arithmetic on the file's digits gives 5.375705e-12 and 9.231445e-12.
 
-    - the header rules out a different run: "Data Points 1 thru 19982 of 19982" (no
-      trimming, no gap or outlier removal), Sigma Type Allan, Tau = AF (tau0 = 1 s),
-      dead time 1; the # column is floor(N/m) - 1 at every AF, i.e. the non-overlapping
-      ADEV of the full record (the overlapping, modified and total deviations at these
-      AF are 3 to 25 % away, so no other estimator either);
-    - no variant of the data reproduces both values: every start offset of the
-      non-overlapping blocks (0 .. N mod m), end-aligned blocks, dropping the first or
-      last sample, a power-of-two record (16384), the data normalised to 1 as in this
-      run's file .001 (f / 1e7, averaged directly: 9 of 12; through a float64 phase
-      sum: 0 of 12), rounded to 12..16 significant digits, or float32 offsets;
-    - the printed Sigma is what Stable32 computed, not a misprint: its own Min Sigma at
-      AF 2048 is 0.81575 x its Sigma, our Greenhall & Riley chi-square factor, and
-      0.81566 x ours (asserted below);
-    - allantools' own test of this table (tests/ocxo/test_ocxo.py) accepts 2e-4.
-    So the two Stable32 runs of one record (file .001 here, .003 for the all-tau table,
-    matched exactly) disagree at these two AF; our value is that of the formula.
-    The noise type (Alpha) is identified at every tau as Stable32 did. The 68.3 % bounds
-    with the Greenhall & Riley edf agree with Stable32's to 4e-4 relative (its
-    chi-square inverse is not exact; allantools' implementation gives our numbers)."""
+    Why Stable32 differs there: the header of this run says Maximum = Minimum =
+    Average = 1.000000e+00, i.e. it ran on the frequency normalised to 1 (f / 1e7),
+    not on the fractional frequency (file .003 of the all-tau table: Average
+    1.88e-13). Summing m values near 1 one after the other in float64 rounds each
+    partial sum to its ulp (4.5e-13 at 2048), a random walk of ~sqrt(m) ulp that is
+    1e-5 (AF 512) to 1e-4 (AF 2048) of the deviation. That arithmetic -- normalised
+    data, each block average a sequential float64 sum -- reproduces all 12 printed
+    values (and f * 1e-7 or (f - 1e7) / 1e7 + 1 for the normalisation give the same
+    12). Excluded on the way (10 of 12 or fewer): pairwise sums of the normalised data
+    (9 of 12), long-double sums (10), the data normalised by its mean (10), a float64
+    phase sum (0), float32 data (0), every start offset of the blocks, end-aligned
+    blocks, dropping the first or last sample, a 16384-sample record, rounding the
+    data to 12..16 digits; the overlapping, modified and total deviations are 3 to
+    25 % away. The same normalised sequential arithmetic gives only 139 of the 261
+    all-tau values, which the fractional data give all of (test above): two runs
+    on two forms of the data.
+
+    The noise type (Alpha) is identified at every tau as Stable32 did. The 68.3 %
+    bounds with the Greenhall & Riley edf agree with Stable32's to 4e-4 relative (its
+    chi-square inverse is not exact; allantools' implementation gives our numbers), and
+    at AF 2048 its bound is its own Sigma times our factor."""
     tab = _table("adev_octave.txt")
-    d = allan.deviations(_ocxo()[:, None], 1.0, ms=tab[:, 0].astype(int), kinds=("adev",))["adev"]
+    ms = tab[:, 0].astype(int)
+    d = allan.deviations(_ocxo()[:, None], 1.0, ms=ms, kinds=("adev",))["adev"]
     np.testing.assert_array_equal(d.terms, tab[:, 2])
     same = _printed(d.dev[:, 0]) == tab[:, 5]
     assert same.sum() == 10 and list(tab[~same, 0]) == [512.0, 2048.0]
-    np.testing.assert_array_equal(_printed(d.dev[~same, 0]), [5.3757e-12, 9.2314e-12])
-    np.testing.assert_allclose(d.dev[~same, 0], tab[~same, 5], rtol=1.2e-4)
+    exact = _exact_adev(tab[~same, 0].astype(int))
+    np.testing.assert_array_equal(_printed(exact), [5.3757e-12, 9.2314e-12])
+    np.testing.assert_allclose(d.dev[~same, 0], exact, rtol=1e-9)
+    # Stable32's arithmetic on the normalised data: all 12 printed values
+    f = np.loadtxt(REFERENCE / "ocxo_frequency.txt")
+    for y in (f / 1e7, f * 1e-7):
+        np.testing.assert_array_equal(_printed([_stable32_adev(y, m) for m in ms]), tab[:, 5])
+    y = f / 1e7
+    pairwise = [
+        math.sqrt(0.5 * np.mean(np.diff(y[: y.size // m * m].reshape(-1, m).mean(1)) ** 2))
+        for m in ms
+    ]
+    assert (_printed(pairwise) == tab[:, 5]).sum() == 9  # the sequential sums matter
     np.testing.assert_array_equal(d.alpha[:, 0], tab[:, 3])
     lo, hi = d.interval(allan.ONE_SIGMA)
     np.testing.assert_allclose(lo[:, 0], tab[:, 4], rtol=4e-4)
@@ -79,13 +125,6 @@ def test_allan_deviation_matches_stable32_octave_and_its_intervals():
     factor = lo[-1, 0] / d.dev[-1, 0]
     assert abs(tab[-1, 4] / tab[-1, 5] / factor - 1) < 1e-5
     assert abs(tab[-1, 4] / d.dev[-1, 0] / factor - 1) > 1e-4
-    # no start offset of the blocks gives Stable32's two values
-    y = _ocxo()
-    for m, printed in ((512, 5.3758e-12), (2048, 9.2304e-12)):
-        for s in range(len(y) % m + 1):
-            a = y[s : s + (len(y) - s) // m * m].reshape(-1, m)
-            v = np.sqrt(0.5 * np.mean(np.diff(a.mean(axis=1)) ** 2))
-            assert float(f"{v:.4e}") != printed
 
 
 def test_phase_record_matches_stable32():
@@ -168,6 +207,33 @@ def test_streaming_equals_in_memory_and_decimation_loses_little():
         else:
             assert np.all(np.abs(d.dev - full.dev) < 0.3 * (hi - lo) / 2)
             assert not np.allclose(d.dev[-4:], full.dev[-4:], rtol=1e-6)  # it is decimated
+
+
+def test_streaming_does_not_depend_on_the_cuts():
+    """Every sum is continued point by point: the whole record in one chunk, uneven
+    chunks, and levels that gather 1, 1000 or 2^16 points before each kernel call give
+    the same deviations bit for bit (the rate reference given: by default it is the
+    first chunk's mean)."""
+    rng = np.random.default_rng(8)
+    inc = rng.standard_normal((150_000, 6)) * 1e-3 + np.cumsum(rng.standard_normal(6)) * 1e-2
+    grid = allan.tau_grid(inc.shape[0], 1, 16)
+    ref = inc[:100].mean(axis=0) / 0.01
+
+    def run(cuts, batch_rows):
+        acc = allan.AllanAccumulator(0.01, 6, grid, 16, reference=ref, batch_rows=batch_rows)
+        for a, b in itertools.pairwise(cuts):
+            acc.add(inc[a:b, :3], inc[a:b, 3:])
+        return acc.finish()
+
+    one = run((0, 150_000), 1 << 40)
+    for cuts, batch_rows in (
+        ((0, 1, 7777, 65536, 100_001, 150_000), 1 << 16),
+        ((0, 1, 7777, 65536, 100_001, 150_000), 1),
+        (tuple(range(0, 150_001, 1000)), 1000),
+    ):
+        d = run(cuts, batch_rows)
+        for name in ("m", "dev", "edf", "alpha", "terms"):
+            np.testing.assert_array_equal(getattr(d, name), getattr(one, name), err_msg=name)
 
 
 def test_tau_grid_denser_than_octave():

@@ -15,6 +15,7 @@ derandomized (the same every run);
 """
 
 import copy
+import functools
 import math
 import os
 from pathlib import Path
@@ -58,8 +59,10 @@ def _set(data, path, value):
     node[path[-1]] = value
 
 
+@functools.cache
 def _base(relative, section):
-    """A shipped scenario as data, made fast, with file paths made absolute."""
+    """A shipped scenario as data, made fast, with file paths made absolute (parsed once;
+    callers mutate a deep copy)."""
     path = ROOT / "configs" / relative
     data = yaml.safe_load(path.read_text())
     if section is not None:

@@ -36,8 +36,12 @@ def test_check_into_a_closed_pipe_ends_with_its_exit_code(tmp_path):
 
 
 def test_show_and_schema_into_a_closed_pipe(tmp_path):
-    out = tmp_path / "o"
-    subprocess.run([*INS, "observability", "-o", str(out)], check=True, capture_output=True)
+    from inins.commands import find_command
+    from inins.commands.execute import execute
+    from inins.io.resources import config_path
+
+    out = tmp_path / "o"  # the file to show: written in-process (not what is tested here)
+    execute(find_command("observability"), config_path("observability"), (), outdir=out)
     code, err = _closed_stdout(["show", str(out / "observability.h5")], tmp_path)
     assert code == 0 and "Traceback" not in err, err
     code, err = _closed_stdout(["schema", "run-ekf"], tmp_path)

@@ -4,6 +4,7 @@ RTK-fixed epochs; and bad input (exit 2, one message naming file and line or key
 nothing written)."""
 
 import gzip
+import importlib.util
 import json
 
 import h5py
@@ -29,16 +30,25 @@ def results(path):
     return found
 
 
-def test_lc_drive_15s_outages(tmp_path):
+@pytest.fixture(scope="module")
+def lc15(tmp_path_factory):
+    """The shipped lc-drive-15s.yaml run once (with its figures when matplotlib is
+    installed): several tests read its results."""
+    path = tmp_path_factory.mktemp("lc-drive-15s")
+    plot = ["--plot"] if importlib.util.find_spec("matplotlib") else []
+    out = run(RUN / "lc-drive-15s.yaml", "-o", path, *plot)
+    assert out.exit_code == 0, out.output
+    return path
+
+
+def test_lc_drive_15s_outages(lc15):
     """Measured (8 outages of 15 s every 60 s): RMS of the max horizontal drift forward
     6.62 m, smoothed 0.43 m; position NIS 0.95; time mapping GNSS = IMU tick + 3.367 s
     at -551 ppm, residual offset state 102 ms. Asserted with ~30 % margin (forward
     4.5-9 m, smoothed < 0.6 m), the mapping within 0.1 s and 1000 ppm of those (the
     fit's own 1-sigma: 0.057 s, 418 ppm), the residual offset within 0.05 s (it spans
     53-122 ms over the four lc-drive scenarios, far beyond its 1.5-1.9 ms 1-sigma)."""
-    out = run(RUN / "lc-drive-15s.yaml", "-o", tmp_path)
-    assert out.exit_code == 0, out.output
-    r = results(tmp_path)
+    r = results(lc15)
     assert r["post_outages"] == 8
     assert 4.5 < r["post_fwd_drift_hor_rms_m"] < 9.0
     assert 0.7 < r["post_nis_pos_mean"] < 1.3
@@ -46,11 +56,11 @@ def test_lc_drive_15s_outages(tmp_path):
     assert abs(r["post_time_offset_fit_s"] - 3.367) < 0.1
     assert abs(r["post_clock_rate_ppm"] + 551) < 1000
     assert abs(r["post_time_offset_state_s"] - 0.102) < 0.05
-    with h5py.File(tmp_path / "run-ekf.h5") as f:
+    with h5py.File(lc15 / "run-ekf.h5") as f:
         n = f["post/time"].shape[0]
         assert n == r["post_epochs"] > 2000
         assert f["post/smoothed/sigma"].shape == (n, 16)
-    report = (tmp_path / "run-ekf.txt").read_text()
+    report = (lc15 / "run-ekf.txt").read_text()
     assert "deg/h" in report and "ug" in report and "outages (8)" in report
 
 
@@ -172,7 +182,7 @@ def test_bad_input_exit_2_nothing_written(tmp_path, kind, expect):
 
 
 @pytest.mark.slow
-def test_plot_post_and_tight(tmp_path):
+def test_plot_post_and_tight(lc15, tmp_path):
     """--plot draws every run-ekf figure name for a post run (its own figures) and for a
     tight run (the new trajectory map beside the tight figures)."""
     pytest.importorskip("matplotlib")
@@ -183,13 +193,13 @@ def test_plot_post_and_tight(tmp_path):
         "run-ekf-fb-corrections.png",
         "run-ekf-trajectory.png",
     }
-    for scenario, out in ((RUN / "lc-drive-15s.yaml", "post"), (RUN / "psins-tc.yaml", "tc")):
-        res = run(scenario, "-o", tmp_path / out, "--plot")
-        assert res.exit_code in (0, 1), res.output
-        # a tight EKF1 run skips the misalignment figure (no such states)
-        need = names if out == "post" else {"run-ekf-trajectory.png", "run-ekf-heading-error.png"}
-        for name in need:
-            assert (tmp_path / out / name).stat().st_size > 2000
+    for name in names:  # the post run of the lc15 fixture, with --plot
+        assert (lc15 / name).stat().st_size > 2000
+    res = run(RUN / "psins-tc.yaml", "-o", tmp_path / "tc", "--plot")
+    assert res.exit_code in (0, 1), res.output
+    # a tight EKF1 run skips the misalignment figure (no such states)
+    for name in ("run-ekf-trajectory.png", "run-ekf-heading-error.png"):
+        assert (tmp_path / "tc" / name).stat().st_size > 2000
 
 
 SHORT = (
@@ -218,7 +228,7 @@ def test_tight_smoother_simulated_and_psins_tc(tmp_path):
 
 
 @pytest.mark.slow
-def test_csv_solution_gives_the_rtklib_result(tmp_path):
+def test_csv_solution_gives_the_rtklib_result(lc15, tmp_path):
     """The lc-drive solution rewritten as a CSV with named columns (deg, m, ms time) gives
     the outage scores of the .pos file. The CSV has no velocities, so the initial
     heading comes from position differences instead (asserted within 2 %: measured
@@ -248,9 +258,7 @@ def test_csv_solution_gives_the_rtklib_result(tmp_path):
     scenario.write_text(text)
     out = run(scenario, "-o", tmp_path / "csv")
     assert out.exit_code == 0, out.output
-    out = run(RUN / "lc-drive-15s.yaml", "-o", tmp_path / "pos")
-    assert out.exit_code == 0, out.output
-    a, b = results(tmp_path / "csv"), results(tmp_path / "pos")
+    a, b = results(tmp_path / "csv"), results(lc15)  # b: the .pos file
     assert a["post_fwd_drift_hor_rms_m"] == pytest.approx(b["post_fwd_drift_hor_rms_m"], rel=0.02)
     assert a["post_sm_drift_hor_rms_m"] == pytest.approx(b["post_sm_drift_hor_rms_m"], rel=0.02)
 
@@ -268,7 +276,7 @@ def test_fog_mems_attitude_against_the_fog(tmp_path):
 
 
 @pytest.mark.slow
-def test_compensation_file_moves_the_post_bias_estimates_by_its_biases(tmp_path):
+def test_compensation_file_moves_the_post_bias_estimates_by_its_biases(lc15, tmp_path):
     """compensation: FILE on post's IMU log: increments less (50, -50, 30) deg/h and
     (1000, -1000, 500) ug; the final bias estimates move by minus those (measured:
     within 0.5 ug and 0.04 deg/h), the forward drift RMS stays (6.625 -> 6.626 m)."""
@@ -286,12 +294,11 @@ def test_compensation_file_moves_the_post_bias_estimates_by_its_biases(tmp_path)
         )
     )
     sets = ("--set", "checks=[]")
-    assert run(RUN / "lc-drive-15s.yaml", "-o", tmp_path / "a", *sets).exit_code == 0
     out = run(
         RUN / "lc-drive-15s.yaml", "-o", tmp_path / "b", *sets, "--set", f"compensation={comp}"
     )
     assert out.exit_code == 0, out.output
-    a, b = results(tmp_path / "a"), results(tmp_path / "b")
+    a, b = results(lc15), results(tmp_path / "b")  # a: the same run uncompensated
     for axis, ug, dph in zip("xyz", (1e3, -1e3, 500), (50.0, -50.0, 30.0), strict=True):
         assert b[f"post_accel_bias_{axis}_ug"] - a[f"post_accel_bias_{axis}_ug"] == pytest.approx(
             -ug, abs=5.0
