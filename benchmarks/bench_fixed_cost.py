@@ -10,6 +10,11 @@
   meaningful on a shared machine whose speed drifts).
 - ``<command>_through_numba_s``: the same run with an empty kernel-library folder
   (numba's on-disk cache only): what the kernel library saves a short run.
+- ``<command>_cpu_s``, ``<command>_cpu_over_import_numpy``: the same runs' CPU time
+  (user + system, the process and the threads it waited for), which other
+  processes on a shared machine disturb less than the wall time;
+  ``<command>_loads_<module>``: 1 if a default run has imported numba, scipy, typer
+  or rich by its end, else 0 (numba stays unloaded: the kernel library's job).
 - ``--first-run``: ``first_<command>_s``, the first run after a plain install
   (an empty numba cache and no kernel library: every kernel compiles), one run
   each (slow: up to a minute).
@@ -32,13 +37,41 @@ ROOT = Path(__file__).resolve().parents[1]
 COMMANDS = ("simulate-table", "observability", "run-ekf")
 
 
-def _wall(args, env):
+def _timed(args, env):
+    """``(wall, cpu)`` seconds of one process (cpu: user + system, from ``wait4``)."""
     start = time.perf_counter()
-    done = subprocess.run(args, capture_output=True, cwd=ROOT, env=env, check=False)
+    child = subprocess.Popen(
+        args, cwd=ROOT, env=env, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE
+    )
+    stderr = child.stderr.read()
+    _, status, usage = os.wait4(child.pid, 0)
     wall = time.perf_counter() - start
-    if done.returncode not in (0, 1):
-        raise RuntimeError(f"{' '.join(map(str, args))}: exit {done.returncode}\n{done.stderr}")
-    return wall
+    child.stderr.close()
+    child.returncode = os.waitstatus_to_exitcode(status)
+    if child.returncode not in (0, 1):
+        raise RuntimeError(f"{' '.join(map(str, args))}: exit {child.returncode}\n{stderr}")
+    return wall, usage.ru_utime + usage.ru_stime
+
+
+def _wall(args, env):
+    return _timed(args, env)[0]
+
+
+HEAVY = ("numba", "llvmlite", "scipy", "typer", "rich", "click", "matplotlib")
+_LOADS = (
+    "import runpy, sys\n"
+    "sys.argv = ['inins', *sys.argv[1:]]\n"
+    "try:\n    runpy.run_module('inins', run_name='__main__')\n"
+    "except SystemExit:\n    pass\n"
+    f"print(','.join(m for m in {HEAVY!r} if m in sys.modules), file=sys.stderr)\n"
+)
+
+
+def _loads(name, outdir, env):
+    """The heavy modules (:data:`HEAVY`) a default run of ``name`` has imported at its end."""
+    args = [sys.executable, "-c", _LOADS, name, "-o", str(Path(outdir) / f"loads-{name}")]
+    done = subprocess.run(args, capture_output=True, text=True, cwd=ROOT, env=env, check=False)
+    return done.stderr.strip().splitlines()[-1] if done.stderr.strip() else ""
 
 
 def _command(name, outdir):
@@ -51,21 +84,32 @@ def run(runs: int = 5, first_run: bool = False) -> dict:
     numpy = [sys.executable, "-c", "import numpy"]
     with tempfile.TemporaryDirectory() as outdir:
         numba_env = {**env, "ININS_KERNEL_DIR": str(Path(outdir) / "no-library")}
-        base = []
+        base, base_cpu = [], []
         for name in COMMANDS:
             args = _command(name, outdir)
             _wall(args, env)  # bytecode written, caches read once
-            library, numba, ratios = [], [], []
+            library, numba, ratios, cpu, cpu_ratios = [], [], [], [], []
             for _ in range(runs):  # alternate: every variant sees the same load
-                base.append(_wall(numpy, env))
-                library.append(_wall(args, env))
+                wall, seconds = _timed(numpy, env)
+                base.append(wall)
+                base_cpu.append(seconds)
+                wall, seconds = _timed(args, env)
+                library.append(wall)
+                cpu.append(seconds)
                 ratios.append(library[-1] / base[-1])
+                cpu_ratios.append(cpu[-1] / base_cpu[-1])
                 numba.append(_wall(args, numba_env))
             key = name.replace("-", "_")
             figures[f"{key}_s"] = statistics.median(library)
             figures[f"{key}_over_import_numpy"] = statistics.median(ratios)
+            figures[f"{key}_cpu_s"] = statistics.median(cpu)
+            figures[f"{key}_cpu_over_import_numpy"] = statistics.median(cpu_ratios)
             figures[f"{key}_through_numba_s"] = statistics.median(numba)
+            loaded = _loads(name, outdir, env).split(",")
+            for module in ("numba", "scipy", "typer", "rich"):
+                figures[f"{key}_loads_{module}"] = float(module in loaded)
         figures["import_numpy_s"] = statistics.median(base)
+        figures["import_numpy_cpu_s"] = statistics.median(base_cpu)
         if first_run:
             for name in COMMANDS:
                 fresh = Path(outdir) / f"fresh-{name}"

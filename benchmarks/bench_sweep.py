@@ -22,6 +22,21 @@ near 1; on a shared one it shows the cores other processes took.
 Every executor is warmed first (workers started, compiled kernels loaded), so the
 figures are steady-state throughput; a sweep's start-up (a few seconds per worker)
 is reported apart as ``local_start_s``.
+
+On a shared machine the 2-worker speedup measures the other processes as much as the
+sweep. CPU time does not: ``local_{1,2}_worker_cpu_ms_per_point`` is the CPU of the
+worker processes per point (all of it, pickling included), ``parent_cpu_ms_per_point``
+the sweep process's while points run (dispatch, journal), ``serial_cpu_s`` its CPU
+outside that (the folder, the tasks, the table and aggregates at the end; its wall
+time is ``serial_wall_s``) and ``amdahl_2_workers`` the speedup these imply on two
+otherwise idle cores::
+
+    T1 = serial + N w,   T2 = serial + w + ((N - 1) w2 + N p) / 2
+
+(``w``, ``w2`` the worker CPU a point with one and with two workers -- two busy
+cores share caches and memory, so ``w2`` is a few per cent larger --, ``p`` the
+parent's, ``serial`` its serial CPU; the first point runs alone, as a probe; on
+two cores the sweep process takes its share from the workers).
 """
 
 import argparse
@@ -46,19 +61,78 @@ def _sweep_file(folder, command, base, seeds):
     return path
 
 
-def _timed_sweep(folder, name, sweep, executor):
+def _process_cpu_s(pid):
+    """User + system CPU seconds of process ``pid`` so far (Linux ``/proc``), or NaN."""
+    import os
+
+    try:
+        with open(f"/proc/{pid}/stat") as f:
+            fields = f.read().rsplit(")", 1)[1].split()
+    except OSError:
+        return float("nan")
+    return (int(fields[11]) + int(fields[12])) / os.sysconf("SC_CLK_TCK")
+
+
+def _self_cpu_s():
+    import resource
+
+    usage = resource.getrusage(resource.RUSAGE_SELF)
+    return usage.ru_utime + usage.ru_stime
+
+
+class _DispatchClock:
+    """Wall and CPU time of this process inside the sweep's dispatch loop (the points
+    running), against the whole sweep: what is left is the serial part (the folder,
+    the tasks, the table and aggregates)."""
+
+    def __init__(self):
+        from inins.sweep import engine
+
+        self.engine, self.wall_s, self.cpu_s = engine, 0.0, 0.0
+        self.original = engine._dispatch
+
+    def __enter__(self):
+        def timed(*args, **kwargs):
+            wall, cpu = time.perf_counter(), _self_cpu_s()
+            try:
+                return self.original(*args, **kwargs)
+            finally:
+                self.wall_s += time.perf_counter() - wall
+                self.cpu_s += _self_cpu_s() - cpu
+
+        self.engine._dispatch = timed
+        return self
+
+    def __exit__(self, *exc):
+        self.engine._dispatch = self.original
+        return False
+
+
+def _timed_sweep(folder, name, sweep, executor, cpu=None):
+    """Wall time, worker busy share and CPU share of one sweep; with a dict ``cpu``,
+    also the CPU seconds of the workers (``workers_s``), of this process while points
+    run (``dispatch_cpu_s``) and outside that (``serial_cpu_s``, ``serial_wall_s``)."""
     from inins.sweep.engine import run_sweep
     from inins.sweep.plan import load_sweep
 
     plan = load_sweep(sweep)
-    start = time.perf_counter()
-    outcome = run_sweep(plan, Path(folder) / name, executor)
-    wall = time.perf_counter() - start
+    pids = list(getattr(executor.pool, "_processes", None) or ()) if cpu is not None else []
+    workers_before = sum(_process_cpu_s(pid) for pid in pids)
+    parent_before = _self_cpu_s()
+    with _DispatchClock() as clock:
+        start = time.perf_counter()
+        outcome = run_sweep(plan, Path(folder) / name, executor)
+        wall = time.perf_counter() - start
     if outcome.errors:
         raise RuntimeError(f"{outcome.errors} points raised in {name}")
     busy = sum(r["run_s"] for r in outcome.table.records)
-    cpu = sum(r["cpu_s"] for r in outcome.table.records)
-    return wall, busy / (wall * executor.slots), cpu / (wall * executor.slots)
+    point_cpu = sum(r["cpu_s"] for r in outcome.table.records)
+    if cpu is not None:
+        cpu["workers_s"] = sum(_process_cpu_s(pid) for pid in pids) - workers_before
+        cpu["dispatch_cpu_s"] = clock.cpu_s
+        cpu["serial_cpu_s"] = _self_cpu_s() - parent_before - clock.cpu_s
+        cpu["serial_wall_s"] = wall - clock.wall_s
+    return wall, busy / (wall * executor.slots), point_cpu / (wall * executor.slots)
 
 
 def _run_alone_ms(base, command, repeats=40):
@@ -106,17 +180,36 @@ def _throughput(folder, points):
     sweep = _sweep_file(folder, "calibrate-bias", SHORT_CAL, points)
     warm = _sweep_file(folder, "calibrate-bias", SHORT_CAL, 4)
     figures = {"points": points}
+    used = {}
     for workers in (1, 2):
         executor = LocalExecutor(workers, "calibrate-bias", keep_open=True)
+        used[workers] = {}
         try:
             _timed_sweep(folder, f"warm-{workers}", warm, executor)
-            wall, busy, cpu = _timed_sweep(folder, f"local-{workers}", sweep, executor)
+            wall, busy, cpu = _timed_sweep(
+                folder, f"local-{workers}", sweep, executor, used[workers]
+            )
         finally:
             executor.close()
         figures[f"local_{workers}_points_per_s"] = points / wall
         figures[f"local_{workers}_worker_busy"] = busy
         figures[f"local_{workers}_worker_cpu_share"] = cpu
+        figures[f"local_{workers}_worker_cpu_ms_per_point"] = (
+            1e3 * used[workers]["workers_s"] / points
+        )
     figures["speedup_2_workers"] = figures["local_2_points_per_s"] / figures["local_1_points_per_s"]
+    # Amdahl on two idle cores, from CPU times (module docstring)
+    w = used[1]["workers_s"] / points
+    w2 = used[2]["workers_s"] / points  # a point on each core costs a little more
+    p = used[1]["dispatch_cpu_s"] / points
+    serial = used[1]["serial_cpu_s"]  # the probe point, run alone, is the "+ w" of T2
+    t1 = serial + points * w
+    t2 = serial + w + ((points - 1) * w2 + points * p) / 2.0
+    figures["parent_cpu_ms_per_point"] = 1e3 * p
+    figures["serial_cpu_s"] = serial
+    figures["serial_wall_s"] = used[1]["serial_wall_s"]
+    figures["serial_fraction_1_worker"] = serial / t1
+    figures["amdahl_2_workers"] = t1 / t2
     dask = _dask(folder, sweep, warm, points)
     if dask is not None:
         keys = ("dask_2_points_per_s", "dask_2_worker_busy", "dask_2_worker_cpu_share")

@@ -11,91 +11,27 @@ The commands are the table :data:`inins.commands.COMMANDS`; each runs through
 called by :mod:`inins.cli._runner`, which turns exceptions into messages and exit
 codes. Keep this package cheap to import: ``inins --help`` must not load numpy,
 scipy, numba, h5py or pydantic.
+
+The Typer app (:mod:`inins.cli._app`) is built on first use: the plain command line
+of a run (:mod:`inins.cli._argv`) goes straight to the runner, and a run printing to
+a pipe does not load rich either (:func:`inins.cli._display.plain_outcome`).
 """
 
 import io
 import sys
-from typing import Annotated
 
-import typer
-
-import inins
-from inins.cli._runner import make_command
-from inins.cli.check import check
-from inins.cli.schema import make_schema_command
-from inins.cli.show import show
-from inins.cli.sweep import sweep
-from inins.commands import COMMANDS
-
-_HELP = (
-    "Calibration and analysis of strapdown inertial navigation systems.\n\n"
-    "Each command reads a YAML scenario (or runs its shipped default), writes "
-    "OUTDIR/CMD.h5, OUTDIR/CMD.txt and OUTDIR/summary.json.\n\n"
-    "Exit codes: 0 done, 1 a check failed, 2 bad input (also an output folder that "
-    "cannot take the results, a full disk, or a run too large for the machine: see "
-    "--force), 3 internal error (a bug: please report it with --debug), 4 command not "
-    "available in this version, 130 interrupted (nothing written)."
-)
+__all__ = ["app", "main", "make_app"]
 
 
-def _no_flag_placeholders() -> None:
-    """Typer's help shows an on/off flag with a ``<bool>`` placeholder as if it took a
-    value: show flags bare, as ``--plot``, ``--help``."""
-    from typer.core import TyperOption
+def __getattr__(name):
+    """``app`` and ``make_app`` (the Typer app, :mod:`inins.cli._app`), loaded on first
+    use: a plain run of a command does not need Typer."""
+    if name in ("app", "make_app"):
+        from inins.cli import _app
 
-    shown = TyperOption.display_type_rich
-    if getattr(shown, "_inins_flags_bare", False):
-        return
-
-    def display_type_rich(self, ctx):
-        return None if self.is_flag else shown(self, ctx)
-
-    display_type_rich._inins_flags_bare = True
-    TyperOption.display_type_rich = display_type_rich
-
-
-_no_flag_placeholders()
-
-
-def _version(value: bool) -> None:
-    if value:
-        typer.echo(f"inins {inins.__version__}")
-        raise typer.Exit(0)
-
-
-def make_app(commands=COMMANDS) -> typer.Typer:
-    """The Typer app for a command registry (tests build one with a fake command)."""
-    app = typer.Typer(
-        name="inins",
-        help=_HELP,
-        no_args_is_help=True,
-        add_completion=False,
-        pretty_exceptions_enable=False,
-        context_settings={"help_option_names": ["-h", "--help"]},
-    )
-
-    @app.callback()
-    def _root(
-        version: Annotated[
-            bool,
-            typer.Option(
-                "--version", is_eager=True, callback=_version, help="Print the version and exit."
-            ),
-        ] = False,
-    ) -> None:
-        pass
-
-    for spec in commands:
-        short = spec.help if spec.available else f"(not yet available) {spec.help}"
-        app.command(spec.name, help=spec.full_help(), short_help=short)(make_command(spec))
-    app.command("schema")(make_schema_command(commands))
-    app.command("show")(show)
-    app.command("sweep")(sweep)
-    app.command("check")(check)
-    return app
-
-
-app = make_app()
+        globals().update(app=_app.app, make_app=_app.make_app)
+        return getattr(_app, name)
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
 
 
 def main() -> None:
@@ -115,9 +51,12 @@ def main() -> None:
     for name in ("SIGTERM", "SIGHUP"):
         if hasattr(signal, name):
             signal.signal(getattr(signal, name), _terminate)
+    # inins uses no pydantic plugins: without this, building the scenario models scans
+    # every installed package's entry points for them (about 25 ms a run)
+    os.environ.setdefault("PYDANTIC_DISABLE_PLUGINS", "1")
     quiet_closed_stdout()
     try:
-        app(prog_name="inins")
+        _run_argv(sys.argv[1:])
     except SystemExit as exc:
         _exit_past_failed_hdf5(exc.code)
         raise
@@ -126,6 +65,29 @@ def main() -> None:
         # would walk every object the imports made (about 0.1 s, a fifth of a short
         # run); frozen objects are left to the operating system instead.
         gc.freeze()
+
+
+def _run_argv(argv) -> None:
+    """Run a command line; exits (``SystemExit``) with the exit code, as Typer does.
+
+    The plain form of a command run (:mod:`inins.cli._argv`) goes straight to
+    :func:`inins.cli._runner.run_command`; everything else through the Typer app.
+    """
+    from inins.cli._argv import parse_run
+    from inins.commands import COMMANDS
+
+    plain = parse_run(argv, COMMANDS)
+    if plain is None:
+        from inins.cli._app import app
+
+        app(args=list(argv), prog_name="inins")
+        return
+    from inins.cli._runner import run_command
+
+    spec, args = plain
+    code = run_command(spec, **args)
+    sys.stdout.flush()
+    raise SystemExit(code)
 
 
 class _QuietPipe(io.FileIO):

@@ -11,11 +11,8 @@ listed extra problems) on stderr; tracebacks only with ``--debug``.
 
 import sys
 import time
-import traceback
 from pathlib import Path
 from typing import Annotated
-
-import typer
 
 from inins.commands import CommandUnavailable
 from inins.exceptions import InputError
@@ -42,6 +39,7 @@ def output_folder(outdir, name) -> Path:
 
 def make_command(spec):
     """The Typer command function of a registered command."""
+    import typer
 
     def command(
         scenario: Annotated[
@@ -139,6 +137,8 @@ def guarded(label: str, debug: bool, body) -> int:
         return EXIT_BAD_INPUT
     except Exception as exc:
         if debug:
+            import traceback
+
             traceback.print_exception(exc, file=sys.stderr)
         message = input_message(exc)
         if message is not None:
@@ -167,8 +167,13 @@ def input_message(exc) -> str | None:
 
 
 def echo_err(message: str) -> None:
-    """One plain message on stderr (no markup, no wrapping)."""
-    typer.echo(message, err=True)
+    """One plain message on stderr (no markup, no wrapping), as ``typer.echo(message,
+    err=True)`` writes it (without loading Typer)."""
+    stream = sys.stderr
+    if stream is None:
+        return
+    stream.write(f"{message}\n")
+    stream.flush()
 
 
 def _run(spec, scenario, outdir, overrides, seed, plot=False, force=False) -> int:

@@ -9,7 +9,6 @@ from pathlib import Path
 
 import numpy as np
 
-from inins.calibration.ett import EttResult
 from inins.commands.budget import Estimate
 from inins.core.records import MemoryRecord
 from inins.exceptions import InputError
@@ -201,6 +200,8 @@ def read_ett_result(path):
     InputError
         Missing file, not HDF5, or no complete ``ett`` group.
     """
+    from inins.calibration.ett import EttResult  # not loaded by simulate-table
+
     d = read_datasets(path, "ett", ETT_DATASETS, "an align-ett results file")
     return EttResult(
         mat_tb=d["mat_tb"],

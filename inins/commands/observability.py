@@ -15,7 +15,6 @@ from inins.core import rotation
 from inins.core.error_model import GROUPS
 from inins.core.units import ARCSEC, DEG, DEG_RTH, DPH, UG, UG_RTHZ
 from inins.exceptions import InputError
-from inins.io.tabledata import read_table_data
 from inins.observability import analysis, models
 from inins.observability.analysis import NEAR_PRIOR, PRACTICAL_RATIO
 from inins.observability.segments import cut_segments, interval_means
@@ -98,6 +97,8 @@ def build_segments(scenario, los_n):
 def trajectory_segments(trajectory, los_n):
     """Segments of a table-data file: its truth attitude, and the mean specific force and
     body rate of the IMU increments over each truth interval (the table is at rest)."""
+    from inins.io.tabledata import read_table_data  # only for a recorded trajectory
+
     record = read_table_data(trajectory.file)
     truth = record.truth
     if truth is None or len(truth.time) < 2:

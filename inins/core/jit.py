@@ -33,8 +33,11 @@ The library sits next to the package's bytecode (``inins/__pycache__``), under
 ``$NUMBA_CACHE_DIR/inins`` when that is set, or in ``$ININS_KERNEL_DIR``. It is
 used only while the Python, numpy and numba it was built with are installed and
 the kernel sources hash as they did at the build; otherwise calls go to numba,
-silently and correctly. Builds are serialised by a lock file; each build writes a
-new file and then the manifest naming it, so a reader sees one build whole.
+silently and correctly. (A run compares the sources' sizes and modification times
+with the build's first, as Python's bytecode cache does, and hashes them only when
+those differ; the check costs a short run no ``hashlib``, ``sysconfig`` or package
+metadata.) Builds are serialised by a lock file; each build writes a new file and
+then the manifest naming it, so a reader sees one build whole.
 
 numba marks ``pycc`` for deprecation (0.57) without a removal date; it exists in
 every release ``pyproject.toml`` allows (0.59-0.68, upper bound ``<0.69``). Where
@@ -47,17 +50,13 @@ the command line says what it prepares while a first run compiles.
 
 import contextlib
 import functools
-import hashlib
 import importlib.machinery
 import importlib.util
 import json
 import os
 import re
 import sys
-import sysconfig
-import tempfile
 import threading
-from importlib import metadata
 from pathlib import Path
 
 import numpy as np
@@ -279,6 +278,8 @@ def source_digest():
     """One hash of the sources of :func:`kernel_sources` (computed once a process)."""
     global _source_digest
     if _source_digest is None:
+        import hashlib
+
         digest = hashlib.sha256()
         for name, value in _source_key(kernel_sources()).items():
             digest.update(f"{name}={value}\n".encode())
@@ -404,6 +405,8 @@ def _library_file(directory, manifest):
 
 def _source_key(files):
     """{file: sha256} of kernel sources, relative to the package; None if one is gone."""
+    import hashlib
+
     key = {}
     for name in sorted(files):
         path = _PACKAGE / name
@@ -413,8 +416,60 @@ def _source_key(files):
     return key
 
 
+def _source_stats(files):
+    """{file: [size, mtime_ns]} of kernel sources; None if one is gone."""
+    stats = {}
+    for name in sorted(files):
+        try:
+            st = (_PACKAGE / name).stat()
+        except OSError:
+            return None
+        stats[name] = [st.st_size, st.st_mtime_ns]
+    return stats
+
+
+def _sources_unchanged(manifest):
+    """True while the kernel sources are those the library was built from.
+
+    The manifest's ``sources`` holds each file's sha256; its ``stats`` (size and
+    modification time in ns, as Python's own bytecode cache checks a source) let a
+    run skip reading and hashing the files while none was touched. A file whose
+    stat changed is hashed: the library stays usable if its content did not.
+    """
+    sources = manifest.get("sources")
+    if not isinstance(sources, dict):
+        return False
+    stats = manifest.get("stats")
+    if isinstance(stats, dict) and stats.keys() == sources.keys():
+        if _source_stats(sources) == stats:
+            return True
+    return sources == _source_key(sources)
+
+
+def _ext_suffix():
+    """File suffix of extension modules of this Python (``sysconfig``'s EXT_SUFFIX:
+    ``.cpython-311-x86_64-linux-gnu.so``) without loading ``sysconfig``."""
+    return importlib.machinery.EXTENSION_SUFFIXES[0]
+
+
+def _numba_version():
+    """The installed numba's version, without importing numba (or reading its
+    metadata with ``importlib.metadata``, which costs a run about 10 ms): the name
+    of its ``numba-VERSION.dist-info`` folder beside the package, else the
+    metadata."""
+    spec = importlib.util.find_spec("numba")
+    if spec is not None and spec.origin:
+        site = Path(spec.origin).parent.parent
+        found = [p.name for p in site.glob("numba-*.dist-info")]
+        if len(found) == 1:
+            return found[0][len("numba-") : -len(".dist-info")]
+    from importlib import metadata
+
+    return metadata.version("numba")
+
+
 def _versions():
-    return {"numpy": np.__version__, "numba": metadata.version("numba")}
+    return {"numpy": np.__version__, "numba": _numba_version()}
 
 
 def library_status(directory=None):
@@ -435,11 +490,11 @@ def _status(directory):
     shared = _library_file(directory, manifest) if isinstance(manifest, dict) else None
     if shared is None or not shared.is_file():
         return False, f"no kernel library in {directory}", None
-    if manifest.get("python") != sysconfig.get_config_var("EXT_SUFFIX"):
+    if manifest.get("python") != _ext_suffix():
         return False, f"built for another Python ({manifest.get('python')})", None
     if manifest.get("versions") != _versions():
         return False, f"built for {manifest.get('versions')}, installed {_versions()}", None
-    if manifest.get("sources") != _source_key(manifest.get("sources", {})):
+    if not _sources_unchanged(manifest):
         return False, "a kernel module changed since the library was built", None
     return True, f"{len(manifest['exports'])} kernels in {shared}", manifest
 
@@ -547,12 +602,14 @@ def build_library(directory=None):
     replaced last, so a reader sees the old library or the new one, never half
     of one; older builds are then removed.
     """
-    numba = activate()
+    import tempfile
+
+    activate()
     from numba.pycc import CC
 
     directory = Path(directory) if directory else library_dir()
     directory.mkdir(parents=True, exist_ok=True)
-    suffix = sysconfig.get_config_var("EXT_SUFFIX")
+    suffix = _ext_suffix()
     with _folder_lock(directory):
         exports = {}
         with tempfile.TemporaryDirectory(dir=directory) as work:
@@ -579,8 +636,9 @@ def build_library(directory=None):
             manifest = {
                 "library": shared.name,
                 "python": suffix,
-                "versions": {"numpy": np.__version__, "numba": numba.__version__},
+                "versions": _versions(),
                 "sources": _source_key(sources),
+                "stats": _source_stats(sources),
                 "exports": exports,
             }
             staged = Path(work) / "manifest.json"

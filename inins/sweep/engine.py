@@ -139,7 +139,7 @@ def _run_locked(plan, outdir, executor, keep_runs, restart, retry_errors, progre
     _claim(outdir, plan, restart)
     finished = sweep_files.read_journal(outdir)
     skipped = plan.size - len(todo)
-    tasks = [_task(plan, p, outdir, keep_runs) for p in todo]
+    tasks = _tasks(plan, todo, outdir, keep_runs)
     ran = 0
     try:
         if tasks:
@@ -245,18 +245,22 @@ def _needs_run(record, retry_errors) -> bool:
     return record is None or (retry_errors and record["status"] == STATUS_ERROR)
 
 
-def _task(plan, point, outdir, keep_runs) -> PointTask:
-    run_dir = str(Path(outdir).resolve() / "runs" / point_id(point.index, plan.size))
+def _tasks(plan, points, outdir, keep_runs) -> list:
+    """The :class:`PointTask` of each point (the folders resolved once for all)."""
+    runs = Path(outdir).resolve() / "runs"
     base = None if plan.base is None else str(Path(plan.base).resolve())
-    return PointTask(
-        point.key,
-        point.index,
-        plan.command,
-        base,
-        point.overrides,
-        point.seed,
-        run_dir if keep_runs else None,
-    )
+    return [
+        PointTask(
+            point.key,
+            point.index,
+            plan.command,
+            base,
+            point.overrides,
+            point.seed,
+            str(runs / point_id(point.index, plan.size)) if keep_runs else None,
+        )
+        for point in points
+    ]
 
 
 def _claim(outdir, plan, restart) -> None:

@@ -8,6 +8,7 @@ applicable), ``truth.NAME`` per truth value, ``check[i]`` per scenario check
 (the expression is in the HDF5 attributes and the CSV column title).
 """
 
+import functools
 import json
 from dataclasses import dataclass
 
@@ -42,9 +43,22 @@ class SweepTable:
 
     def result(self, name: str) -> np.ndarray:
         """Column of result ``name`` as float64 (NaN where missing), shape (n,)."""
-        return np.array(
-            [_num(r["results"].get(name)) for r in self.records], dtype=np.float64
-        ).reshape(-1)
+        column = self._result_columns.get(name)
+        if column is None:
+            return np.full(len(self.records), np.nan)
+        return column.copy()
+
+    @functools.cached_property
+    def _result_columns(self) -> dict:
+        """Every result's column, filled in one pass over the records (the aggregates,
+        the CSV and the HDF5 table each ask for every column)."""
+        index = {name: j for j, name in enumerate(self.result_names)}
+        out = np.full((len(index), len(self.records)), np.nan)
+        for i, record in enumerate(self.records):
+            for name, value in record["results"].items():
+                if value is not None:
+                    out[index[name], i] = value
+        return {name: out[j] for name, j in index.items()}
 
     def axis(self, key: str) -> list:
         """Values of swept key ``key``, one per row."""

@@ -364,3 +364,17 @@ def test_a_run_on_a_fresh_install_says_what_it_compiles(tmp_path):
     assert "inins simulate-table: compiling numerical kernels for this machine" in first
     assert "kernels compiled" in first
     assert "compiling" not in run()
+
+
+def test_a_library_checks_its_sources_by_size_and_time_then_by_content(tmp_path):
+    stats = jit._source_stats(["core/pulses.py"])
+    _manifest(tmp_path, stats=stats)
+    assert jit.library_status(tmp_path)[0]  # stats match: no hashing
+    touched = {"core/pulses.py": [stats["core/pulses.py"][0], 1]}
+    _manifest(tmp_path, stats=touched)
+    assert jit.library_status(tmp_path)[0]  # stats differ, content the same
+    _manifest(tmp_path, stats=touched, sources={"core/pulses.py": "0" * 64})
+    assert jit.library_status(tmp_path) == (
+        False,
+        "a kernel module changed since the library was built",
+    )

@@ -128,7 +128,8 @@ def test_hour_flight_free_navigation_matches_previous_kernel(hour_flight):
     new, old = _both(quat, vel_n[0], lla[0], dtheta, dv, dt, decimation=100)
     assert len(new[0]) == 3600
     phi, vel, horizontal, height = _differences(new, old)
-    # measured 1.0e-14 rad, 1.3e-11 m/s, 5.7e-9 m, 4.9e-10 m after 1 h at up to 150 m/s
+    # measured 1.8e-14 rad, 1.4e-10 m/s, 9.9e-8 m, 7.7e-8 m after 1 h at up to 150 m/s
+    # (the Earth terms of the free modes by cell polynomials, each within a few ulp)
     assert phi < 1e-12 and vel < 1e-9 and horizontal < 1e-6 and height < 1e-6
     # and the run is a real flight: 5.5 deg of longitude, navigated to within metres
     t = (new[0] + 1) * dt
@@ -162,8 +163,8 @@ def test_stationary_hour_fixed_position_is_bit_identical(options):
 @pytest.mark.parametrize("options", [{"fixed_height": True}, {}], ids=["fixed_height", "free"])
 def test_stationary_hour_free_modes_match_previous_kernel(options):
     phi, vel, horizontal, height = _differences(*_stationary_both(options))
-    # measured: fixed height 6.7e-15 rad, 9.6e-14 m/s, 7.1e-10 m; free 1.3e-14 rad,
-    # 5.4e-13 m/s, 0 m, 3.8e-11 m (biases and noise: velocities up to 24 m/s after 1 h)
+    # measured: fixed height 3.5e-14 rad, 3.6e-12 m/s, 7.1e-10 m; free 1.6e-14 rad,
+    # 9.2e-11 m/s, 7.1e-10 m, 5.2e-8 m (biases and noise: velocities up to 24 m/s after 1 h)
     assert phi < 1e-12 and vel < 1e-9 and horizontal < 1e-6 and height < 1e-6
 
 
@@ -177,6 +178,23 @@ def test_sincos_near_is_within_one_ulp_of_libm():
         s, c = sd._sincos_near(d, math.sin(ref), math.cos(ref))
         worst = max(worst, abs(s - math.sin(ref + d)), abs(c - math.cos(ref + d)))
     assert worst <= 2.0**-52  # measured 2.2e-16 (libm itself is within 1 ulp)
+
+
+def test_free_earth_terms_are_within_a_few_ulp_of_the_direct_ones():
+    # the free modes' Earth terms: root, root^3 and 1 / root by cell polynomials, one
+    # division for both radii and 1 / cos; against the direct evaluation
+    rng = np.random.default_rng(4)
+    worst = np.zeros(7)
+    for _ in range(400):
+        ref = np.round(rng.uniform(-1.5, 1.5) / sd._GRID) * sd._GRID
+        d = rng.uniform(-0.5, 0.5) * sd._GRID
+        h = rng.uniform(-500.0, 12_000.0)
+        s0, c0 = math.sin(ref), math.cos(ref)
+        s, c = sd._sincos_near(d, s0, c0)
+        new = sd._earth_terms_free(s, c, h, d, sd._cell_series(s0, c0))
+        direct = (*sd._earth_terms(s, c, h), 1.0 / c)
+        worst = np.maximum(worst, np.abs(np.subtract(new, direct)) / np.abs(direct))
+    assert np.all(worst <= 2e-15), worst  # measured up to 6.8e-16 (1 / (R_N + h))
 
 
 def test_earth_terms_match_earth_module():
