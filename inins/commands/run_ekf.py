@@ -473,7 +473,7 @@ def _report(scenario, r, s, info):
         f"{r.model.upper()}-{r.coupling.upper()} ({len(r.layout.names)} states) on the "
         f"{source}: {r.time.size} epochs, {r.flight_time:.1f} s",
         f"realtime factor {s.realtime_factor:.4g} (wall {r.wall_time:.3g} s, first epoch "
-        f"includes JIT compilation), update {1e3 * s.update_time_mean_s:.3g} ms mean",
+        f"includes JIT compilation), epoch step {1e3 * s.update_time_mean_s:.3g} ms mean",
         run_ekf_report.summary_line(s, info.get("errors") is not None),
         run_ekf_report.heading_line(
             s, scenario.filter.turning_from_s, info.get("errors") is not None
