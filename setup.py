@@ -32,7 +32,9 @@ class BuildPyWithKernels(build_py):
         env = {
             k: v for k, v in os.environ.items() if k not in ("NUMBA_CACHE_DIR", "ININS_KERNEL_DIR")
         }
-        env["PYTHONPATH"] = build_lib
+        # the build tree first; pip's isolated build environment is on PYTHONPATH too (its
+        # sitecustomize puts the build requirements, numpy and numba among them, on the path)
+        env["PYTHONPATH"] = os.pathsep.join(p for p in (build_lib, env.get("PYTHONPATH")) if p)
         print("inins: compiling the numerical kernels into the wheel (about a minute) ...")
         done = subprocess.run(
             [sys.executable, "-m", "inins.commands.warmup"], cwd=build_lib, env=env, check=False
