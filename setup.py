@@ -21,6 +21,16 @@ from setuptools import setup
 from setuptools.command.build_py import build_py
 
 
+def warmup_environment(build_lib, environ):
+    """The warm-up's environment: the package from the build tree, pip's isolated build
+    environment kept (its sitecustomize on ``PYTHONPATH`` puts the build requirements,
+    numpy and numba among them, on the path), the kernels written into the build tree
+    (not to a cache folder the environment names)."""
+    env = {k: v for k, v in environ.items() if k not in ("NUMBA_CACHE_DIR", "ININS_KERNEL_DIR")}
+    env["PYTHONPATH"] = os.pathsep.join(p for p in (build_lib, environ.get("PYTHONPATH")) if p)
+    return env
+
+
 class BuildPyWithKernels(build_py):
     """``build_py``, then the kernels compiled into the build tree."""
 
@@ -29,12 +39,7 @@ class BuildPyWithKernels(build_py):
         if getattr(self, "editable_mode", False) or os.environ.get("ININS_BUILD_KERNELS") == "0":
             return
         build_lib = os.path.abspath(self.build_lib)
-        env = {
-            k: v for k, v in os.environ.items() if k not in ("NUMBA_CACHE_DIR", "ININS_KERNEL_DIR")
-        }
-        # the build tree first; pip's isolated build environment is on PYTHONPATH too (its
-        # sitecustomize puts the build requirements, numpy and numba among them, on the path)
-        env["PYTHONPATH"] = os.pathsep.join(p for p in (build_lib, env.get("PYTHONPATH")) if p)
+        env = warmup_environment(build_lib, os.environ)
         print("inins: compiling the numerical kernels into the wheel (about a minute) ...")
         done = subprocess.run(
             [sys.executable, "-m", "inins.commands.warmup"], cwd=build_lib, env=env, check=False
