@@ -273,6 +273,17 @@ def states(time, centres, taus, dv, prefix, plan):
     return out
 
 
+@jit.njit(cache=True, nogil=True, error_model="numpy", inline="always")
+def _logistic(xi, i_tau):
+    """One velocity step's logistic at ``xi = (t - t_k) / tau``: ``exp(-|xi|)``, the step
+    fraction ``sigma`` and its first and second time derivatives (``i_tau = 1 / tau``)."""
+    e = math.exp(-abs(xi))
+    inv = 1.0 / (1.0 + e)
+    sigma = inv if xi > 0.0 else e * inv
+    dsigma = e * inv * inv * i_tau
+    return e, sigma, dsigma, dsigma * (1.0 - 2.0 * sigma) * i_tau
+
+
 @jit.njit(cache=True, nogil=True, error_model="numpy", aot=True)
 def integrals(start, stop, x, w, centres, taus, dv, prefix, plan, dither, klass, class_taus):
     """Gauss-Legendre integrals ``[dtheta, dv]`` (n, 6) of the rates over
@@ -349,11 +360,7 @@ def integrals(start, stop, x, w, centres, taus, dv, prefix, plan, dither, klass,
                 continue
             # the centre of the interval: exact, with the displacement
             xi = (mid - tk) * i_tau
-            e = math.exp(-abs(xi))
-            inv = 1.0 / (1.0 + e)
-            sigma = inv if xi > 0.0 else e * inv
-            dsigma = e * inv * inv * i_tau
-            ddsigma = dsigma * (1.0 - 2.0 * sigma) * i_tau
+            e, sigma, dsigma, ddsigma = _logistic(xi, i_tau)
             soft = ((xi if xi > 0.0 else 0.0) + math.log1p(e)) * tau
             sn, se, sd = dv[i, 0], dv[i, 1], dv[i, 2]
             dn += soft * sn
@@ -420,11 +427,7 @@ def integrals(start, stop, x, w, centres, taus, dv, prefix, plan, dither, klass,
                 i = b_idx[q]
                 i_tau = i_taus[i]
                 xi = (t - centres[i]) * i_tau
-                e = math.exp(-abs(xi))
-                inv = 1.0 / (1.0 + e)
-                sigma = inv if xi > 0.0 else e * inv
-                dsigma = e * inv * inv * i_tau
-                ddsigma = dsigma * (1.0 - 2.0 * sigma) * i_tau
+                e, sigma, dsigma, ddsigma = _logistic(xi, i_tau)
                 vn += sigma * dv[i, 0]
                 ve += sigma * dv[i, 1]
                 vd += sigma * dv[i, 2]
