@@ -36,7 +36,8 @@ def __getattr__(name):
 
 def main() -> None:
     """Console-script entry point: SIGTERM and SIGHUP are handled like Ctrl-C (no partial
-    files); a closed standard output (``inins check configs | head -1``) is not an error:
+    files; the request is also recorded, :func:`inins.io.atomic.request_stop`, so a
+    run whose KeyboardInterrupt was swallowed by a C callback still writes nothing); a closed standard output (``inins check configs | head -1``) is not an error:
     the run goes on silently and ends with its own exit code."""
     import gc
     import os
@@ -45,10 +46,13 @@ def main() -> None:
     # small matrices only: a threaded BLAS adds hand-over cost (set before numpy loads)
     os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 
+    from inins.io.atomic import request_stop
+
     def _terminate(signum, frame):
+        request_stop(signum)
         raise KeyboardInterrupt
 
-    for name in ("SIGTERM", "SIGHUP"):
+    for name in ("SIGINT", "SIGTERM", "SIGHUP"):
         if hasattr(signal, name):
             signal.signal(getattr(signal, name), _terminate)
     # inins uses no pydantic plugins: without this, building the scenario models scans

@@ -17,7 +17,11 @@ marks a finished run). For the renames it
   complete by the time it could act (the caller says so and finishes);
 - holds an exclusive ``flock`` on the output folder itself (no lock file), so
   concurrent runs into one folder commit one after the other and the folder
-  always holds one run's complete set, never a mix.
+  always holds one run's complete set, never a mix;
+- refuses to commit at all once a termination was requested
+  (:func:`request_stop`): the ``KeyboardInterrupt`` a signal handler raises is lost
+  when it lands in a C callback (numba's compiler calls back into Python), and the
+  run would otherwise finish and write its files after SIGTERM.
 """
 
 import contextlib
@@ -36,6 +40,17 @@ _PARTIAL = re.compile(r"^\..+\.partial-(\d+)$")
 _before_rename = None
 """Test hook: ``_before_rename(path)`` is called before each rename of a group commit
 (a test sends a signal or sleeps there to hit the window)."""
+
+
+_stop_requested = None
+"""The signal of a termination request (:func:`request_stop`), else None."""
+
+
+def request_stop(signum: int) -> None:
+    """Record that the process was asked to stop (signal ``signum``); no group commits
+    after this. The CLI's signal handlers call it before raising KeyboardInterrupt."""
+    global _stop_requested
+    _stop_requested = signum
 
 
 def partial_path(path) -> Path:
@@ -113,10 +128,19 @@ class AtomicGroup:
 
     def commit(self) -> None:
         """Rename every file to its final name, in order, with interrupts held and the
-        folder locked; a held interrupt is recorded in :attr:`interrupted`."""
+        folder locked; a held interrupt is recorded in :attr:`interrupted`.
+
+        Raises
+        ------
+        KeyboardInterrupt
+            A termination was requested earlier (:func:`request_stop`); nothing is
+            renamed and the temporary files are removed.
+        """
         pending = list(self.files.values())
         with deferred_interrupts(redeliver=False) as received, folder_lock(self.directory):
             try:
+                if _stop_requested is not None:
+                    raise KeyboardInterrupt
                 while pending:
                     if _before_rename is not None:
                         _before_rename(pending[0].path)

@@ -65,8 +65,8 @@ def test_a_run_into_a_closed_pipe_completes_its_files(tmp_path):
 @pytest.mark.parametrize("sig", [signal.SIGHUP, signal.SIGTERM])
 def test_sighup_like_sigterm_leaves_nothing(tmp_path, sig):
     out = tmp_path / "o"
-    long_flight = (  # an hour's flight: seconds of work, so the signal finds it running
-        *("--set", "flight.legs=[{kind: wait, duration_s: 3600}]"),
+    long_flight = (  # four hours' flight: seconds of work, so the signal finds it running
+        *("--set", "flight.legs=[{kind: wait, duration_s: 14400}]"),
         *("--set", "filter.turning_from_s=0"),
     )
     p = subprocess.Popen(

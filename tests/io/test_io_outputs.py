@@ -40,6 +40,22 @@ def test_atomic_group_commits_all_or_nothing(tmp_path):
     ]
 
 
+def test_a_stop_request_swallowed_by_a_callback_still_commits_nothing(tmp_path, monkeypatch):
+    # SIGTERM's KeyboardInterrupt raised inside a C callback (numba compiling) is printed
+    # and dropped; the run goes on to its commit, which must refuse
+    from inins.io import atomic
+
+    monkeypatch.setattr(atomic, "_stop_requested", None)
+    names = ("r.h5", "summary.json")
+    group = AtomicGroup(tmp_path, names)
+    for name in names:
+        group[name].tmp.write_text(name)
+    atomic.request_stop(signal.SIGTERM)
+    with pytest.raises(KeyboardInterrupt):
+        group.commit()
+    assert list(tmp_path.iterdir()) == []
+
+
 def test_atomic_group_missing_file_discards_the_rest(tmp_path):
     group = AtomicGroup(tmp_path, ("a", "b"))
     group["b"].tmp.write_text("b")
