@@ -35,10 +35,13 @@ def __getattr__(name):
 
 
 def main() -> None:
-    """Console-script entry point: SIGTERM and SIGHUP are handled like Ctrl-C (no partial
-    files; the request is also recorded, :func:`inins.io.atomic.request_stop`, so a
-    run whose KeyboardInterrupt was swallowed by a C callback still writes nothing); a closed standard output (``inins check configs | head -1``) is not an error:
-    the run goes on silently and ends with its own exit code."""
+    """Console-script entry point.
+
+    SIGTERM and SIGHUP are handled like Ctrl-C (no partial files); each of the three
+    is also recorded (:func:`inins.io.atomic.request_stop`), so a run whose
+    KeyboardInterrupt was swallowed by a C callback still writes nothing. A closed
+    standard output (``inins check configs | head -1``) is not an error: the run goes
+    on silently and ends with its own exit code."""
     import gc
     import os
     import signal
