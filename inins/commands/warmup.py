@@ -26,6 +26,9 @@ MODULES = (
     "inins.core.strapdown",
     "inins.table.kinematics",
     "inins.ekf.flight_kernel",
+    "inins.ekf.filter",
+    "inins.gnss.orbit",
+    "inins.gnss.glonass",
 )
 _WAIT = ("flight.legs=[{kind: wait, duration_s: 20}]", "filter.turning_from_s=0")
 SHORT_RUNS = (  # (command, shipped scenario (folder, name), --set overrides)

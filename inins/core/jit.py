@@ -7,19 +7,23 @@ short run computes.
 
 A kernel marked ``aot=True`` is also compiled ahead of time into one extension
 module, the *kernel library*, which ``python -m inins.commands.warmup`` builds at
-install (numba's ``pycc``, for the argument types the warm-up passed). A call
-whose arguments have exactly those types runs the library's copy without loading
-numba; any other call, or any call once :func:`activate` has run, goes through
-numba's dispatcher (its on-disk cache, or a compile). The library copy, compiled
-from the same source by the same compiler for a generic CPU of the architecture,
-gives bit-identical results (a test compares both on a whole run). It holds
-the GIL while it runs, where the dispatcher releases it for ``nogil`` kernels, and
-takes 1.1-1.6 times as long as numba's copy compiled for this CPU: it is for short
-runs, where numba's start-up would dominate. So a process runs each kernel's
-first :data:`LIBRARY_ROWS` rows through the library and loads numba for the rest
-(a budget per kernel: a run calls several over the same samples). A local sweep
-worker does the same; a Dask worker, whose threads need the GIL released, loads
-numba at once.
+install (numba's ``pycc``), holding every specialisation the warm-up compiled (the
+argument types the commands pass). A call whose arguments have exactly the types
+of one of them runs the library's copy without loading numba; any other call, or
+any call once :func:`activate` has run, goes through numba's dispatcher (its
+on-disk cache, or a compile). The library copy is compiled from the same source
+by the same compiler, for this processor (its instruction-set extensions, as
+numba compiles for it; the library records the processor and is used only on
+one that reads the same), and gives bit-identical results (a test compares both
+on whole runs). Its functions release the GIL while they run, so a run can
+compute its truth in a second thread (:mod:`inins.core.prefetch`). It runs as
+fast as numba's copy, so a process uses it for every call and never loads numba
+for a command's usual path. Where the processor cannot be read (no
+``/proc/cpuinfo``) the library is built for a generic CPU of the architecture and
+takes 1.1-1.6 times as long; then a process runs each kernel's first
+:data:`LIBRARY_ROWS` rows through it and loads numba for the rest (a budget per
+kernel: a run calls several over the same samples). A Dask worker, whose threads
+share one process, loads numba at once.
 
 Cache keys. numba stamps its on-disk cache of a kernel with the hash of the
 kernel's own file, so a kernel that calls or inlines one from another module
@@ -86,8 +90,9 @@ _numba = None
 _library = None
 LIBRARY_ROWS = 1_000_000
 """Rows (the longest first axis among a call's array arguments: samples, for the
-table, sensor and strapdown kernels) a process runs through the kernel library
-before it loads numba: 0.1-0.2 s of work, against numba's 0.5 s start-up."""
+table, sensor and strapdown kernels) a process runs through a generic kernel library
+(one not compiled for this processor) before it loads numba: 0.1-0.2 s of work,
+against numba's 0.5 s start-up."""
 _library_rows = {}
 """Qualified name -> rows run through the library's copy by this process."""
 _source_digest = None
@@ -156,8 +161,9 @@ class Kernel:
         if self._dispatcher is None:
             name = _qualname(self.py_func)
             compiled = _compiled(name)
-            if compiled is not None and compiled.accepts(args) and _within_budget(name, args):
-                return compiled.function(*args)
+            function = None if compiled is None else compiled.function_for(args)
+            if function is not None and (compiled.native or _within_budget(name, args)):
+                return function(*args)
             activate()
         return self._dispatcher(*args)
 
@@ -490,27 +496,54 @@ def _status(directory):
     shared = _library_file(directory, manifest) if isinstance(manifest, dict) else None
     if shared is None or not shared.is_file():
         return False, f"no kernel library in {directory}", None
+    if manifest.get("format") != _FORMAT:
+        return False, f"a library of another layout ({manifest.get('format')})", None
     if manifest.get("python") != _ext_suffix():
         return False, f"built for another Python ({manifest.get('python')})", None
     if manifest.get("versions") != _versions():
         return False, f"built for {manifest.get('versions')}, installed {_versions()}", None
+    cpu = manifest.get("cpu")
+    if cpu is not None and cpu != _host_cpu():
+        return False, f"built for another processor ({cpu.get('model')})", None
     if not _sources_unchanged(manifest):
         return False, "a kernel module changed since the library was built", None
     return True, f"{len(manifest['exports'])} kernels in {shared}", manifest
 
 
 class _Compiled:
-    """One library function and the argument types it takes."""
+    """A kernel's functions in the library, one per specialisation, with the argument
+    types each takes."""
 
-    __slots__ = ("function", "types")
+    __slots__ = ("_chosen", "native", "variants")
 
-    def __init__(self, function, types):
-        self.function, self.types = function, types
+    def __init__(self, variants, native):
+        self.variants = variants
+        """``[(function, types), ...]``."""
+        self.native = native
+        """Compiled for this processor (as fast as numba's copy: no row budget)."""
+        self._chosen = {}
+        """:func:`_key` of the arguments -> the function for them (or None)."""
 
-    def accepts(self, args):
-        return len(args) == len(self.types) and all(
-            _describe(a) == t for a, t in zip(args, self.types, strict=True)
-        )
+    def function_for(self, args):
+        """The library function compiled for the types of ``args``, else None.
+
+        The choice is remembered by a cheap key of the arguments (:func:`_key`), so a
+        kernel called once per epoch with fifty arguments pays a microsecond or so per
+        call, not the full :func:`_describe` of each (``dtype.name`` alone costs 1.5 us).
+        """
+        key = tuple(map(_key, args))
+        try:
+            return self._chosen[key]
+        except KeyError:
+            pass
+        described = [_describe(a) for a in args]
+        found = None
+        for function, types in self.variants:
+            if described == types:
+                found = function
+                break
+        self._chosen[key] = found
+        return found
 
 
 def _compiled(qualname):
@@ -536,10 +569,27 @@ def _load():
         loader.exec_module(module)
     except (ImportError, OSError):  # replaced by a newer build meanwhile: numba serves
         return {}
+    native = manifest.get("cpu") is not None
     return {
-        name: _Compiled(getattr(module, entry["export"]), entry["args"])
-        for name, entry in manifest["exports"].items()
+        name: _Compiled([(getattr(module, e["export"]), e["args"]) for e in entries], native)
+        for name, entries in manifest["exports"].items()
     }
+
+
+_ARRAY_FLAGS = 0x1 | 0x2 | 0x100 | 0x400
+"""C-contiguous, Fortran-contiguous, aligned and writeable: the bits of ``flags.num``
+that decide an array's numba type besides its dtype and dimensions."""
+
+
+def _key(value):
+    """A hashable key that decides :func:`_describe` of ``value`` (equal keys, equal
+    descriptions), at a fraction of its cost: for an array its dtype, dimensions and
+    flag bits, for a tuple the keys of its items, else the type."""
+    if isinstance(value, np.ndarray):
+        return (value.dtype, value.ndim, value.flags.num & _ARRAY_FLAGS)
+    if type(value) is tuple:
+        return ("tuple", *map(_key, value))
+    return type(value)
 
 
 def _describe(value):
@@ -592,12 +642,17 @@ def _forwarder(target, n_args):
     return space["forward"]
 
 
+_FORMAT = 2
+"""Layout of the manifest (2: every specialisation of a kernel, a list per kernel)."""
+
+
 def build_library(directory=None):
     """Compile the ``aot`` kernels into the kernel library; return its path.
 
-    Each kernel must have been called (compiled) for exactly one argument-type
-    signature in this process, the one the library takes: run the modules'
-    ``warm_up()`` first. One build at a time per folder (a lock file); the
+    The library holds every specialisation numba has compiled of each kernel in this
+    process (run the modules' ``warm_up()`` first: the argument types the commands
+    pass; a kernel that another calls may have a second one, for that caller's
+    types), each as its own function. One build at a time per folder (a lock file); the
     extension module gets a new name each build and the manifest naming it is
     replaced last, so a reader sees the old library or the new one, never half
     of one; older builds are then removed.
@@ -618,25 +673,30 @@ def build_library(directory=None):
             cc.verbose = False
             for name, dispatcher in sorted(_AOT.items()):
                 signatures = dispatcher.nopython_signatures
-                if len(signatures) != 1:
-                    raise RuntimeError(
-                        f"{name}: {len(signatures)} compiled signatures, the library takes "
-                        "one (call the module's warm_up() first)"
-                    )
-                (signature,) = signatures
-                export = name.replace(".", "__")
-                cc.export(export, signature)(_forwarder(dispatcher, len(signature.args)))
-                exports[name] = {
-                    "export": export,
-                    "args": [_describe_type(t) for t in signature.args],
-                }
-            cc.compile()
+                if not signatures:
+                    raise RuntimeError(f"{name}: never compiled (call its module's warm_up())")
+                exports[name] = []
+                for i, signature in enumerate(signatures):
+                    try:
+                        args = [_describe_type(t) for t in signature.args]
+                    except TypeError:  # a callee's types no Python call has: not needed
+                        continue
+                    export = f"{name.replace('.', '__')}__{i}"
+                    cc.export(export, signature)(_forwarder(dispatcher, len(signature.args)))
+                    exports[name].append({"export": export, "args": args})
+            cpu = _host_cpu()
+            with _compiled_for_this_cpu(cc, cpu is not None) as host, _without_the_gil() as nogil:
+                cc.compile()
+            cpu = cpu if host else None  # a generic build runs on any of the architecture
             sources = kernel_sources()
             shared = directory / f"{LIBRARY}-{source_digest()[:12]}-{os.getpid()}{suffix}"
             manifest = {
+                "format": _FORMAT,
                 "library": shared.name,
                 "python": suffix,
                 "versions": _versions(),
+                "cpu": cpu,
+                "nogil": nogil,
                 "sources": _source_key(sources),
                 "stats": _source_stats(sources),
                 "exports": exports,
@@ -649,6 +709,97 @@ def build_library(directory=None):
             if old != shared:
                 old.unlink(missing_ok=True)
     return shared
+
+
+_CPU_FIELDS = {  # /proc/cpuinfo key -> manifest key: what decides the instructions usable
+    "vendor_id": "vendor",
+    "model name": "model",
+    "flags": "flags",  # x86
+    "CPU implementer": "vendor",
+    "CPU part": "model",
+    "Features": "flags",  # ARM
+}
+
+
+def _host_cpu():
+    """This processor as ``/proc/cpuinfo`` describes its first core (vendor, model name,
+    instruction-set flags), or None where that file is missing or says no flags.
+
+    The kernel library is compiled for this processor (its instruction-set extensions,
+    as numba compiles for it) and used only on one that reads the same: the first
+    block of the file, a few kilobytes, costs a run well under a millisecond, where
+    asking LLVM (``llvmlite.binding``) would cost 30 ms.
+    """
+    try:
+        with open("/proc/cpuinfo", encoding="utf-8", errors="replace") as f:
+            block = f.read(16384).split("\n\n", 1)[0]
+    except OSError:
+        return None
+    cpu = {}
+    for line in block.splitlines():
+        key, sep, value = line.partition(":")
+        name = _CPU_FIELDS.get(key.strip())
+        if sep and name is not None:
+            cpu[name] = " ".join(value.split())
+    return cpu if cpu.get("flags") else None
+
+
+@contextlib.contextmanager
+def _compiled_for_this_cpu(cc, host):
+    """Compile ``cc`` (a ``numba.pycc.CC``) for this processor when ``host``, else for
+    the generic CPU of the architecture (pycc's default); yields whether it is for
+    this processor.
+
+    pycc takes a CPU name only; given ``"host"`` it would enable every feature of the
+    model LLVM names, and a virtual machine may hide some of them. So the target's
+    features are set, for the build, to the ones this processor reports, as numba's
+    own compiler sets them for every kernel it compiles at run time.
+    """
+    from numba.core import codegen
+
+    aot = getattr(codegen, "AOTCPUCodegen", None)
+    features = getattr(codegen.CPUCodegen, "_get_host_cpu_features", None)
+    if not host or aot is None or features is None or "_customize_tm_features" not in vars(aot):
+        yield False
+        return
+    original = aot._customize_tm_features
+    cc.target_cpu = "host"
+    aot._customize_tm_features = features
+    try:
+        yield True
+    finally:
+        aot._customize_tm_features = original
+
+
+@contextlib.contextmanager
+def _without_the_gil():
+    """Make the library's functions release the GIL while they run, as numba's
+    dispatcher does for a ``nogil`` kernel; yields whether they will.
+
+    pycc compiles every export with one set of default compiler flags, whose
+    ``release_gil`` is off; for the build they are replaced by the same flags with
+    it on. The kernels are nopython code (no Python object is touched once the
+    arguments are unboxed), so every one may run beside other threads: a run
+    computes its truth in one thread while the filter runs in another
+    (:func:`inins.core.prefetch.ahead`).
+    """
+    from numba.pycc import compiler
+
+    flags = getattr(compiler, "Flags", None)
+    if flags is None or "release_gil" not in getattr(flags, "options", {}):
+        yield False
+        return
+
+    class Released(flags):
+        def __init__(self, *args, **kwargs):
+            super().__init__(*args, **kwargs)
+            self.release_gil = True
+
+    compiler.Flags = Released
+    try:
+        yield True
+    finally:
+        compiler.Flags = flags
 
 
 class _folder_lock:

@@ -512,3 +512,28 @@ def score(result, log, true_sensor=None, *, pps_storage=True, systems="G"):
         P = np.array(log.covariance)
         nees = np.einsum("mi,mi->m", e, np.linalg.solve(P, e[..., None])[..., 0])
     return result.with_truth(err, rotation.wrap_angle(heading), nees)
+
+
+def warm_up():
+    """Compile (or load from the on-disk cache) the fused epoch kernel
+    (:func:`inins.ekf.step.epoch`) with the argument types every run passes (the types of
+    the kernel library's copy): two epochs of four satellites."""
+    from inins.core.strapdown import NavState
+    from inins.ekf.config import EpochInput, FilterConfig, Model
+    from inins.ekf.measurements import GnssEpoch
+
+    initial = NavState.from_attitude(np.eye(3), np.zeros(3), np.array([0.6, 2.2, 100.0]))
+    sats = np.array([[0.6, 0.5, 0.6], [0.7, 0.7, 0.1], [0.8, 0.2, 0.56], [0.5, 0.8, 0.33]]) * 2.6e7
+    z = np.zeros(4)
+    epochs = [
+        EpochInput(
+            np.zeros((2, 3)),
+            np.zeros((2, 3)),
+            2,
+            GnssEpoch(
+                0.02 * k, np.arange(1, 5), sats, 0.0 * sats, z, z, z + 2.2e7, z, z + 1, z + 1
+            ),
+        )
+        for k in (1, 2)
+    ]
+    run_filter(FilterConfig(Model.EKF2, Coupling.FB, 0.01), initial, 0.0, epochs)

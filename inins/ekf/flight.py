@@ -39,7 +39,7 @@ from functools import cached_property
 
 import numpy as np
 
-from inins.core import earth, imu, rotation, trajectory
+from inins.core import earth, imu, prefetch, rotation, trajectory
 from inins.core.flight import (  # the plan types live in core (the scenario builds them)
     TURN_STEP,
     FlightPlan,
@@ -348,7 +348,7 @@ STREAM_BLOCK = 12_000
 block is split into its chunks and dropped, so memory stays flat)."""
 
 
-def imu_stream(truth, errors, dt, edges_index, rng, *, nodes=3, block=STREAM_BLOCK):
+def imu_stream(truth, errors, dt, edges_index, rng, *, nodes=3, block=STREAM_BLOCK, ahead=False):
     """Measured increments in consecutive chunks: a generator (memory flat in flight length).
 
     The ideal increments of consecutive chunks are computed together over about
@@ -371,14 +371,27 @@ def imu_stream(truth, errors, dt, edges_index, rng, *, nodes=3, block=STREAM_BLO
         Gauss-Legendre nodes per sample (:func:`inins.core.trajectory.ideal_increments`).
     block : int
         Samples evaluated at once (at least one chunk).
+    ahead : bool
+        Compute the next block in a second thread while the caller consumes this
+        one's chunks (:func:`inins.core.prefetch.ahead`; the same output).
 
     Yields
     ------
     dtheta, dv : ndarray, shape (n_chunk, 3)
         Gyro (rad) and accelerometer (m/s) increments through the sensor error model.
     """
-    state = None
     edges_index = np.asarray(edges_index, dtype=np.int64)
+    blocks = _imu_blocks(truth, errors, dt, edges_index, rng, nodes, block)
+    for first, last, lo, dtheta, dv in prefetch.ahead(blocks, 1) if ahead else blocks:
+        for k in range(first, last):
+            a, b = int(edges_index[k]) - lo, int(edges_index[k + 1]) - lo
+            yield dtheta[a:b], dv[a:b]
+
+
+def _imu_blocks(truth, errors, dt, edges_index, rng, nodes, block):
+    """The blocks of :func:`imu_stream`: ``(first, last, lo, dtheta, dv)``, the chunks
+    ``first`` to ``last - 1``, starting at sample ``lo``, and their increments."""
+    state = None
     m = edges_index.size - 1
     first = 0
     while first < m:
@@ -391,9 +404,7 @@ def imu_stream(truth, errors, dt, edges_index, rng, *, nodes=3, block=STREAM_BLO
         else:
             ideal = trajectory.ideal_increments(truth, np.arange(lo, hi + 1) * dt, nodes=nodes)
             dtheta, dv, state, _ = imu.apply_errors(*ideal, dt, errors, rng, state)
-        for k in range(first, last):
-            a, b = int(edges_index[k]) - lo, int(edges_index[k + 1]) - lo
-            yield dtheta[a:b], dv[a:b]
+        yield first, last, lo, dtheta, dv
         first = last
 
 

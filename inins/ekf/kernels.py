@@ -22,7 +22,7 @@ from inins.core import earth, jit
 _gravity_of_sin2 = jit.njit(cache=True)(earth.gravity_of_sin2)
 
 
-@jit.njit(cache=True)
+@jit.njit(cache=True, error_model="numpy")
 def _gravity(lat, height):
     """:func:`inins.core.earth.gravity`, compiled (the same arithmetic)."""
     s2 = np.sin(lat) ** 2
@@ -37,7 +37,7 @@ _MA_PAIRS = ((1, 0), (2, 0), (2, 1))  # ma_yx, ma_zx, ma_zy
 _MG_PAIRS = ((0, 1), (0, 2), (1, 0), (1, 2), (2, 0), (2, 1))  # mg_xy ... mg_zy
 
 
-@jit.njit(cache=True)
+@jit.njit(cache=True, error_model="numpy")
 def _skew(out, r, c, sign, x, y, z):
     """``out[r:r+3, c:c+3] += sign [v x]``."""
     out[r, c + 1] -= sign * z
@@ -48,7 +48,7 @@ def _skew(out, r, c, sign, x, y, z):
     out[r + 2, c + 1] += sign * x
 
 
-@jit.njit(cache=True)
+@jit.njit(cache=True, error_model="numpy")
 def earth_jacobians(lat, h, vel, j_v, jie, jen, jg):
     """Fill ``J_v``, ``d w_ie/dr``, ``d w_en/dr``, ``d g/dr`` (each (3, 3)), as the core does."""
     rn, re = _radii(lat)
@@ -81,7 +81,7 @@ def earth_jacobians(lat, h, vel, j_v, jie, jen, jg):
     return rn_h, re_h
 
 
-@jit.njit(cache=True)
+@jit.njit(cache=True, error_model="numpy")
 def system_matrix26(lat, h, vel, f_b, mat_nb, omega_b, F):
     """Fill ``F`` (n, n), n = 17 or 26, with the error model of :mod:`inins.core.error_model`.
 
@@ -127,7 +127,7 @@ def system_matrix26(lat, h, vel, f_b, mat_nb, omega_b, F):
                 F[ATT + i, MG + k] = -mat_nb[i, a] * omega_b[b]
 
 
-@jit.njit(cache=True)
+@jit.njit(cache=True, error_model="numpy")
 def noise26(mat_nb, arw, vrw, ba_rw, bg_rw, clock_bias_psd, clock_drift_psd, Q):
     """Fill ``Q`` (n, n) with ``Qc`` of :func:`inins.core.error_model.noise_matrix`."""
     Q.fill(0.0)
@@ -146,7 +146,7 @@ def noise26(mat_nb, arw, vrw, ba_rw, bg_rw, clock_bias_psd, clock_drift_psd, Q):
     Q[CLK + 1, CLK + 1] = clock_drift_psd
 
 
-@jit.njit(cache=True)
+@jit.njit(cache=True, error_model="numpy")
 def discretize(F, Qc, dt, Phi, Qd):
     """Third-order transition and process noise series (in place).
 
@@ -171,7 +171,7 @@ def discretize(F, Qc, dt, Phi, Qd):
         Phi[i, i] += 1.0
 
 
-@jit.njit(cache=True)
+@jit.njit(cache=True, error_model="numpy")
 def predict(x, P, Phi, Qd):
     """``x = Phi x``, ``P = Phi P Phi^T + Qd``, symmetrised (in place)."""
     n = x.shape[0]
@@ -184,7 +184,7 @@ def predict(x, P, Phi, Qd):
             P[j, i] = v
 
 
-@jit.njit(cache=True)
+@jit.njit(cache=True, error_model="numpy")
 def pseudorange_rows(r_ant, v_ant, mat_ne, j_v, lever_n, lever_vel_n, sat_pos, sat_vel, H, zhat):
     """Predicted pseudorange and range rate and their rows of ``H`` (003 eq. 7, spec §6a).
 
@@ -244,7 +244,7 @@ def pseudorange_rows(r_ant, v_ant, mat_ne, j_v, lever_n, lever_vel_n, sat_pos, s
         rr[CLK + 1] = 1.0
 
 
-@jit.njit(cache=True)
+@jit.njit(cache=True, error_model="numpy")
 def sequential_update(x, P, H, y0, r, threshold, accepted, y_out, s_out):
     """Scalar Joseph-form updates in turn, each gated on its own chi-square(1) NIS.
 

@@ -77,6 +77,7 @@ class GnssEpoch:
 
     def __post_init__(self):
         prn = np.asarray(self.prn, dtype=np.int64).reshape(-1)
+        prn.setflags(write=False)  # read-only like the other fields (one kernel specialisation)
         k = prn.size
         object.__setattr__(self, "prn", prn)
         for name in ("sat_pos", "sat_vel"):

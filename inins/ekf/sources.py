@@ -186,7 +186,7 @@ def simulated_epochs(truth, base, errors, dt, duration, eph, week, sow0, rx, see
     lat_samples = round(rx.latency / dt)
     edges = np.concatenate([[0], np.round(pps / dt).astype(np.int64) + lat_samples])
     edges = np.minimum(edges, round(duration / dt))
-    chunks = imu_stream(truth, errors, dt, edges, rng_imu, nodes=nodes)
+    chunks = imu_stream(truth, errors, dt, edges, rng_imu, nodes=nodes, ahead=True)
     options = simulate.SimulationOptions(
         mask_rad=rx.mask,
         sigma_pr_m=rx.sigma_pr,

@@ -24,7 +24,7 @@ from inins.ekf import kernels
 _radii = jit.njit(cache=True)(earth.principal_radii)
 
 
-@jit.njit(cache=True)
+@jit.njit(cache=True, error_model="numpy")
 def mat_from_quat(q):
     """``mat_nb`` (3, 3) of a unit quaternion ``[w, x, y, z]``."""
     w, x, y, z = q[0], q[1], q[2], q[3]
@@ -37,14 +37,14 @@ def mat_from_quat(q):
     )
 
 
-@jit.njit(cache=True)
+@jit.njit(cache=True, error_model="numpy")
 def mat_en(lat, lon):
     """NED to ECEF (3, 3)."""
     sl, cl, so, co = math.sin(lat), math.cos(lat), math.sin(lon), math.cos(lon)
     return np.array([[-sl * co, -so, -cl * co], [-sl * so, co, -cl * so], [cl, 0.0, -sl]])
 
 
-@jit.njit(cache=True)
+@jit.njit(cache=True, error_model="numpy")
 def ecef(lla):
     """ECEF position (3,) m of ``[lat, lon, h]``."""
     _, re = _radii(lla[0])
@@ -58,7 +58,7 @@ def ecef(lla):
     )
 
 
-@jit.njit(cache=True)
+@jit.njit(cache=True, error_model="numpy")
 def correct(quat, vel, lla, dx, out_quat, out_vel, out_lla):
     """``nav (-) dx`` (first 9 states) into the ``out_`` arrays (may alias the inputs)."""
     rn, re = _radii(lla[0])
@@ -82,7 +82,7 @@ def correct(quat, vel, lla, dx, out_quat, out_vel, out_lla):
     out_quat[0], out_quat[1], out_quat[2], out_quat[3] = r0 / norm, r1 / norm, r2 / norm, r3 / norm
 
 
-@jit.njit(cache=True)
+@jit.njit(cache=True, error_model="numpy")
 def propagate(x, P, F, Qc, Phi, Qd, quat, vel, lla, omega_b, f_b, dt_k, noise):
     """Model at the mid-interval state, discretise, predict (``dt_k`` > 0).
 
@@ -104,7 +104,7 @@ def propagate(x, P, F, Qc, Phi, Qd, quat, vel, lla, omega_b, f_b, dt_k, noise):
     kernels.predict(x, P, Phi, Qd)
 
 
-@jit.njit(cache=True)
+@jit.njit(cache=True, error_model="numpy")
 def update(
     x,
     P,
@@ -198,7 +198,7 @@ def update(
     return kernels.sequential_update(x, P, Hs, y0, rs, threshold, acc, y, s)
 
 
-@jit.njit(cache=True)
+@jit.njit(cache=True, error_model="numpy")
 def mean_rates(dtheta, dv, centre, window, dt, out):
     """Moving average of ``omega_b``, ``f_b`` over ``window`` samples centred at ``centre``
     (003 §2.2), into ``out`` (2, 3); unchanged for an empty chunk."""
@@ -215,14 +215,14 @@ def mean_rates(dtheta, dv, centre, window, dt, out):
     out /= (hi - lo) * dt
 
 
-@jit.njit(cache=True)
+@jit.njit(cache=True, error_model="numpy")
 def mean_rates_at(dtheta, dv, centres, window, dt, out):
     """:func:`mean_rates` at each of ``centres`` (j,) into ``out`` (j, 2, 3)."""
     for j in range(centres.shape[0]):
         mean_rates(dtheta, dv, centres[j], window, dt, out[j])
 
 
-@jit.njit(cache=True)
+@jit.njit(cache=True, error_model="numpy")
 def rates_change(rates, limits):
     """True if a row of ``rates`` (j, 2, 3) differs from the last one by more than
     ``limits[0]`` in ``omega_b`` (rad/s) or ``limits[1]`` in ``f_b`` (m/s^2), any axis."""
@@ -236,7 +236,7 @@ def rates_change(rates, limits):
     return False
 
 
-@jit.njit(cache=True)
+@jit.njit(cache=True, error_model="numpy")
 def feedback(x, F, tau, quat, vel, lla, comp, cum, sens):
     """FB: ``nav (-) (I + F tau) x`` in place, sensor estimates into ``comp``, states reset."""
     delta = x + tau * (F @ x)
@@ -249,7 +249,7 @@ def feedback(x, F, tau, quat, vel, lla, comp, cum, sens):
         x[sens[j]] = 0.0
 
 
-@jit.njit(cache=True)
+@jit.njit(cache=True, error_model="numpy")
 def compensate(dtheta, dv, dt, comp):
     """Increments with the cumulative sensor estimates removed (new arrays).
 
@@ -286,7 +286,7 @@ N_SATS, N_USED, N_REJECTED, COASTED = 0, 1, 2, 3
 """Columns of an epoch's row of ``ilog`` (4, int)."""
 
 
-@jit.njit(cache=True)
+@jit.njit(cache=True, error_model="numpy")
 def _state_at(start_q, start_v, start_l, out_q, out_v, out_l, index):
     """(quat, vel, lla) after ``index`` samples of a chunk (0: the chunk start)."""
     if index == 0:
@@ -294,7 +294,7 @@ def _state_at(start_q, start_v, start_l, out_q, out_v, out_l, index):
     return out_q[index - 1], out_v[index - 1], out_l[index - 1]
 
 
-@jit.njit(cache=True)
+@jit.njit(cache=True, aot=True, error_model="numpy")
 def epoch(
     x,
     P,

@@ -169,7 +169,7 @@ def _deriv(x, acc, out):
     out[5] = -mu_r3 * x[2] + j * x[2] * (zz - 3.0) + acc[2]
 
 
-@jit.njit(cache=True)
+@jit.njit(cache=True, aot=True)
 def _rk4_kernel(index, dt, state, max_step, pos, vel):
     """RK4 from each set's ``tb`` over ``dt`` (s) in ``ceil(|dt| / max_step)`` equal steps."""
     x = np.empty(6)
@@ -197,3 +197,13 @@ def _rk4_kernel(index, dt, state, max_step, pos, vel):
         for i in range(3):
             pos[k, i] = x[i]
             vel[k, i] = x[3 + i]
+
+
+def warm_up():
+    """Compile (or load from the on-disk cache) the RK4 kernel with the argument types
+    :func:`satellite_states` passes (the types of the kernel library's copy)."""
+    state = np.zeros((1, 9))
+    state[0, 0], state[0, 4] = 25.5e6, 3.9e3  # a GLONASS orbit
+    _rk4_kernel(
+        np.zeros(1, np.int64), np.array([60.0]), state, STEP_S, np.empty((1, 3)), np.empty((1, 3))
+    )

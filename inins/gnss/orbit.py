@@ -162,7 +162,7 @@ def _wrap(dt):
     return dt - WEEK * np.floor((dt + 0.5 * WEEK) / WEEK)
 
 
-@jit.njit(cache=True)
+@jit.njit(cache=True, aot=True)
 def _states_kernel(index, week, sow, par, consts, eph_week, tgd, pos, vel, clock, drift):
     """IS-GPS-200 Table 20-IV per state (see :func:`satellite_states`); outputs filled in place.
 
@@ -255,3 +255,15 @@ def _states_kernel(index, week, sow, par, consts, eph_week, tgd, pos, vel, clock
             clk -= group_delay
         clock[k] = C * clk
         drift[k] = C * (af1 + 2.0 * af2 * tc + f_rel * e * sqrt_a * cos_e * ecc_dot)
+
+
+def warm_up():
+    """Compile (or load from the on-disk cache) the orbit kernel with the argument types
+    :func:`satellite_states` passes (the types of the kernel library's copy)."""
+    pos, vel = np.empty((1, 3)), np.empty((1, 3))
+    clock, drift = np.empty(1), np.empty(1)
+    one = np.zeros(1, np.int64)
+    par = np.zeros((1, len(_PARAMS)))
+    par[0, 0] = 5153.7  # sqrt(A): a GPS orbit
+    consts = np.array([[systems.GM[0], systems.OMEGA_E[0], systems.F_REL[0], 0.0]])
+    _states_kernel(one, one, np.zeros(1), par, consts, one, False, pos, vel, clock, drift)

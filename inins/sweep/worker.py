@@ -53,12 +53,12 @@ def warm_up(
     process is gone (:func:`exit_with_parent`), so a sweep killed outright
     (``kill -9``) leaves no worker behind.
 
-    ``load_numba``: a Dask worker loads numba's kernels at once (compiled for this
-    CPU, and releasing the GIL, which its threads need). A local worker process
-    (one thread) starts on the kernel library, as a single short run does, and
-    loads numba when a kernel's share of the library runs out
-    (:data:`inins.core.jit.LIBRARY_ROWS`): a sweep of short points then never pays
-    numba's start-up (0.5-1 s a worker), a sweep of long ones pays it once a worker.
+    ``load_numba``: a Dask worker loads numba's kernels at once (its threads share
+    one process for many points). A local worker process starts on the kernel
+    library, as a single run does (:mod:`inins.core.jit`): a sweep never pays numba's
+    start-up (0.5-1 s a worker); with a generic library (no processor description)
+    a worker loads numba when a kernel's share of it runs out
+    (:data:`inins.core.jit.LIBRARY_ROWS`).
     """
     import signal
 

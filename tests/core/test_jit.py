@@ -50,6 +50,14 @@ def test_arguments_are_described_as_numba_types_them():
     assert described == [jit._describe_type(numba.typeof(v)) for v in values]
     # C, F and strided layouts and read-only arrays are told apart, as numba does
     assert len({json.dumps(d) for d in described[:5]}) == 4
+    # the cheap key a library kernel remembers its choice by decides the description:
+    # equal keys, equal descriptions (another byte order: another key)
+    swapped = np.zeros(3, ">f8")
+    for a in [*values, swapped, np.zeros(3), np.zeros((1, 3)).T, np.zeros(3)[::2]]:
+        for b in [*values, swapped]:
+            if jit._key(a) == jit._key(b):
+                assert jit._describe(a) == jit._describe(b), (a, b)
+    assert jit._key(swapped) != jit._key(np.zeros(3))
 
 
 def test_importing_every_module_loads_no_numba():
@@ -75,6 +83,8 @@ def _manifest(directory, **changes):
     (Path(directory) / "library.so").write_bytes(b"")
     sources = jit._source_key(["core/pulses.py"])
     manifest = {
+        "format": jit._FORMAT,
+        "cpu": jit._host_cpu(),
         "library": "library.so",
         "python": sysconfig.get_config_var("EXT_SUFFIX"),
         "versions": jit._versions(),
@@ -100,6 +110,13 @@ def test_a_library_is_used_only_while_it_matches_the_sources_and_versions(tmp_pa
     _manifest(tmp_path, versions={"numpy": "1.0", "numba": "0.1"})
     usable, reason = jit.library_status(tmp_path)
     assert not usable and reason.startswith("built for {'numpy': '1.0'")
+    other = {"vendor": "AuthenticAMD", "model": "AMD EPYC 7763", "flags": "fpu sse2 avx2"}
+    _manifest(tmp_path, cpu=other)
+    assert jit.library_status(tmp_path) == (False, "built for another processor (AMD EPYC 7763)")
+    _manifest(tmp_path, cpu=None)  # a generic build (pycc's default CPU) runs anywhere
+    assert jit.library_status(tmp_path)[0]
+    _manifest(tmp_path, format=1)
+    assert jit.library_status(tmp_path) == (False, "a library of another layout (1)")
 
 
 RUN = """
@@ -135,18 +152,23 @@ import numpy as np
 from inins.core import jit, pulses
 weights = np.array([1e-6, 2e-6, 4e-6])
 rows = np.arange(3 * (jit.LIBRARY_ROWS // 2 + 1), dtype=float).reshape(-1, 3) * weights
-loaded = []
-first = pulses.counts_from_increments(rows, weights)  # within the budget: the library
-loaded.append("numba" in sys.modules)
-second = pulses.counts_from_increments(rows, weights)  # past it: numba
-loaded.append("numba" in sys.modules)
-print(json.dumps({"numba": loaded, "equal": bool(np.array_equal(first, second))}))
+compiled = jit._compiled("inins.core.pulses._counts_kernel")
+built_native = compiled.native
+loaded = {"native": [], "generic": []}
+results = []
+for kind in ("native", "generic"):  # a library for this processor, then a generic one
+    compiled.native = kind == "native"
+    for _ in range(2):  # the generic library: within the budget, then past it (numba)
+        results.append(pulses.counts_from_increments(rows, weights))
+        loaded[kind].append("numba" in sys.modules)
+equal = all(np.array_equal(r, results[0]) for r in results)
+print(json.dumps({**loaded, "built_native": built_native, "equal": equal}))
 """
 
 
-OBSERVABILITY = """
+DEFAULT_RUN = """
 import json, runpy, sys
-sys.argv = ["inins", "observability", "-o", sys.argv[1]]
+sys.argv = ["inins", sys.argv[2], "-o", sys.argv[1]]
 try:
     runpy.run_module("inins", run_name="__main__")
 except SystemExit as exc:
@@ -237,6 +259,9 @@ def test_a_run_through_the_library_is_the_run_through_numba_without_numba(tmp_pa
     library = _library_for_the_test(tmp_path)
     env = {**os.environ, "ININS_KERNEL_DIR": str(library)}
 
+    manifest = json.loads(jit._manifest_path(library).read_text())
+    assert manifest["nogil"]  # every function lets other threads run (numba 0.59-0.68)
+    assert manifest["cpu"] == jit._host_cpu()  # compiled for this processor where known
     through_library = _run(tmp_path / "aot", library)
     assert through_library == {
         "code": 0,
@@ -257,7 +282,12 @@ def test_a_run_through_the_library_is_the_run_through_numba_without_numba(tmp_pa
         env=env,
     )
     assert budget.returncode == 0, budget.stderr
-    assert json.loads(budget.stdout) == {"numba": [False, True], "equal": True}
+    assert json.loads(budget.stdout) == {
+        "native": [False, False],  # no row budget: as fast as numba's copy
+        "generic": [False, True],  # 1.1-1.6 times slower: long runs go to numba
+        "built_native": jit._host_cpu() is not None,
+        "equal": True,
+    }
 
     aot = _datasets(tmp_path / "aot" / "simulate-table.h5")
     numba_run = _datasets(tmp_path / "jit" / "simulate-table.h5")
@@ -266,25 +296,28 @@ def test_a_run_through_the_library_is_the_run_through_numba_without_numba(tmp_pa
     for name, value in aot.items():
         assert np.array_equal(value, numba_run[name]), name
 
-    # the default observability run: its kernels are in the library too
-    loaded = {}
-    for name, kernels in (("aot", library), ("jit", tmp_path / "empty")):
-        done = subprocess.run(
-            [sys.executable, "-c", OBSERVABILITY, str(tmp_path / f"obs-{name}")],
-            capture_output=True,
-            text=True,
-            check=False,
-            cwd=ROOT,
-            env={**os.environ, "ININS_KERNEL_DIR": str(kernels)},
-        )
-        assert done.returncode == 0, done.stderr
-        loaded[name] = json.loads(done.stdout.strip().splitlines()[-1])
-    assert loaded == {"aot": [0, False], "jit": [0, True]}
-    aot = _datasets(tmp_path / "obs-aot" / "observability.h5")
-    numba_run = _datasets(tmp_path / "obs-jit" / "observability.h5")
-    assert aot.keys() == numba_run.keys() and len(aot) > 3
-    for name, value in aot.items():
-        assert np.array_equal(value, numba_run[name]), name
+    # the default observability and run-ekf runs: their kernels are in the library too
+    # (run-ekf's filter epoch, orbits and flight truth, with its truth in a second thread)
+    for command in ("observability", "run-ekf"):
+        loaded = {}
+        for name, kernels in (("aot", library), ("jit", tmp_path / "empty")):
+            done = subprocess.run(
+                [sys.executable, "-c", DEFAULT_RUN, str(tmp_path / f"{command}-{name}"), command],
+                capture_output=True,
+                text=True,
+                check=False,
+                cwd=ROOT,
+                env={**os.environ, "ININS_KERNEL_DIR": str(kernels)},
+            )
+            assert done.returncode == 0, done.stderr
+            loaded[name] = json.loads(done.stdout.strip().splitlines()[-1])
+        assert loaded == {"aot": [0, False], "jit": [0, True]}, command
+        aot = _datasets(tmp_path / f"{command}-aot" / f"{command}.h5")
+        numba_run = _datasets(tmp_path / f"{command}-jit" / f"{command}.h5")
+        assert aot.keys() == numba_run.keys() and len(aot) > 3
+        for name, value in aot.items():
+            if name != "epochs/update_time":  # the wall time of each epoch step
+                assert np.array_equal(value, numba_run[name], equal_nan=True), (command, name)
 
 
 CALLEE = "from inins.core import jit\n\n\n@jit.njit\ndef offset(x):\n    return x + {}\n"
