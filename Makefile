@@ -46,10 +46,16 @@ FUZZ_EXAMPLES ?= 5000
 fuzz: $(STAMP)
 	ININS_FUZZ_EXAMPLES=$(FUZZ_EXAMPLES) $(BIN)/python -m pytest tests/cli/test_fuzz.py tests/cli/test_fuzz_flight.py -q
 
-bench: kernels
+# the yardsticks the benchmarks compare with (pyins' strapdown, allantools): the bench extra
+BENCH := $(VENV)/.bench
+$(BENCH): $(STAMP)
+	$(BIN)/python -m pip install --quiet -e '.[bench]'
+	touch $(BENCH)
+
+bench: kernels $(BENCH)
 	$(BIN)/python -m benchmarks
 
-bench-quick: kernels
+bench-quick: kernels $(BENCH)
 	$(BIN)/python -m benchmarks --quick
 
 clean:
