@@ -49,11 +49,7 @@ def main() -> None:
     # small matrices only: a threaded BLAS adds hand-over cost (set before numpy loads)
     os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 
-    from inins.io.atomic import request_stop
-
-    def _terminate(signum, frame):
-        request_stop(signum)
-        raise KeyboardInterrupt
+    import inins.io.atomic  # noqa: F401  (loaded before any signal: the handler imports nothing)
 
     for name in ("SIGINT", "SIGTERM", "SIGHUP"):
         if hasattr(signal, name):
@@ -72,6 +68,20 @@ def main() -> None:
         # would walk every object the imports made (about 0.1 s, a fifth of a short
         # run); frozen objects are left to the operating system instead.
         gc.freeze()
+
+
+def _terminate(signum, frame):
+    """Signal handler of a run: records the request
+    (:func:`inins.io.atomic.request_stop`) and raises KeyboardInterrupt, unless the
+    main thread is inside a kernel-library function, which must first return
+    (:func:`inins.core.jit.interrupt_deferred`; it then raises)."""
+    from inins.io.atomic import request_stop
+
+    request_stop(signum)
+    jit = sys.modules.get("inins.core.jit")  # not loaded: no kernel has run
+    if jit is not None and jit.interrupt_deferred():
+        return
+    raise KeyboardInterrupt
 
 
 def _run_argv(argv) -> None:

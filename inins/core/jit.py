@@ -163,7 +163,9 @@ class Kernel:
             compiled = _compiled(name)
             function = None if compiled is None else compiled.function_for(args)
             if function is not None and (compiled.native or _within_budget(name, args)):
-                return function(*args)
+                if threading.get_ident() != _MAIN_THREAD:
+                    return function(*args)
+                return _in_main_thread(function, args)
             activate()
         return self._dispatcher(*args)
 
@@ -175,6 +177,46 @@ class Kernel:
 
     def __repr__(self):
         return f"<inins kernel {_qualname(self.py_func)}>"
+
+
+_MAIN_THREAD = threading.main_thread().ident
+_deferring = False
+"""The main thread is running a library function (:func:`_in_main_thread`)."""
+_deferred = False
+"""An interrupt arrived meanwhile (:func:`interrupt_deferred`)."""
+
+
+def _in_main_thread(function, args):
+    """Call a library function in the main thread, raising KeyboardInterrupt after it
+    if a signal handler deferred one meanwhile (:func:`interrupt_deferred`)."""
+    global _deferring, _deferred
+    _deferring = True
+    try:
+        result = function(*args)
+    finally:
+        _deferring = False
+    if _deferred:
+        _deferred = False
+        raise KeyboardInterrupt
+    return result
+
+
+def interrupt_deferred() -> bool:
+    """For a signal handler that raises KeyboardInterrupt: True if it must not raise
+    now, because the main thread is inside a kernel-library function; the interrupt
+    is then raised when that function returns.
+
+    A library function can call back into Python: its first BLAS product imports
+    ``scipy.linalg.cython_blas`` to find the routine (numba's helper library, with the
+    GIL taken again), and a KeyboardInterrupt raised in that import makes the lookup
+    fail where nothing can be raised, which numba ends with a fatal error (the process
+    aborts). Deferred, the import completes and the kernel with it.
+    """
+    global _deferred
+    if _deferring:
+        _deferred = True
+        return True
+    return False
 
 
 def activate():

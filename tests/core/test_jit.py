@@ -411,3 +411,36 @@ def test_a_library_checks_its_sources_by_size_and_time_then_by_content(tmp_path)
         False,
         "a kernel module changed since the library was built",
     )
+
+
+def test_an_interrupt_inside_a_library_call_is_raised_when_it_returns(monkeypatch):
+    """A library function may call back into Python (its first BLAS product imports
+    scipy's BLAS module); the run's signal handler must not raise there (numba aborts
+    the process when that lookup fails) but after the call, whose work is complete."""
+    import signal
+
+    from inins import cli
+    from inins.io import atomic
+
+    steps = []
+
+    def library_copy(x):  # stands for a compiled function calling back into Python
+        if not steps:
+            signal.raise_signal(signal.SIGTERM)  # the handler runs here, inside the call
+        steps.append("finished")
+        return 2.0 * x
+
+    kernel = jit.Kernel(lambda x: 2.0 * x, {})
+    compiled = jit._Compiled([(library_copy, [jit._describe(1.0)])], True)
+    monkeypatch.setattr(jit, "_compiled", lambda name: compiled)
+    monkeypatch.setattr(atomic, "_stop_requested", None)
+    previous = signal.signal(signal.SIGTERM, cli._terminate)
+    try:
+        with pytest.raises(KeyboardInterrupt):
+            kernel(1.0)
+        assert steps == ["finished"]  # the call ran to its end
+        assert atomic._stop_requested == signal.SIGTERM  # and no group commit follows
+        assert kernel(1.5) == 3.0  # nothing left over: the next call just runs
+    finally:
+        signal.signal(signal.SIGTERM, previous)
+        atomic._stop_requested = None
