@@ -177,10 +177,12 @@ print(json.dumps([code, "numba" in sys.modules]))
 """
 
 
-def _run(out, kernel_dir):
+def _child(script, kernel_dir, *args):
+    """The last line of ``python -c script args`` with the kernel library of
+    ``kernel_dir`` (an empty folder: numba's), read as JSON."""
     env = {**os.environ, "ININS_KERNEL_DIR": str(kernel_dir)}
     done = subprocess.run(
-        [sys.executable, "-c", RUN, str(out)],
+        [sys.executable, "-c", script, *map(str, args)],
         capture_output=True,
         text=True,
         check=False,
@@ -257,12 +259,10 @@ def test_library_only_warm_up_compiles_what_the_library_takes_and_builds_it(monk
 @pytest.mark.slow
 def test_a_run_through_the_library_is_the_run_through_numba_without_numba(tmp_path):
     library = _library_for_the_test(tmp_path)
-    env = {**os.environ, "ININS_KERNEL_DIR": str(library)}
-
     manifest = json.loads(jit._manifest_path(library).read_text())
     assert manifest["nogil"]  # every function lets other threads run (numba 0.59-0.68)
     assert manifest["cpu"] == jit._host_cpu()  # compiled for this processor where known
-    through_library = _run(tmp_path / "aot", library)
+    through_library = _child(RUN, library, tmp_path / "aot")
     assert through_library == {
         "code": 0,
         "numba_after_run": False,
@@ -270,19 +270,10 @@ def test_a_run_through_the_library_is_the_run_through_numba_without_numba(tmp_pa
         "numba_after_other_layout": True,
         "counts_equal": True,
     }
-    through_numba = _run(tmp_path / "jit", tmp_path / "empty")
+    through_numba = _child(RUN, tmp_path / "empty", tmp_path / "jit")
     assert through_numba["numba_after_run"]
 
-    budget = subprocess.run(
-        [sys.executable, "-c", BUDGET],
-        capture_output=True,
-        text=True,
-        check=False,
-        cwd=ROOT,
-        env=env,
-    )
-    assert budget.returncode == 0, budget.stderr
-    assert json.loads(budget.stdout) == {
+    assert _child(BUDGET, library) == {
         "native": [False, False],  # no row budget: as fast as numba's copy
         "generic": [False, True],  # 1.1-1.6 times slower: long runs go to numba
         "built_native": jit._host_cpu() is not None,
@@ -299,18 +290,10 @@ def test_a_run_through_the_library_is_the_run_through_numba_without_numba(tmp_pa
     # the default observability and run-ekf runs: their kernels are in the library too
     # (run-ekf's filter epoch, orbits and flight truth, with its truth in a second thread)
     for command in ("observability", "run-ekf"):
-        loaded = {}
-        for name, kernels in (("aot", library), ("jit", tmp_path / "empty")):
-            done = subprocess.run(
-                [sys.executable, "-c", DEFAULT_RUN, str(tmp_path / f"{command}-{name}"), command],
-                capture_output=True,
-                text=True,
-                check=False,
-                cwd=ROOT,
-                env={**os.environ, "ININS_KERNEL_DIR": str(kernels)},
-            )
-            assert done.returncode == 0, done.stderr
-            loaded[name] = json.loads(done.stdout.strip().splitlines()[-1])
+        loaded = {
+            name: _child(DEFAULT_RUN, kernels, tmp_path / f"{command}-{name}", command)
+            for name, kernels in (("aot", library), ("jit", tmp_path / "empty"))
+        }
         assert loaded == {"aot": [0, False], "jit": [0, True]}, command
         aot = _datasets(tmp_path / f"{command}-aot" / f"{command}.h5")
         numba_run = _datasets(tmp_path / f"{command}-jit" / f"{command}.h5")
