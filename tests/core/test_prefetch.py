@@ -5,7 +5,7 @@ import threading
 import numpy as np
 import pytest
 
-from inins.core import prefetch
+from inins.core import imu, prefetch
 from inins.ekf.flight import (
     Dither,
     Dithered,
@@ -62,8 +62,6 @@ def test_a_flight_imu_stream_computed_ahead_is_the_plain_one_bit_for_bit():
         0.65, 2.2, 100.0, 0.5, (Leg(LegKind.WAIT, 3), Leg(LegKind.TAKEOFF, 5, speed=60.0))
     )
     truth = Dithered(flight_trajectory(plan), Dither(2.9e-4, 40.0))
-    from inins.core import imu
-
     errors = imu.SensorErrors(gyro_bias=np.full(3, 1e-7), gyro_arw=1e-5, accel_vrw=1e-4)
     edges = np.r_[0, np.arange(1, 8) * 200 + 30]  # one chunk per second, 30 samples late
     streams = [
