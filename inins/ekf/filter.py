@@ -38,11 +38,14 @@ scored against the truth there (the measurements of ``t_k`` pulled onto the stat
 of ``t_k + tau`` leave it ``v tau`` behind along track, which a score at ``t_k``
 hides).
 
-All four steps of an epoch, and its log, are one call of the compiled
-:func:`inins.ekf.step.epoch`, which composes the building-block kernels of
-:mod:`inins.ekf.step` (the per-epoch Python glue of one call per block cost as much
-as the arithmetic; ``tests/ekf/test_fused_epoch.py`` holds it bit for bit to that
-loop). The log goes into preallocated arrays, doubled when full.
+All four steps of an epoch, and its log, are the compiled :func:`inins.ekf.step.epoch`,
+which composes the building-block kernels of :mod:`inins.ekf.step` (the per-epoch
+Python glue of one call per block cost as much as the arithmetic;
+``tests/ekf/test_fused_epoch.py`` holds it bit for bit to that loop). The epochs run
+:data:`BATCH` at a time through one call of :func:`inins.ekf.step.epochs`: a call
+with fifty arguments costs 3 us through numba's dispatcher and 10 us through the
+kernel library's type check, against some 33 us of arithmetic. The log goes into
+preallocated arrays, doubled when full.
 
 With truth (simulation) the output error, the heading error and the NEES of all
 states are computed after the run (:func:`score`), vectorised over the epochs; the
@@ -50,6 +53,7 @@ navigation states estimate the INS error, so their estimation error is minus the
 output error.
 """
 
+import itertools
 import time as _time
 from dataclasses import dataclass
 
@@ -74,6 +78,23 @@ within a second, ~100 deg/s, is far above)."""
 FORCE_CHANGE = 2.0
 """m/s^2: a change of ``f_b`` within an interval beyond this splits the propagation."""
 LOG_CAPACITY = 256
+"""Epochs the log holds before it first doubles (8 innovation rows per epoch)."""
+BATCH = 32
+"""Epochs per call of the compiled :func:`inins.ekf.step.epochs` (one with a smoother's store)."""
+_GNSS_FIELDS = (
+    "prn",
+    "sat_pos",
+    "sat_vel",
+    "pseudorange",
+    "sat_clock",
+    "delay",
+    "range_rate",
+    "sat_clock_drift",
+    "sigma_pr",
+    "sigma_rr",
+)
+"""The :class:`~inins.ekf.measurements.GnssEpoch` arrays :func:`inins.ekf.step.epochs` takes,
+in its order."""
 """Epochs the log holds before it first doubles (8 innovation rows per epoch)."""
 
 
@@ -146,7 +167,7 @@ class EpochLog:
 
 
 class _Log:
-    """The arrays :func:`inins.ekf.step.epoch` writes its log into, grown by doubling."""
+    """The arrays :func:`inins.ekf.step.epochs` writes its log into, grown by doubling."""
 
     def __init__(self, n):
         self.n = n
@@ -268,6 +289,13 @@ class _Run:
         self.kept = np.zeros(n + 25)  # a smoother's store: x, INS state, compensation
 
 
+def _batches(epochs, size):
+    """Lists of ``size`` consecutive epochs of ``epochs`` (the last may be shorter)."""
+    stream = iter(epochs)
+    while batch := list(itertools.islice(stream, size)):
+        yield batch
+
+
 def _refuse_systems(gnss, bias_columns, systems):
     """The error for an epoch with satellites of a system the filter does not take."""
     system = gnss.system
@@ -302,9 +330,10 @@ def _store(store, row, mats, kept, n, sens, time, feedback):
 def run_filter(config, initial, t0, epochs, true_sensor=None, store=None):
     """Run the tightly coupled filter over a stream of epochs (module docstring).
 
-    Each epoch is one call of the compiled :func:`inins.ekf.step.epoch` (strapdown,
-    propagation, update, feedback and the epoch's log); this loop only reads the
-    epoch's fields, makes room in the log and hands a smoother's store its record.
+    Each epoch is the compiled :func:`inins.ekf.step.epoch` (strapdown, propagation,
+    update, feedback and the epoch's log), :data:`BATCH` epochs per call of
+    :func:`inins.ekf.step.epochs`; this loop only gathers the epochs' fields, makes
+    room in the log and hands a smoother's store its record (then one epoch per call).
 
     Parameters
     ----------
@@ -344,20 +373,38 @@ def run_filter(config, initial, t0, epochs, true_sensor=None, store=None):
     wall = 0.0  # the filter's own time: producing the epochs (simulation, file) is not counted
     t_prev = t_end = t0
     clock_ready = False
-    for index, ep in enumerate(epochs):
+    # a smoother's store takes each epoch's record: one epoch per call
+    for batch in _batches(epochs, 1 if keep else BATCH):
         start_wall = _time.perf_counter()
-        gnss = ep.gnss
-        t_k, arrival, k = gnss.time, gnss.arrival, gnss.prn.size
-        dtheta, dv = np.ascontiguousarray(ep.dtheta), np.ascontiguousarray(ep.dv)
-        # naive pairing updates the state at arrival itself: nothing to carry over
-        tau, t_state, p = (arrival - t_k, t_k, ep.pps_index) if pps else (0.0, arrival, len(dtheta))
-        t_end = arrival
-        coasted = k == 0 or (outages and cfg.in_outage(t_k))
-        truth = ep.truth is not None
-        if log.full(index, 2 * k, truth):
-            log.reserve(index, 2 * k, truth)
+        first, size = len(log.update_s), len(batch)
+        times, flags, samples, satellites, truths = [], [], [0], [0], []
+        increments = [], []
+        fields = tuple([] for _ in _GNSS_FIELDS)
+        for j, ep in enumerate(batch):
+            gnss = ep.gnss
+            t_k, arrival, k = gnss.time, gnss.arrival, gnss.prn.size
+            length = len(ep.dtheta)
+            # naive pairing updates the state at arrival itself: nothing to carry over
+            tau, t_state, p = (arrival - t_k, t_k, ep.pps_index) if pps else (0.0, arrival, length)
+            coasted = k == 0 or (outages and cfg.in_outage(t_k))
+            truth = ep.truth is not None
+            times += (t_state, t_k, t_state - t_prev, tau)
+            flags += (p, coasted, not clock_ready, truth)
+            samples.append(samples[-1] + length)
+            satellites.append(satellites[-1] + k)
+            increments[0].append(ep.dtheta)
+            increments[1].append(ep.dv)
+            for values, name in zip(fields, _GNSS_FIELDS, strict=True):
+                values.append(getattr(gnss, name))
+            if truth:
+                truths.append((first + j, ep.truth))
+            clock_ready = clock_ready or not coasted
+            t_prev, t_end = t_state, arrival
+        rows = 2 * satellites[-1]
+        if log.full(first + size - 1, rows, bool(truths)):
+            log.reserve(first + size - 1, rows, bool(truths))
         tick = _time.perf_counter()
-        rows = step.epoch(
+        rows = step.epochs(
             x,
             P,
             mats,
@@ -365,30 +412,16 @@ def run_filter(config, initial, t0, epochs, true_sensor=None, store=None):
             nav.count,
             run.home,
             *model,
-            dtheta,
-            dv,
-            p,
-            t_state - t_prev,
-            tau,
-            coasted,
-            not clock_ready,
-            t_state,
-            t_k,
-            gnss.prn,
-            gnss.sat_pos,
-            gnss.sat_vel,
-            gnss.pseudorange,
-            gnss.sat_clock,
-            gnss.delay,
-            gnss.range_rate,
-            gnss.sat_clock_drift,
-            gnss.sigma_pr,
-            gnss.sigma_rr,
+            *(np.concatenate(c, dtype=float) for c in increments),
+            np.array(samples),
+            np.array(times).reshape(size, 4),
+            np.array(flags, np.int64).reshape(size, 4),
+            *(np.concatenate(c) for c in fields),
+            np.array(satellites),
             run.bias_columns,
-            index,
+            first,
             log.flog,
             log.ilog,
-            truth,
             log.cov,
             log.rows,
             log.inn_f,
@@ -396,16 +429,13 @@ def run_filter(config, initial, t0, epochs, true_sensor=None, store=None):
             kept,
         )
         if rows < 0:
-            _refuse_systems(gnss, run.bias_columns, cfg.systems)
-        log.update_s.append(_time.perf_counter() - tick)
-        nav.count += len(dtheta)
+            _refuse_systems(batch[-1 - rows].gnss, run.bias_columns, cfg.systems)
+        log.update_s += [(_time.perf_counter() - tick) / size] * size
+        nav.count += samples[-1]
         log.rows += rows
-        clock_ready = clock_ready or not coasted
-        t_prev = t_state
-        if truth:
-            log.truth.append((index, ep.truth))
+        log.truth += truths
         if keep:
-            _store(store, log.flog[index], mats, kept, n, run.sens, t_state, fb and not coasted)
+            _store(store, log.flog[first], mats, kept, n, run.sens, t_prev, fb and not coasted)
         wall += _time.perf_counter() - start_wall
     epochs_log = log.epochs()
     if epochs_log.n_sats.size and epochs_log.n_sats.max() == 0:
@@ -516,7 +546,7 @@ def score(result, log, true_sensor=None, *, pps_storage=True, systems="G"):
 
 def warm_up():
     """Compile (or load from the on-disk cache) the fused epoch kernel
-    (:func:`inins.ekf.step.epoch`) with the argument types every run passes (the types of
+    (:func:`inins.ekf.step.epochs`) with the argument types every run passes (the types of
     the kernel library's copy): two epochs of four satellites."""
     from inins.core.strapdown import NavState
     from inins.ekf.config import EpochInput, FilterConfig, Model

@@ -31,6 +31,42 @@ def _gravity(lat, height):
 
 _radii = jit.njit(cache=True)(earth.principal_radii)
 
+
+@jit.njit(cache=True, error_model="numpy")
+def mv3(M, v):
+    """``M @ v`` for ``M`` (3, 3), ``v`` (3,), written out: a BLAS call for three
+    products costs more than they do, and an epoch makes some seventy of them."""
+    return np.array(
+        [
+            M[0, 0] * v[0] + M[0, 1] * v[1] + M[0, 2] * v[2],
+            M[1, 0] * v[0] + M[1, 1] * v[1] + M[1, 2] * v[2],
+            M[2, 0] * v[0] + M[2, 1] * v[1] + M[2, 2] * v[2],
+        ]
+    )
+
+
+@jit.njit(cache=True, error_model="numpy")
+def mtv3(M, v):
+    """``M.T @ v`` for ``M`` (3, 3), ``v`` (3,), written out (:func:`mv3`)."""
+    return np.array(
+        [
+            M[0, 0] * v[0] + M[1, 0] * v[1] + M[2, 0] * v[2],
+            M[0, 1] * v[0] + M[1, 1] * v[1] + M[2, 1] * v[2],
+            M[0, 2] * v[0] + M[1, 2] * v[1] + M[2, 2] * v[2],
+        ]
+    )
+
+
+@jit.njit(cache=True, error_model="numpy")
+def mm3(A, B):
+    """``A @ B`` for (3, 3) matrices, written out (:func:`mv3`)."""
+    out = np.empty((3, 3))
+    for i in range(3):
+        for j in range(3):
+            out[i, j] = A[i, 0] * B[0, j] + A[i, 1] * B[1, j] + A[i, 2] * B[2, j]
+    return out
+
+
 POS, VEL, ATT, BA, BG, CLK, MA, MG = 0, 3, 6, 9, 12, 15, 17, 20
 """First index of each group in EKF26 (clock: bias then drift)."""
 _MA_PAIRS = ((1, 0), (2, 0), (2, 1))  # ma_yx, ma_zx, ma_zy
@@ -96,11 +132,11 @@ def system_matrix26(lat, h, vel, f_b, mat_nb, omega_b, F):
     w = earth.RATE
     wie = (w * math.cos(lat), 0.0, -w * math.sin(lat))
     wen = (vel[1] / re_h, -vel[0] / rn_h, -vel[1] * math.tan(lat) / re_h)
-    f_n = mat_nb @ f_b
+    f_n = mv3(mat_nb, f_b)
     vx = np.zeros((3, 3))
     _skew(vx, 0, 0, 1.0, vel[0], vel[1], vel[2])
-    vjv = vx @ j_v
-    vjr = vx @ (2.0 * jie + jen) + jg
+    vjv = mm3(vx, j_v)
+    vjr = mm3(vx, 2.0 * jie + jen) + jg
     _skew(F, POS, POS, -1.0, wen[0], wen[1], wen[2])
     _skew(F, VEL, VEL, -1.0, 2 * wie[0] + wen[0], 2 * wie[1] + wen[1], 2 * wie[2] + wen[2])
     _skew(F, VEL, ATT, 1.0, f_n[0], f_n[1], f_n[2])
@@ -147,6 +183,22 @@ def noise26(mat_nb, arw, vrw, ba_rw, bg_rw, clock_bias_psd, clock_drift_psd, Q):
 
 
 @jit.njit(cache=True, error_model="numpy")
+def moving_rows(F, diagonal):
+    """Indices of the rows of ``F`` (n, n) that differ from ``diagonal`` times the identity
+    row (``F``: 0, ``Phi``: 1): the states the model moves."""
+    n = F.shape[0]
+    rows = np.empty(n, np.int64)
+    m = 0
+    for i in range(n):
+        for j in range(n):
+            if F[i, j] != (diagonal if i == j else 0.0):
+                rows[m] = i
+                m += 1
+                break
+    return rows[:m]
+
+
+@jit.njit(cache=True, error_model="numpy")
 def discretize(F, Qc, dt, Phi, Qd):
     """Third-order transition and process noise series (in place).
 
@@ -156,30 +208,69 @@ def discretize(F, Qc, dt, Phi, Qd):
     clock chains);
     for the INS model at 1 s (``|A|`` ~ 1e-3 apart from the kinematic couplings)
     this agrees with van Loan's exact form to ~1e-5 of the largest entry (tested).
+
+    Only the ``m`` rows of ``F`` with a nonzero entry (:func:`moving_rows`: the
+    navigation states and the clock bias; the sensor and bias states are constants or
+    random walks) take part: the products are (m, m) by (m, n), not (n, n) by (n, n).
     """
     n = F.shape[0]
-    A = F * dt
-    A2 = A @ A
-    A3 = A2 @ A
-    FQ = F @ Qc
-    FQF = FQ @ F.T
+    rows = moving_rows(F, 0.0)
+    m = rows.size
+    Fr = np.empty((m, n))  # the moving rows
+    for i in range(m):
+        Fr[i] = F[rows[i]]
+    A = Fr * dt
+    A2 = np.ascontiguousarray(A[:, rows]) @ A
+    A3 = np.ascontiguousarray(A2[:, rows]) @ A
+    FQ = Fr @ Qc
+    FQF = FQ @ Fr.T
     c2, c3 = 0.5 * dt * dt, dt**3 / 3.0
-    for i in range(n):  # the sums element by element, straight into the outputs
+    for i in range(n):
         for j in range(n):
-            Phi[i, j] = A[i, j] + 0.5 * A2[i, j] + A3[i, j] / 6.0
-            Qd[i, j] = Qc[i, j] * dt + (FQ[i, j] + FQ[j, i]) * c2 + FQF[i, j] * c3
-        Phi[i, i] += 1.0
+            Phi[i, j] = 0.0
+            Qd[i, j] = Qc[i, j] * dt
+        Phi[i, i] = 1.0
+    for i in range(m):
+        r = rows[i]
+        for j in range(n):
+            Phi[r, j] = A[i, j] + 0.5 * A2[i, j] + A3[i, j] / 6.0
+            Qd[r, j] += FQ[i, j] * c2
+            Qd[j, r] += FQ[i, j] * c2
+        Phi[r, r] += 1.0
+        for j in range(m):
+            Qd[r, rows[j]] += FQF[i, j] * c3
 
 
 @jit.njit(cache=True, error_model="numpy")
 def predict(x, P, Phi, Qd):
-    """``x = Phi x``, ``P = Phi P Phi^T + Qd``, symmetrised (in place)."""
+    """``x = Phi x``, ``P = Phi P Phi^T + Qd``, symmetrised (in place).
+
+    With ``B = Phi - I``, nonzero in the ``m`` rows :func:`moving_rows` finds:
+    ``Phi P Phi^T = P + C + C^T + C B^T`` with ``C = B P`` (m, n).
+    """
     n = x.shape[0]
-    x[:] = Phi @ x
-    M = Phi @ P @ Phi.T
-    for i in range(n):  # (M + Qd) symmetrised, upper triangle mirrored
+    rows = moving_rows(Phi, 1.0)
+    m = rows.size
+    B = np.empty((m, n))
+    for i in range(m):
+        B[i] = Phi[rows[i]]
+        B[i, rows[i]] -= 1.0
+    C = B @ P
+    CBt = C @ B.T
+    Bx = B @ x
+    for i in range(m):
+        x[rows[i]] += Bx[i]
+    M = P + Qd
+    for i in range(m):
+        r = rows[i]
+        for j in range(n):
+            M[r, j] += C[i, j]
+            M[j, r] += C[i, j]
+        for j in range(m):
+            M[r, rows[j]] += CBt[i, j]
+    for i in range(n):  # symmetrised, upper triangle mirrored
         for j in range(i, n):
-            v = 0.5 * ((M[i, j] + Qd[i, j]) + (M[j, i] + Qd[j, i]))
+            v = 0.5 * (M[i, j] + M[j, i])
             P[i, j] = v
             P[j, i] = v
 
@@ -204,15 +295,15 @@ def pseudorange_rows(r_ant, v_ant, mat_ne, j_v, lever_n, lever_vel_n, sat_pos, s
     (the estimated NED frame is turned by ``J_v dr``).
     """
     H.fill(0.0)
-    va = mat_ne @ v_ant  # the antenna velocity (NED), the same for every satellite
+    va = mv3(mat_ne, v_ant)  # the antenna velocity (NED), the same for every satellite
     l0, l1, l2 = lever_n[0], lever_n[1], lever_n[2]
     u0, u1, u2 = lever_vel_n[0], lever_vel_n[1], lever_vel_n[2]
     exv = np.empty(3)
     for i in range(sat_pos.shape[0]):
         d = sat_pos[i] - r_ant
         rho = math.sqrt(d[0] ** 2 + d[1] ** 2 + d[2] ** 2)
-        e = mat_ne @ (d / rho)
-        dv = mat_ne @ (sat_vel[i] - v_ant)
+        e = mv3(mat_ne, d / rho)
+        dv = mv3(mat_ne, sat_vel[i] - v_ant)
         edv = 0.0
         for k in range(3):
             edv += dv[k] * e[k]
@@ -227,7 +318,7 @@ def pseudorange_rows(r_ant, v_ant, mat_ne, j_v, lever_n, lever_vel_n, sat_pos, s
             e2 * va[0] - e0 * va[2],
             e0 * va[1] - e1 * va[0],
         )
-        evj = exv @ j_v  # e^T [v x] J_v
+        evj = mtv3(j_v, exv)  # e^T [v x] J_v
         pr, rr = H[2 * i], H[2 * i + 1]
         pr[POS], pr[POS + 1], pr[POS + 2] = e0, e1, e2
         # -e^T [l x] = l x e
@@ -258,13 +349,26 @@ def sequential_update(x, P, H, y0, r, threshold, accepted, y_out, s_out):
     ``s_out`` (innovation and its variance, per row) are written in place.
     """
     n = x.shape[0]
-    dx, ph, k = np.zeros(n), np.empty(n), np.empty(n)
+    dx, ph, k, nz = np.zeros(n), np.empty(n), np.empty(n), np.empty(n, np.int64)
     count = 0
     for i in range(H.shape[0]):
         h = H[i]
-        np.dot(P, h, ph)
-        s = h @ ph + r[i]
-        y = y0[i] - h @ dx
+        m = 0  # the row's nonzero columns (a pseudorange or range rate: ten at most)
+        for a in range(n):
+            if h[a] != 0.0:
+                nz[m] = a
+                m += 1
+        ph[:] = 0.0  # P h from the rows of P (symmetric)
+        for t in range(m):
+            c = nz[t]
+            hc, pc = h[c], P[c]
+            for a in range(n):
+                ph[a] += hc * pc[a]
+        s = r[i]
+        y = y0[i]
+        for t in range(m):
+            s += h[nz[t]] * ph[nz[t]]
+            y -= h[nz[t]] * dx[nz[t]]
         y_out[i] = y
         s_out[i] = s
         if y * y > threshold * s:
@@ -275,14 +379,10 @@ def sequential_update(x, P, H, y0, r, threshold, accepted, y_out, s_out):
         for a in range(n):
             k[a] = ph[a] / s
             dx[a] += k[a] * y
-        for a in range(n):  # the upper triangle, row by row (contiguous: vectorised)
+        for a in range(n):  # symmetric term by term: P stays exactly symmetric
             ka, pa = k[a], ph[a]
-            ska = s * ka
-            row, k_b, ph_b = P[a, a:], k[a:], ph[a:]
-            for b in range(n - a):
-                row[b] = row[b] - ka * ph_b[b] - pa * k_b[b] + ska * k_b[b]
-        for a in range(1, n):  # mirrored
-            for b in range(a):
-                P[a, b] = P[b, a]
+            row = P[a]
+            for b in range(n):
+                row[b] = row[b] - (ka * ph[b] + pa * k[b]) + s * (ka * k[b])
     x += dx
     return count

@@ -91,8 +91,10 @@ class EkfResult:
     nis : ndarray, shape (m,)
         Sum of the accepted measurements' NIS per epoch.
     update_time : ndarray, shape (m,)
-        Wall time of the epoch's compiled step per epoch (s): strapdown, propagation,
-        update and feedback (:func:`inins.ekf.step.epoch`).
+        Wall time of the epoch's compiled step (s): strapdown, propagation, update and
+        feedback (:func:`inins.ekf.step.epoch`). The epochs run in batches of
+        :data:`inins.ekf.filter.BATCH` per call, so this is the mean over the epoch's
+        batch (every epoch's own time with a smoother's store: one epoch per call).
     innovations : Innovations
     flight_time, wall_time : float
         Data span and the filter's own wall time (s): producing the epochs (a

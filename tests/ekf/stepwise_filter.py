@@ -3,12 +3,15 @@
 A frozen copy of ``inins.ekf.filter.run_filter`` (and its ``_Run``, ``EpochLog``) as
 of the commit before :func:`inins.ekf.step.epoch` replaced the per-epoch Python glue:
 it calls the building blocks one by one from Python, with the list-based log: the
-kernels of :mod:`inins.ekf.step` the fused epoch composes unchanged (compensate, the
-strapdown, mean rates, correct, feedback) and, for the propagation and the update
-it rewrote, their frozen numpy copies (``frozen_kernels``).
+kernels of :mod:`inins.ekf.step` the fused epoch composes (compensate, the strapdown,
+mean rates, correct, feedback) and ``propagate`` and ``update`` of ``kernels``: the
+package's (:mod:`inins.ekf.step`), or their copies as first written
+(``frozen_kernels``).
 ``tests/ekf/test_fused_epoch.py`` runs it beside the fused filter on the same
-epochs: the same equations, so the outputs must agree to rounding. It reads the
-sub-interval limits from :mod:`inins.ekf.filter`, so a test that moves them moves both.
+epochs: with the package's kernels the outputs must be equal bit for bit (the
+composition), with the frozen ones equal to rounding (the rewritten arithmetic). It
+reads the sub-interval limits from :mod:`inins.ekf.filter`, so a test that moves them
+moves both.
 """
 
 from dataclasses import dataclass, field
@@ -106,8 +109,9 @@ class EpochLog:
 class _Run:
     """Mutable state of one filter run (kept out of the public API)."""
 
-    def __init__(self, config, initial, t0):
+    def __init__(self, config, initial, t0, kernels):
         self.cfg = config
+        self.kernels = kernels  # propagate and update
         n = self.n = len(config.layout)
         base = len(config.model.layout)  # 17 or 26; inter-system biases after them
         self.keep_phi = False  # accumulate Phi over sub-intervals (a smoother's store)
@@ -157,7 +161,7 @@ class _Run:
         split = dt_k > 0.0 and step.rates_change(self.rates_sub, self.limits)
         self.Phi_k = self.Phi  # the interval's transition (for a smoother's store)
         if not split:
-            frozen_kernels.propagate(
+            self.kernels.propagate(
                 self.x,
                 self.P,
                 self.F,
@@ -176,7 +180,7 @@ class _Run:
         for j in range(SUB_STEPS):
             if total is not None and j:
                 total = self.Phi @ total
-            frozen_kernels.propagate(
+            self.kernels.propagate(
                 self.x,
                 self.P,
                 self.F,
@@ -206,7 +210,7 @@ class _Run:
                 f"filter does not take (systems {self.cfg.systems})",
                 key="systems",
             )
-        frozen_kernels.update(
+        self.kernels.update(
             self.x,
             self.P,
             quat,
@@ -242,7 +246,7 @@ class _Run:
         )
 
 
-def run_stepwise(config, initial, t0, epochs, true_sensor=None, store=None):
+def run_stepwise(config, initial, t0, epochs, true_sensor=None, store=None, kernels=frozen_kernels):
     """Run the tightly coupled filter over a stream of epochs (module docstring).
 
     Parameters
@@ -261,6 +265,9 @@ def run_stepwise(config, initial, t0, epochs, true_sensor=None, store=None):
         epochs carry truth.
     store : inins.ekf.tight_store.TightStore, optional
         Records what an RTS smoother needs per epoch.
+    kernels : module
+        Its ``propagate`` and ``update`` are called (``frozen_kernels`` or
+        :mod:`inins.ekf.step`).
 
     Returns
     -------
@@ -273,7 +280,7 @@ def run_stepwise(config, initial, t0, epochs, true_sensor=None, store=None):
     inins.exceptions.InputError
         If no epoch had a satellite (nothing to couple with).
     """
-    cfg, run = config, _Run(config, initial, t0)
+    cfg, run = config, _Run(config, initial, t0, kernels)
     run.keep_phi = store is not None
     fb = cfg.coupling is Coupling.FB
     log = EpochLog()

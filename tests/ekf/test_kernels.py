@@ -71,3 +71,71 @@ def test_sequential_update_equals_batch_joseph():
     assert count == m
     np.testing.assert_allclose(x, x_ref, rtol=1e-9, atol=1e-12)
     np.testing.assert_allclose(P_seq, P_ref, rtol=1e-9, atol=1e-12)
+
+
+def _sparse_model(n, moving, seed):
+    """``F`` (n, n) with random rows ``moving`` (the rest zero), a symmetric positive
+    ``Qc``, ``P``, ``x``."""
+    rng = np.random.default_rng(seed)
+    F = np.zeros((n, n))
+    F[moving] = rng.normal(scale=0.3, size=(len(moving), n))
+    F[moving, 3] = 0.0  # a zero inside a moving row
+    A, B = rng.normal(size=(n, n)), rng.normal(size=(n, n))
+    return F, A @ A.T * 1e-3, B @ B.T + n * np.eye(n), rng.normal(size=n)
+
+
+# the INS rows (0-8) and the clock bias (15) of EKF26 with two inter-system biases,
+# rows spread anywhere, every row, and a constant-states model
+MODELS = [(28, [0, 1, 2, 3, 4, 5, 6, 7, 8, 15]), (20, [1, 4, 5, 11, 19]), (9, list(range(9)))]
+
+
+@pytest.mark.parametrize(("n", "moving"), [*MODELS, (6, [])])
+def test_discretisation_is_the_third_order_series(n, moving):
+    """The products over the moving rows only equal the dense series to rounding."""
+    F, Qc, _, _ = _sparse_model(n, moving, 2)
+    dt = 0.8
+    Phi, Qd = np.empty_like(F), np.empty_like(F)
+    kernels.discretize(F, Qc, dt, Phi, Qd)
+    A = F * dt
+    Phi_ref = np.eye(n) + A + A @ A / 2 + A @ A @ A / 6
+    FQ = F @ Qc
+    Qd_ref = Qc * dt + (FQ + FQ.T) * dt**2 / 2 + F @ Qc @ F.T * dt**3 / 3
+    np.testing.assert_allclose(Phi, Phi_ref, rtol=0, atol=1e-14 * np.abs(Phi_ref).max())
+    np.testing.assert_allclose(Qd, Qd_ref, rtol=0, atol=1e-14 * np.abs(Qd_ref).max())
+    assert sorted(kernels.moving_rows(F, 0.0)) == moving
+
+
+@pytest.mark.parametrize(("n", "moving"), MODELS)
+def test_prediction_is_phi_p_phi_t_plus_qd(n, moving):
+    """``P + C + C^T + C B^T`` (``B = Phi - I`` over the moving rows) is ``Phi P Phi^T``,
+    and the result exactly symmetric."""
+    F, Qc, P, x = _sparse_model(n, moving, 3)
+    Phi, Qd = np.empty_like(F), np.empty_like(F)
+    kernels.discretize(F, Qc, 0.8, Phi, Qd)
+    P_ref, x_ref = Phi @ P @ Phi.T + Qd, Phi @ x
+    kernels.predict(x, P, Phi, Qd)
+    np.testing.assert_allclose(x, x_ref, rtol=0, atol=1e-14 * np.abs(x_ref).max())
+    np.testing.assert_allclose(P, P_ref, rtol=0, atol=1e-14 * np.abs(P_ref).max())
+    np.testing.assert_array_equal(P, P.T)
+
+
+def test_sequential_update_of_sparse_rows_equals_batch_joseph():
+    """Rows with the zeros of pseudorange and range-rate rows (the update reads only a
+    row's nonzero columns) give the batch update, and ``P`` stays exactly symmetric."""
+    rng = np.random.default_rng(4)
+    n, m = 26, 12
+    A = rng.normal(size=(n, n))
+    P = A @ A.T + n * np.eye(n)
+    H = np.zeros((m, n))
+    for i in range(m):  # position and attitude, or velocity too; a clock column
+        H[i, : 9 if i % 2 else 3] = rng.normal(size=9 if i % 2 else 3)
+        H[i, 6:9] = rng.normal(size=3)
+        H[i, 15 + i % 2] = 1.0
+    r, y0 = rng.uniform(0.5, 2.0, m), rng.normal(size=m)
+    x_ref, P_ref, _, _ = kalman.update(np.zeros(n), P, y0, H, np.diag(r))
+    x, P_seq = np.zeros(n), P.copy()
+    acc, y, s = np.zeros(m, bool), np.empty(m), np.empty(m)
+    assert kernels.sequential_update(x, P_seq, H, y0, r, np.inf, acc, y, s) == m
+    np.testing.assert_allclose(x, x_ref, rtol=1e-9, atol=1e-12)
+    np.testing.assert_allclose(P_seq, P_ref, rtol=1e-9, atol=1e-12)
+    np.testing.assert_array_equal(P_seq, P_seq.T)
