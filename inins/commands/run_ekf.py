@@ -441,7 +441,9 @@ def _datasets(r, info):
         "epochs/n_rejected": Series(r.n_rejected, "1", "", "measurements rejected by the gate"),
         "epochs/coasted": Series(r.coasted.astype(np.int8), "1", "", "no update this epoch"),
         "epochs/nis": Series(r.nis, "1", "", "sum of accepted NIS per epoch"),
-        "epochs/update_time": Series(r.update_time, "s", "", "epoch step wall time"),
+        "epochs/update_time": Series(
+            r.update_time, "s", "", "epoch step wall time, mean over its batch of epochs"
+        ),
         "innovations/epoch": Series(r.innovations.epoch, "1", "", "epoch index"),
         "innovations/prn": Series(r.innovations.prn, "1", "", "satellite"),
         "innovations/kind": Series(r.innovations.kind, "1", "", "0 pseudorange, 1 range rate"),

@@ -54,6 +54,7 @@ output error.
 """
 
 import itertools
+import operator
 import time as _time
 from dataclasses import dataclass
 
@@ -81,7 +82,7 @@ LOG_CAPACITY = 256
 """Epochs the log holds before it first doubles (8 innovation rows per epoch)."""
 BATCH = 32
 """Epochs per call of the compiled :func:`inins.ekf.step.epochs` (one with a smoother's store)."""
-_GNSS_FIELDS = (
+_GNSS_ARRAYS = operator.attrgetter(
     "prn",
     "sat_pos",
     "sat_vel",
@@ -378,8 +379,7 @@ def run_filter(config, initial, t0, epochs, true_sensor=None, store=None):
         start_wall = _time.perf_counter()
         first, size = len(log.update_s), len(batch)
         times, flags, samples, satellites, truths = [], [], [0], [0], []
-        increments = [], []
-        fields = tuple([] for _ in _GNSS_FIELDS)
+        increments, satellite_arrays = ([], []), []
         for j, ep in enumerate(batch):
             gnss = ep.gnss
             t_k, arrival, k = gnss.time, gnss.arrival, gnss.prn.size
@@ -394,8 +394,7 @@ def run_filter(config, initial, t0, epochs, true_sensor=None, store=None):
             satellites.append(satellites[-1] + k)
             increments[0].append(ep.dtheta)
             increments[1].append(ep.dv)
-            for values, name in zip(fields, _GNSS_FIELDS, strict=True):
-                values.append(getattr(gnss, name))
+            satellite_arrays.append(_GNSS_ARRAYS(gnss))
             if truth:
                 truths.append((first + j, ep.truth))
             clock_ready = clock_ready or not coasted
@@ -416,7 +415,7 @@ def run_filter(config, initial, t0, epochs, true_sensor=None, store=None):
             np.array(samples),
             np.array(times).reshape(size, 4),
             np.array(flags, np.int64).reshape(size, 4),
-            *(np.concatenate(c) for c in fields),
+            *(np.concatenate(c) for c in zip(*satellite_arrays, strict=True)),
             np.array(satellites),
             run.bias_columns,
             first,

@@ -256,19 +256,22 @@ def compensate(dtheta, dv, dt, comp):
     ``comp = [ba (3), bg (3), ma (3), mg (6)]``; ``omega = (I - M_g) (omega_meas - b_g)``,
     ``f = (I - M_a) (f_meas - b_a)`` with ``M`` the misalignment matrices of 003 eqs. 2-3.
     """
-    mg, ma = comp[9:15], comp[6:9]
-    m_g = np.array([[1.0, -mg[0], -mg[1]], [-mg[2], 1.0, -mg[3]], [-mg[4], -mg[5], 1.0]])
-    m_a = np.array([[1.0, 0.0, 0.0], [-ma[0], 1.0, 0.0], [-ma[1], -ma[2], 1.0]])
     n = dtheta.shape[0]
     out_t, out_v = np.empty((n, 3)), np.empty((n, 3))
+    # (I - M_g) and (I - M_a) entry by entry, held in registers across the samples
+    g01, g02, g10, g12, g20, g21 = -comp[9], -comp[10], -comp[11], -comp[12], -comp[13], -comp[14]
+    a10, a20, a21 = -comp[6], -comp[7], -comp[8]
     b0, b1, b2 = comp[3] * dt, comp[4] * dt, comp[5] * dt
     a0, a1, a2 = comp[0] * dt, comp[1] * dt, comp[2] * dt
     for k in range(n):
-        g0, g1, g2 = dtheta[k, 0] - b0, dtheta[k, 1] - b1, dtheta[k, 2] - b2
+        w0, w1, w2 = dtheta[k, 0] - b0, dtheta[k, 1] - b1, dtheta[k, 2] - b2
         f0, f1, f2 = dv[k, 0] - a0, dv[k, 1] - a1, dv[k, 2] - a2
-        for i in range(3):
-            out_t[k, i] = m_g[i, 0] * g0 + m_g[i, 1] * g1 + m_g[i, 2] * g2
-            out_v[k, i] = m_a[i, 0] * f0 + m_a[i, 1] * f1 + m_a[i, 2] * f2
+        out_t[k, 0] = w0 + g01 * w1 + g02 * w2
+        out_t[k, 1] = g10 * w0 + w1 + g12 * w2
+        out_t[k, 2] = g20 * w0 + g21 * w1 + w2
+        out_v[k, 0] = f0
+        out_v[k, 1] = a10 * f0 + f1
+        out_v[k, 2] = a20 * f0 + a21 * f1 + f2
     return out_t, out_v
 
 

@@ -42,6 +42,7 @@ from inins.ekf.flight import (
 )
 from inins.ekf.measurements import GnssEpoch
 from inins.ekf.tight_store import TightStore
+from inins.exceptions import InputError
 
 DT = 0.005
 ERRORS = imu.SensorErrors(
@@ -223,3 +224,16 @@ def test_the_rewritten_arithmetic_agrees_with_its_first_form(flight):
         scale = np.abs(b).max(axis=0)
         assert np.all(np.abs(a - b) <= 1e-6 * scale), name
     assert np.array_equal(got.innovations.accepted, want.innovations.accepted)
+
+
+def test_a_satellite_of_a_system_not_taken_is_refused_at_its_epoch(flight):
+    """An epoch inside a batch (not its first) with a GLONASS satellite in a GPS-only
+    filter: the error names that epoch's time."""
+    config, initial, epochs = flight
+    bad = 40  # the ninth epoch of the second batch
+    gnss = epochs[bad].gnss
+    glonass = replace(gnss, prn=np.r_[101, gnss.prn[1:]])
+    epochs = [*epochs[:bad], replace(epochs[bad], gnss=glonass), *epochs[bad + 1 :]]
+    with pytest.raises(InputError, match=rf"system R at t = {gnss.time:.3f} s") as info:
+        run_filter(config, initial, 0.0, epochs)
+    assert info.value.key == "systems"
