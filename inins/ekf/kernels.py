@@ -345,6 +345,11 @@ def sequential_update(x, P, H, y0, r, threshold, accepted, y_out, s_out):
     (Joseph form, exact for any gain, O(n^2)). Independent rows (diagonal ``R``) make
     the sequence equal to the batch update of :func:`inins.core.kalman.update`.
 
+    ``P`` must be symmetric (:func:`predict` and this function leave it exactly so):
+    ``P H_i^T`` is summed from the rows of ``P`` at the row's nonzero columns only (a
+    pseudorange or range-rate row has at most ten of 26), and the Joseph step is
+    written so that entries ``(a, b)`` and ``(b, a)`` round alike.
+
     Returns the number of accepted rows; ``x``, ``P``, ``accepted``, ``y_out``,
     ``s_out`` (innovation and its variance, per row) are written in place.
     """
