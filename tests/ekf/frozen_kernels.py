@@ -6,12 +6,15 @@ Copies of the propagation and update kernels of :mod:`inins.ekf.step` and
 noise, the discretisation, the prediction, the pseudorange rows, the sequential
 Joseph update, the navigation helpers) as of the commit before the fused epoch
 kernel, compiled the same way: the reference arithmetic
-``stepwise_filter.run_stepwise`` runs, so that the test of the fused filter
-compares against the kernels as first written, not against themselves, bit for
-bit (the same compiler and BLAS; numpy's own arithmetic would differ in the last
-bits: ``dt**3`` is a product of three in numba and one rounding in Python, and a
-pseudorange of 2e7 m carries 4e-9 m of rounding, which the filter's feedback
-carries into its corrections). Self-contained (only the Earth model's constants
+``stepwise_filter.run_stepwise`` runs by default, so that a test of the filter
+compares against the kernels as first written, not against themselves. The package
+has since rewritten their arithmetic (the products over the rows the model moves, the
+3 x 3 products written out), so the runs agree to rounding, not bit for bit; the
+reference stays compiled, not numpy, so that the rounding compared is that of the
+rewrite alone (numpy's own arithmetic differs in the last bits: ``dt**3`` is a
+product of three in numba and one rounding in Python, and a pseudorange of 2e7 m
+carries 4e-9 m of rounding, which the filter's feedback carries into its
+corrections). Self-contained (only the Earth model's constants
 and two of its functions come from the package), so that numba's on-disk cache of
 these, stamped with this file only, never mixes in an edited package kernel.
 """
