@@ -46,18 +46,6 @@ def mv3(M, v):
 
 
 @jit.njit(cache=True, error_model="numpy")
-def mtv3(M, v):
-    """``M.T @ v`` for ``M`` (3, 3), ``v`` (3,), written out (:func:`mv3`)."""
-    return np.array(
-        [
-            M[0, 0] * v[0] + M[1, 0] * v[1] + M[2, 0] * v[2],
-            M[0, 1] * v[0] + M[1, 1] * v[1] + M[2, 1] * v[2],
-            M[0, 2] * v[0] + M[1, 2] * v[1] + M[2, 2] * v[2],
-        ]
-    )
-
-
-@jit.njit(cache=True, error_model="numpy")
 def mm3(A, B):
     """``A @ B`` for (3, 3) matrices, written out (:func:`mv3`)."""
     out = np.empty((3, 3))
@@ -318,7 +306,7 @@ def pseudorange_rows(r_ant, v_ant, mat_ne, j_v, lever_n, lever_vel_n, sat_pos, s
             e2 * va[0] - e0 * va[2],
             e0 * va[1] - e1 * va[0],
         )
-        evj = mtv3(j_v, exv)  # e^T [v x] J_v
+        evj = mv3(j_v.T, exv)  # e^T [v x] J_v
         pr, rr = H[2 * i], H[2 * i + 1]
         pr[POS], pr[POS + 1], pr[POS + 2] = e0, e1, e2
         # -e^T [l x] = l x e

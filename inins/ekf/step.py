@@ -151,7 +151,7 @@ def update(
     mat_nb = mat_from_quat(cq)
     w = earth.RATE
     w_ie = np.array([w * math.cos(cl[0]), 0.0, -w * math.sin(cl[0])])
-    omega_eb = omega_b - kernels.mtv3(mat_nb, w_ie)
+    omega_eb = omega_b - kernels.mv3(mat_nb.T, w_ie)
     m_en = mat_en(cl[0], cl[1])
     lever_n = kernels.mv3(mat_nb, lever_b)
     lever_vel = kernels.mv3(mat_nb, np.cross(omega_eb, lever_b))
