@@ -256,7 +256,8 @@ def write_outputs(command, module, loaded, seed, outdir, makers=None, progress=N
     makers = makers or {}
     files = getattr(module, "FILES", {})  # {name: function(result) -> text}, optional
     names = (*makers, *files, f"{command}.h5", f"{command}.txt", "summary.json")
-    group = AtomicGroup(outdir, names)
+    # a folder holds one run's files: an earlier run's figures not drawn now are removed
+    group = AtomicGroup(outdir, names, stale=getattr(module, "FIGURES", {}))
     current = [outdir / f"{command}.h5"]
     try:
         with group:
@@ -269,8 +270,6 @@ def write_outputs(command, module, loaded, seed, outdir, makers=None, progress=N
         if isinstance(exc, PermissionError | IsADirectoryError):
             raise InputError(f"cannot write ({exc.strerror})", source=str(current[0])) from None
         raise
-    for name in set(names) - set(group.files):  # a figure skipped: no stale one beside
-        (outdir / name).unlink(missing_ok=True)
     paths = tuple(outdir / n for n in names if n in group.files)
     return Execution(summary, paths, result, group.interrupted)
 
@@ -296,14 +295,17 @@ def _write_all(command, module, loaded, seed, group, makers, progress, current):
     for name, make in makers.items():
         current[0] = group[name].path
         reason = _draw(make, result, group[name].tmp, group[f"{command}.h5"].tmp)
-        if reason is not None:  # not drawn: no file, and the report says why
+        if reason is not None:  # not drawn: no file (nor an earlier one), the report says why
             group[name].discard()
             del group.files[name]
+            group.stale.add(name)
             notes.append(f"figure {name} not drawn: {reason}")
     for name, text in getattr(module, "FILES", {}).items():
         current[0] = group[name].path
         group[name].tmp.write_text(text(result), encoding="utf-8")
-    report = build_report(prov, result.report, (*result.warnings, *notes), summary["checks"])
+    report = build_report(
+        prov, result.report, (*result.warnings, *notes), summary["checks"], tuple(group.files)
+    )
     current[0] = group[f"{command}.txt"].path
     group[f"{command}.txt"].tmp.write_text(report, encoding="utf-8")
     current[0] = group["summary.json"].path

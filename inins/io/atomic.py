@@ -115,11 +115,17 @@ class AtomicGroup:
         Where the files go (must exist).
     names : sequence of str
         File names in commit order.
+    stale : iterable of str
+        Files of an earlier run that this one does not write (a figure not asked for
+        this time): removed by the commit, before the renames, so that the folder
+        holds one run's files only.
     """
 
-    def __init__(self, directory, names, durable: bool = True):
+    def __init__(self, directory, names, durable: bool = True, stale=()):
         self.directory = Path(directory)
         self.files = {name: AtomicFile(self.directory / name, durable) for name in names}
+        self.stale = set(stale) - set(self.files)
+        """Names removed by :meth:`commit` (add a file dropped from :attr:`files`)."""
         self.interrupted = None
         """Signal number received (and held) during :meth:`commit`, else None."""
 
@@ -127,8 +133,9 @@ class AtomicGroup:
         return self.files[name]
 
     def commit(self) -> None:
-        """Rename every file to its final name, in order, with interrupts held and the
-        folder locked; a held interrupt is recorded in :attr:`interrupted`.
+        """Remove the :attr:`stale` files, then rename every file to its final name, in
+        order, with interrupts held and the folder locked; a held interrupt is recorded
+        in :attr:`interrupted`.
 
         Raises
         ------
@@ -141,6 +148,8 @@ class AtomicGroup:
             try:
                 if _stop_requested is not None:
                     raise KeyboardInterrupt
+                for name in sorted(self.stale):
+                    (self.directory / name).unlink(missing_ok=True)
                 while pending:
                     if _before_rename is not None:
                         _before_rename(pending[0].path)

@@ -43,7 +43,7 @@ def checks_table(checks) -> str:
     return format_table(rows, headers=("#", "check", "value", "result"))
 
 
-def build_report(provenance: dict, body: str, warnings=(), checks=()) -> str:
+def build_report(provenance: dict, body: str, warnings=(), checks=(), files=()) -> str:
     """The full report text.
 
     Parameters
@@ -55,6 +55,9 @@ def build_report(provenance: dict, body: str, warnings=(), checks=()) -> str:
     warnings : sequence of str
     checks : list of dict
         Evaluated checks.
+    files : sequence of str
+        The files this run writes into its folder (the report lists them: the folder
+        holds these and no other file of an earlier run of the command).
 
     Returns
     -------
@@ -88,4 +91,6 @@ def build_report(provenance: dict, body: str, warnings=(), checks=()) -> str:
             + checks_table(checks)
             + f"\n\n{verdict}: {passed} of {len(checks)} checks passed"
         )
+    if files:
+        parts.append(_heading("Files") + "\n" + "\n".join(f"- {name}" for name in files))
     return "\n\n".join(parts) + "\n"

@@ -6,6 +6,7 @@ import re
 import h5py
 import numpy as np
 import pytest
+from typer.testing import CliRunner
 
 from inins.io.provenance import PROVENANCE_KEYS
 
@@ -179,3 +180,30 @@ def test_outputs_replace_earlier_results(invoke, tmp_path):
     with h5py.File(tmp_path / "fake.h5") as f:
         assert f["imu/gyro"].shape == (200, 3)
     assert _no_partials(tmp_path)
+
+
+def test_a_rerun_leaves_no_file_of_the_earlier_run(tmp_path):
+    """A folder holds one run's files: a certificate or figure of an earlier run that
+    this run does not write is removed in the same commit (a lab would otherwise print
+    the seed-1 certificate beside seed-2 results), and the report lists the files."""
+    from inins.cli import app
+
+    runner = CliRunner()
+    first = runner.invoke(app, ["calibrate-imu", "-o", str(tmp_path), "--plot", "--seed", "1"])
+    assert first.exit_code == 0, first.output
+    assert (tmp_path / "calibrate-imu-certificate.html").exists()
+    assert (tmp_path / "calibrate-imu-residuals.png").exists()
+    (tmp_path / "notes.txt").write_text("the user's own file")
+    second = runner.invoke(app, ["calibrate-imu", "-o", str(tmp_path), "--seed", "2"])
+    assert second.exit_code == 0, second.output
+    held = sorted(p.name for p in tmp_path.iterdir())
+    written = [
+        "calibrate-imu-compensation.yaml",
+        "calibrate-imu.h5",
+        "calibrate-imu.txt",
+        "summary.json",
+    ]
+    assert held == sorted([*written, "notes.txt"])
+    report = (tmp_path / "calibrate-imu.txt").read_text()
+    listed = report.split("Files\n-----\n", 1)[1].split("\n\n")[0].splitlines()
+    assert sorted(line.removeprefix("- ") for line in listed) == written
