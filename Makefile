@@ -4,29 +4,26 @@ VENV   := .venv
 BIN    := $(VENV)/bin
 STAMP  := $(VENV)/.installed
 OUT    ?= out
+# a line every 5 s while a long step works (pip can unpack wheels for a minute silently)
+BEAT   := .ci/heartbeat
 
-.PHONY: demo test fuzz lint bench bench-quick clean venv kernels
+.PHONY: demo test fuzz lint bench bench-quick clean venv warmup
 
 $(STAMP): pyproject.toml
 	$(PYTHON) -m venv $(VENV)
-	$(BIN)/python -m pip install --quiet --upgrade pip
-	$(BIN)/python -m pip install --quiet -e '.[dev,plot,cluster]'
+	$(BEAT) "upgrading pip" $(BIN)/python -m pip install --progress-bar off --upgrade pip
+	$(BEAT) "installing inins and its dependencies" \
+	  $(BIN)/python -m pip install --progress-bar off -e '.[dev,plot,cluster]'
 	touch $(STAMP)
 
 venv: $(STAMP)
 
-# numba's cache of every kernel, and the kernel library short runs load without
-# numba: compiled at install (about 40 s), checked again when a source changed
-KERNELS := $(VENV)/.kernels
-# (one BLAS thread: the short runs' small matrices, e.g. the 26-state Gramian's matrix
-# exponentials, took 3-10 times the CPU with threaded OpenBLAS on a busy machine)
-$(KERNELS): $(STAMP) $(shell find inins -name '*.py')
-	OPENBLAS_NUM_THREADS=1 OMP_NUM_THREADS=1 $(BIN)/python -m inins.commands.warmup
-	touch $(KERNELS)
+# The first run of a command compiles the numerical kernels it needs (and says so);
+# later runs load them from numba's on-disk cache. `inins warmup` compiles them ahead.
+warmup: $(STAMP)
+	$(BIN)/inins warmup
 
-kernels: $(KERNELS)
-
-demo: kernels
+demo: $(STAMP)
 	$(BIN)/inins calibrate-bias -o $(OUT)/demo
 	@echo; echo "the full report: $(OUT)/demo/calibrate-bias.txt"
 
@@ -35,12 +32,13 @@ lint: $(STAMP)
 	$(BIN)/ruff format --check inins tests benchmarks
 	$(BIN)/lint-imports
 
-# PYTHONDONTWRITEBYTECODE cleared: pytest keeps its rewrite of the test modules (their
-# asserts) as bytecode, which every worker would otherwise redo (3 s of CPU each)
-test: lint kernels
+# The kernels are compiled once before the workers start (else each worker compiles
+# the same ones). PYTHONDONTWRITEBYTECODE cleared: pytest keeps its rewrite of the test
+# modules (their asserts) as bytecode, which every worker would otherwise redo.
+test: lint warmup
 	PYTHONDONTWRITEBYTECODE= $(BIN)/python -m pytest -n auto --dist loadscope
 
-# More examples of the property tests (tests/cli/test_fuzz.py), random seed:
+# More examples of the property tests (tests/cli/test_fuzz*.py), random seed:
 # FUZZ_EXAMPLES per test (make test runs 150 of each, derandomized).
 FUZZ_EXAMPLES ?= 5000
 fuzz: $(STAMP)
@@ -52,10 +50,10 @@ $(BENCH): $(STAMP)
 	$(BIN)/python -m pip install --quiet -e '.[bench]'
 	touch $(BENCH)
 
-bench: kernels $(BENCH)
+bench: warmup $(BENCH)
 	$(BIN)/python -m benchmarks
 
-bench-quick: kernels $(BENCH)
+bench-quick: warmup $(BENCH)
 	$(BIN)/python -m benchmarks --quick
 
 clean:

@@ -12,9 +12,8 @@ called by :mod:`inins.cli._runner`, which turns exceptions into messages and exi
 codes. Keep this package cheap to import: ``inins --help`` must not load numpy,
 scipy, numba, h5py or pydantic.
 
-The Typer app (:mod:`inins.cli._app`) is built on first use: the plain command line
-of a run (:mod:`inins.cli._argv`) goes straight to the runner, and a run printing to
-a pipe does not load rich either (:func:`inins.cli._display.plain_outcome`).
+The Typer app (:mod:`inins.cli._app`) is built when a command line is parsed; a run
+printing to a pipe does not load rich (:func:`inins.cli._display.plain_outcome`).
 """
 
 import io
@@ -25,7 +24,7 @@ __all__ = ["app", "main", "make_app"]
 
 def __getattr__(name):
     """``app`` and ``make_app`` (the Typer app, :mod:`inins.cli._app`), loaded on first
-    use: a plain run of a command does not need Typer."""
+    use: ``import inins.cli`` stays cheap."""
     if name in ("app", "make_app"):
         from inins.cli import _app
 
@@ -72,39 +71,18 @@ def main() -> None:
 
 def _terminate(signum, frame):
     """Signal handler of a run: records the request
-    (:func:`inins.io.atomic.request_stop`) and raises KeyboardInterrupt, unless the
-    main thread is inside a kernel-library function, which must first return
-    (:func:`inins.core.jit.interrupt_deferred`; it then raises)."""
+    (:func:`inins.io.atomic.request_stop`) and raises KeyboardInterrupt."""
     from inins.io.atomic import request_stop
 
     request_stop(signum)
-    jit = sys.modules.get("inins.core.jit")  # not loaded: no kernel has run
-    if jit is not None and jit.interrupt_deferred():
-        return
     raise KeyboardInterrupt
 
 
 def _run_argv(argv) -> None:
-    """Run a command line; exits (``SystemExit``) with the exit code, as Typer does.
+    """Run a command line through the Typer app; exits (``SystemExit``) with its code."""
+    from inins.cli._app import app
 
-    The plain form of a command run (:mod:`inins.cli._argv`) goes straight to
-    :func:`inins.cli._runner.run_command`; everything else through the Typer app.
-    """
-    from inins.cli._argv import parse_run
-    from inins.commands import COMMANDS
-
-    plain = parse_run(argv, COMMANDS)
-    if plain is None:
-        from inins.cli._app import app
-
-        app(args=list(argv), prog_name="inins")
-        return
-    from inins.cli._runner import run_command
-
-    spec, args = plain
-    code = run_command(spec, **args)
-    sys.stdout.flush()
-    raise SystemExit(code)
+    app(args=list(argv), prog_name="inins")
 
 
 class _QuietPipe(io.FileIO):

@@ -1,6 +1,6 @@
 """The Typer app of the ``inins`` command line (:mod:`inins.cli`): every command, with
-its help. Loaded when a command line is not the plain form of a run
-(:mod:`inins.cli._argv`), and by tests (``from inins.cli import app``).
+its help. Loaded when a command line is parsed, and by tests (``from inins.cli import
+app``).
 """
 
 from typing import Annotated
@@ -13,6 +13,7 @@ from inins.cli.check import check
 from inins.cli.schema import make_schema_command
 from inins.cli.show import show
 from inins.cli.sweep import sweep
+from inins.cli.warmup import warmup
 from inins.commands import COMMANDS
 
 _HELP = (
@@ -80,6 +81,7 @@ def make_app(commands=COMMANDS) -> typer.Typer:
     app.command("show")(show)
     app.command("sweep")(sweep)
     app.command("check")(check)
+    app.command("warmup")(warmup)
     return app
 
 

@@ -179,11 +179,11 @@ def echo_err(message: str) -> None:
 def _run(spec, scenario, outdir, overrides, seed, plot=False, force=False) -> int:
     from inins.cli._display import ProgressBar, print_outcome
     from inins.commands.execute import execute
-    from inins.commands.warmup import CompileNotice
+    from inins.commands.warmup import COMPILE_S, CompileNotice
     from inins.core import jit
 
     start = time.perf_counter()
-    notice = jit.on_compile(CompileNotice(f"inins {spec.name}", echo_err))
+    notice = jit.on_compile(CompileNotice(f"inins {spec.name}", echo_err, COMPILE_S.get(spec.name)))
     try:
         with ProgressBar(spec.name) as bar:
             done = execute(
@@ -191,6 +191,7 @@ def _run(spec, scenario, outdir, overrides, seed, plot=False, force=False) -> in
             )
     finally:
         jit.remove_compile_listener(notice)
+        notice.close()
     print_outcome(done.summary, done.paths, time.perf_counter() - start)
     if done.interrupted is not None:
         echo_err(

@@ -1,154 +1,210 @@
-"""Compile every numerical kernel once, so that the first command run is quick.
+"""Compile the numerical kernels ahead of the first run (``inins warmup [COMMAND...]``).
 
-``python -m inins.commands.warmup`` (``make kernels``, run by ``make demo``, ``make
-test`` and ``make bench``): each kernel module's ``warm_up()`` compiles its one
-specialisation into numba's on-disk cache, and short runs of shipped scenarios
-(run-ekf tight and loose with smoothing and aiding, observability, a GLONASS
-import-flight, calibrate-imu, noise) compile the kernels the way their commands
-call them; later processes load them instead of compiling. Then the
-kernels a short run needs are compiled ahead of time into the kernel library
-(:mod:`inins.core.jit`), which a run loads without numba.
-
-``--library-only`` runs just what the kernel library needs (the modules'
-``warm_up()`` and the observability runs, which compile its ``aot`` kernels) and
-builds it, skipping the other short runs (for a test of the library).
+A command compiles the kernels it needs on its first run after an install, an
+upgrade or an edit of a kernel source, into numba's on-disk cache
+(:mod:`inins.core.jit`); later runs load them. ``inins warmup`` does that ahead,
+for a lab machine or a CI image: short runs of shipped scenarios (no output
+written) make each named command (all by default) compile the kernels its usual
+paths call, with the argument types they pass.
 """
 
-import importlib
-import sys
 import time
 
 from inins.core import jit
 
-MODULES = (
-    "inins.core.pulses",
-    "inins.core.imu",
-    "inins.core.strapdown",
-    "inins.table.kinematics",
-    "inins.ekf.flight_kernel",
-    "inins.ekf.filter",
-    "inins.gnss.orbit",
-    "inins.gnss.glonass",
-)
 _WAIT = ("flight.legs=[{kind: wait, duration_s: 20}]", "filter.turning_from_s=0")
-SHORT_RUNS = (  # (command, shipped scenario (folder, name), --set overrides)
-    ("run-ekf", ("run-ekf", "default"), _WAIT),
-    ("run-ekf", ("paper003", "ekf1-ff"), _WAIT),
-    ("observability", ("observability", "default"), ()),
-    ("observability", ("observability", "ekf26-bank-turns"), ()),
-    ("run-ekf", ("run-ekf", "lc-drive-15s-aided"), ()),  # loose, RTS smoother, aiding
-    ("import-flight", ("import-flight", "smartloc-gps-glonass"), ()),  # GLONASS orbits
-    ("calibrate-imu", ("calibrate-imu", "default"), ()),
-    ("calibrate-imu", ("calibrate-imu", "table-free-mems"), ()),
-    ("noise", ("noise", "simulated-hold"), ()),
-)
-"""Runs (no output written) whose kernels have no ``warm_up()`` of their own."""
-LIBRARY_RUNS = ("observability",)
-"""Commands whose short runs compile ``aot`` kernels of the library (``--library-only``)."""
+RUNS = {  # command -> ((scenario folder, name, --set overrides), ...)
+    "simulate-table": (("simulate-table", "default", ()),),
+    "calibrate-bias": (("calibrate-bias", "default", ()),),
+    "align-ett": (("align-ett", "default", ()),),
+    "import-log": (("import-log", "default", ()),),
+    "import-flight": (
+        ("import-flight", "default", ()),
+        ("import-flight", "smartloc-gps-glonass", ()),  # GLONASS orbits
+    ),
+    "run-ekf": (
+        ("run-ekf", "default", _WAIT),
+        ("paper003", "ekf1-ff", _WAIT),
+        ("run-ekf", "psins-tc-smoothed", ()),  # recorded drive, tight smoother
+        ("run-ekf", "lc-drive-15s-aided", ()),  # loose, RTS smoother, aiding
+    ),
+    "observability": (
+        ("observability", "default", ()),
+        ("observability", "ekf26-bank-turns", ()),
+    ),
+    "calibrate-imu": (
+        ("calibrate-imu", "default", ()),
+        ("calibrate-imu", "table-free-mems", ()),
+    ),
+    "noise": (("noise", "simulated-hold", ()),),
+}
+"""Short runs whose kernels a command's first run would compile."""
+
+COMPILE_S = {  # the time of `inins warmup COMMAND` with an empty cache
+    "simulate-table": 6,
+    "calibrate-bias": 12,
+    "align-ett": 6,
+    "import-log": 1,
+    "import-flight": 6,
+    "run-ekf": 110,
+    "observability": 18,
+    "calibrate-imu": 10,
+    "noise": 16,
+}
+"""About how long (s) the kernels of each command's runs take to compile on a two-core
+machine (``python -m benchmarks.bench_compile``); a first run, told so, compiles those
+its scenario needs."""
 
 
 class CompileNotice:
     """What a run says while numba compiles kernels (a :func:`inins.core.jit.on_compile`
-    listener): the first run after an install, an upgrade or an edit of a kernel
-    source compiles for this machine (a few seconds to half a minute); later runs
-    load the compiled code.
+    listener): a first line when the first compile starts, with the time the whole
+    compile takes about, then a line at most every ``every_s`` seconds naming the
+    kernel being compiled, the count done and the time spent, so the screen never
+    sits silent. ``echo(text)`` prints one line; :meth:`close` ends the lines.
 
-    ``echo(text)`` prints one line: a first line when the first compile starts,
-    then at most one a second (``every_s``) with the count of kernels compiled so
-    far and the time spent, so the screen never sits frozen without a word.
+    Parameters
+    ----------
+    label : str
+        The run's name (``inins run-ekf``).
+    echo : callable
+        Prints one line.
+    expected_s : float or None
+        About how long the compile takes, if known.
+    every_s : float
+        Seconds between progress lines (at most).
     """
 
-    def __init__(self, label, echo, every_s=1.0):
-        self.label, self.echo, self.every_s = label, echo, every_s
-        self.count, self.start, self.last = 0, None, None
+    def __init__(self, label, echo, expected_s=None, every_s=5.0):
+        self.label, self.echo, self.expected_s, self.every_s = label, echo, expected_s, every_s
+        self.count, self.start, self.active = 0, None, []
+        self.last = None
+        self._stop = None
 
     def __call__(self, event, name, seconds):
-        now = time.perf_counter()
+        self.last = time.perf_counter()
         if self.start is None:
-            self.start = self.last = now
+            self.start = time.perf_counter()
+            about = f", up to about {self.expected_s:.0f} s" if self.expected_s else ""
             self.echo(
-                f"{self.label}: compiling numerical kernels for this machine (once after "
-                "an install or upgrade; later runs load them) ..."
+                f"{self.label}: compiling numerical kernels for this machine (once after an "
+                f"install, an upgrade or an edit{about}; later runs load them) ..."
             )
-        if event != "done":
-            return
-        self.count += 1
-        if now - self.last >= self.every_s:
-            self.last = now
-            short = name.removeprefix("inins.")
-            self.echo(
-                f"{self.label}:   {self.count} kernels compiled, {now - self.start:.0f} s "
-                f"(last: {short})"
+            self._start_ticker()
+        if event == "start":
+            self.active.append(name)
+        else:
+            self.count += 1
+            if name in self.active:
+                self.active.remove(name)
+
+    def line(self) -> str:
+        """The progress line of now."""
+        spent = time.perf_counter() - self.start
+        current = (
+            f"compiling {self.active[0].removeprefix('inins.')}"
+            if self.active
+            else "loading compiled kernels"
+        )
+        left = ""
+        if self.expected_s:
+            left = (
+                f", about {self.expected_s - spent:.0f} s left"
+                if spent < self.expected_s
+                else ", longer than usual on this machine"
             )
+        return f"{self.label}:   {current} ({self.count} compiled, {spent:.0f} s{left})"
+
+    def _start_ticker(self):
+        import threading
+
+        self._stop = threading.Event()
+
+        def tick():
+            while not self._stop.wait(self.every_s):
+                if self.active or time.perf_counter() - self.last < self.every_s:
+                    self.echo(self.line())
+
+        threading.Thread(target=tick, name="inins-compile-notice", daemon=True).start()
+
+    def close(self):
+        """No more progress lines (the run is over)."""
+        if self._stop is not None:
+            self._stop.set()
 
 
-def warm_up(progress=None, part="all"):
-    """Compile (or load from the cache) every kernel; ``progress(text)`` per step.
+def warm_up(commands=None, progress=None):
+    """Compile (or load from the cache) the kernels of ``commands`` (default: all).
 
-    ``part``: ``"library"`` the kernels of the kernel library (the modules'
-    ``warm_up()`` and the short runs of :data:`LIBRARY_RUNS`), ``"rest"`` the other
-    short runs, ``"all"`` both.
+    ``progress(text)`` is told of each short run before it starts.
     """
-    jit.activate()
-    if part in ("library", "all"):
-        for name in MODULES:
-            if progress is not None:
-                progress(name)
-            importlib.import_module(name).warm_up()
+    for task in tasks(commands):
+        _short_run(*task, progress)
+
+
+def tasks(commands=None):
+    """The short runs of ``commands`` (default: all) as ``(command, folder, name,
+    overrides)``, the longest compiles first (run-ekf's tight and loose filters)."""
+    found = [(c, *run) for c in commands or RUNS for run in RUNS[c]]
+    first = [t for t in found if t[:3] in _LONGEST]
+    return first + [t for t in found if t[:3] not in _LONGEST]
+
+
+_LONGEST = (("run-ekf", "run-ekf", "default"), ("run-ekf", "run-ekf", "lc-drive-15s-aided"))
+
+
+def _short_run(command, folder, name, overrides, progress=None):
     from inins.commands import find_command
     from inins.commands.execute import execute
     from inins.io.resources import config_path
 
-    for command, (folder, name), overrides in SHORT_RUNS:
-        if part != "all" and (command in LIBRARY_RUNS) != (part == "library"):
-            continue
-        if progress is not None:
-            progress(f"{command} {folder}/{name}")
-        execute(find_command(command), config_path(folder, name), overrides, seed=0)
+    if progress is not None:
+        progress(f"{command}: {folder}/{name}")
+    execute(find_command(command), config_path(folder, name), overrides, seed=0)
 
 
-def main(argv=None):
-    """Compile the library's kernels, build the kernel library, then (unless
-    ``--library-only``) compile the other kernels through the remaining short runs.
-
-    The library is built before those runs: a kernel the library holds may gain a
-    second specialisation in them (a loose-coupling kernel calls the strapdown with
-    read-only arrays), and the library takes one.
-    """
-    args = sys.argv[1:] if argv is None else argv
-    unknown = [arg for arg in args if arg != "--library-only"]
-    if unknown:
-        sys.exit(f"warm-up: unknown argument {unknown[0]!r} (takes only --library-only)")
+def main(commands=None, echo=print, jobs=1):
+    """Warm up ``commands`` (all by default), telling ``echo`` what compiles; ``jobs``
+    processes run the short runs side by side (the longest compiles first)."""
     start = time.perf_counter()
-    print("numerical kernels: compiling, or loading numba's cache ...", flush=True)
-    warm_up(_echo, part="library")
-    _library()
-    if "--library-only" not in args:
-        warm_up(_echo, part="rest")
-    print(f"numerical kernels ready ({time.perf_counter() - start:.1f} s)", flush=True)
+    commands = list(commands or RUNS)
+    runs = tasks(commands)
+    jobs = max(1, min(jobs, len(runs)))
+    if jobs == 1:
+        expected = sum(COMPILE_S.get(c, 0) for c in commands)
+        notice = jit.on_compile(CompileNotice("inins warmup", echo, expected))
+        try:
+            warm_up(commands, lambda text: echo(f"  {text}"))
+        finally:
+            jit.remove_compile_listener(notice)
+            notice.close()
+    else:
+        _in_processes(runs, jobs, echo)
+    echo(f"numerical kernels ready for {', '.join(commands)} ({time.perf_counter() - start:.0f} s)")
 
 
-def _echo(step):
-    print(f"  {step}", flush=True)
+def _in_processes(runs, jobs, echo):
+    """The short runs ``runs`` on ``jobs`` processes, each telling what it compiles."""
+    import concurrent.futures
+    import multiprocessing
+
+    context = multiprocessing.get_context("spawn")
+    with concurrent.futures.ProcessPoolExecutor(jobs, mp_context=context) as pool:
+        for done in [pool.submit(_noticed_run, run) for run in runs]:
+            done.result()
 
 
-def _library():
-    usable, reason = jit.library_status()
-    if usable:
-        print(f"kernel library up to date ({reason})")
-        return
-    print(f"building the kernel library for short runs ({reason}) ...", flush=True)
-    start = time.perf_counter()
+def _noticed_run(run):
+    """One short run in a worker process of :func:`main`, its compiles told on stderr."""
+    import sys
+
+    def echo(text):
+        print(text, file=sys.stderr, flush=True)
+
+    _, folder, name, _ = run
+    notice = jit.on_compile(CompileNotice(f"inins warmup ({folder}/{name})", echo))
     try:
-        path = jit.build_library()
-    except Exception as exc:  # the library is an optimisation: numba serves every call
-        print(
-            f"kernel library not built ({type(exc).__name__}: {exc}); runs use numba",
-            file=sys.stderr,
-        )
-        return
-    print(f"kernel library built in {time.perf_counter() - start:.1f} s: {path.name}")
-
-
-if __name__ == "__main__":
-    main()
+        _short_run(*run, lambda text: echo(f"  {text}"))
+    finally:
+        jit.remove_compile_listener(notice)
+        notice.close()

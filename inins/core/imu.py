@@ -262,7 +262,7 @@ class BiasTruth(NamedTuple):
     accel: np.ndarray
 
 
-@jit.njit(cache=True, nogil=True, error_model="numpy", aot=True)
+@jit.njit(cache=True, nogil=True, error_model="numpy")
 def _kernel(
     ideal_g, ideal_a, dt, mat_g, mat_a, par, temp, extra_g, extra_a, carry, gen, out, every, work
 ):

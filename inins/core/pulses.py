@@ -44,7 +44,7 @@ def counts_from_increments(values, pulse_weight):
     return counts
 
 
-@jit.njit(cache=True, nogil=True, error_model="numpy", aot=True)
+@jit.njit(cache=True, nogil=True, error_model="numpy")
 def _counts_kernel(values, inv_weight, counts):
     """counts = rint(values / weight) in one pass; 1 if not integral, 2 if out of int32."""
     limit = 2147483647.0

@@ -389,7 +389,7 @@ def _earth_terms_free(s, c, h, d, series):
     return w * c, -w * s, cube * yc * inv, root * xc * inv, s * inv_c, g, inv_c
 
 
-@jit.njit(cache=True, nogil=True, error_model="numpy", aot=True)
+@jit.njit(cache=True, nogil=True, error_model="numpy")
 def _navigate(
     quat,
     vel,

@@ -43,8 +43,8 @@ which composes the building-block kernels of :mod:`inins.ekf.step` (the per-epoc
 Python glue of one call per block cost as much as the arithmetic;
 ``tests/ekf/test_fused_epoch.py`` holds it bit for bit to that loop). The epochs run
 :data:`BATCH` at a time through one call of :func:`inins.ekf.step.epochs`: a call
-with fifty arguments costs 3 us through numba's dispatcher and 10 us through the
-kernel library's type check, against some 33 us of arithmetic. The log goes into
+with fifty arguments costs 3 us through numba's dispatcher, against some 33 us of
+arithmetic. The log goes into
 preallocated arrays, doubled when full.
 
 With truth (simulation) the output error, the heading error and the NEES of all
@@ -545,8 +545,8 @@ def score(result, log, true_sensor=None, *, pps_storage=True, systems="G"):
 
 def warm_up():
     """Compile (or load from the on-disk cache) the fused epoch kernel
-    (:func:`inins.ekf.step.epochs`) with the argument types every run passes (the types of
-    the kernel library's copy): two epochs of four satellites."""
+    (:func:`inins.ekf.step.epochs`) with the argument types every run passes: two epochs
+    of four satellites."""
     from inins.core.strapdown import NavState
     from inins.ekf.config import EpochInput, FilterConfig, Model
     from inins.ekf.measurements import GnssEpoch

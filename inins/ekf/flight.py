@@ -200,7 +200,7 @@ _NO_DITHER = np.zeros(10)
 
 def _kernel_array(value):
     """``value`` as the kernels take it (float64, 1-D at least, C-contiguous, writable:
-    the types of the kernel library's copies, :func:`inins.ekf.flight_kernel.warm_up`)."""
+    one specialisation per kernel, :func:`inins.ekf.flight_kernel.warm_up`)."""
     arr = np.ascontiguousarray(np.atleast_1d(np.asarray(value, dtype=float)))
     return arr if arr.flags.writeable else arr.copy()
 

@@ -227,7 +227,7 @@ def _body(t, kin, plan, dither, out, row, lat_ref):
     out[row, 5] = f2 * cth - sth * (ux * f1 - uy * f0) + one * dot * uz + theta_dd * urz + rr * uuz
 
 
-@jit.njit(cache=True, nogil=True, error_model="numpy", aot=True)
+@jit.njit(cache=True, nogil=True, error_model="numpy")
 def rates(time, centres, taus, dv, prefix, plan, dither):
     """``[omega_ib_b, f_b]`` (n, 6) (rad/s, m/s^2) at ``time`` (n,) s."""
     out = np.empty((time.size, 6))
@@ -239,7 +239,7 @@ def rates(time, centres, taus, dv, prefix, plan, dither):
     return out
 
 
-@jit.njit(cache=True, nogil=True, error_model="numpy", aot=True)
+@jit.njit(cache=True, nogil=True, error_model="numpy")
 def states(time, centres, taus, dv, prefix, plan):
     """``[lla (rad, rad, m), vel_n (m/s), roll, pitch, heading (rad)]`` (n, 9) at ``time``
     (n,) s: position ``lla0 + scale p(t)``, ``vel_n = [(R_N + h) lat', (R_E + h) cos(lat)
@@ -284,7 +284,7 @@ def _logistic(xi, i_tau):
     return e, sigma, dsigma, dsigma * (1.0 - 2.0 * sigma) * i_tau
 
 
-@jit.njit(cache=True, nogil=True, error_model="numpy", aot=True)
+@jit.njit(cache=True, nogil=True, error_model="numpy")
 def integrals(start, stop, x, w, centres, taus, dv, prefix, plan, dither, klass, class_taus):
     """Gauss-Legendre integrals ``[dtheta, dv]`` (n, 6) of the rates over
     ``[start_k, stop_k]`` (rule nodes ``x``, weights ``w`` on [-1, 1]).
@@ -455,7 +455,7 @@ def integrals(start, stop, x, w, centres, taus, dv, prefix, plan, dither, klass,
 def warm_up():
     """Compile (or load from the on-disk cache) the three kernels on a one-step flight,
     with the argument types :class:`inins.ekf.flight.FlightTruth` passes (float64 and
-    int64, C-contiguous, writable): the types of the kernel library's copies."""
+    int64, C-contiguous, writable)."""
     time = np.array([0.0, 1.0])
     centres, taus, dv = np.array([0.5]), np.array([2.0]), np.array([[1.0, 0.0, 0.0]])
     prefix = np.zeros((2, 6))

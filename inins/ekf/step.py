@@ -538,7 +538,7 @@ def epoch(
     return rows
 
 
-@jit.njit(cache=True, aot=True, error_model="numpy")
+@jit.njit(cache=True, error_model="numpy")
 def epochs(
     x,
     P,

@@ -169,7 +169,7 @@ def _deriv(x, acc, out):
     out[5] = -mu_r3 * x[2] + j * x[2] * (zz - 3.0) + acc[2]
 
 
-@jit.njit(cache=True, aot=True)
+@jit.njit(cache=True)
 def _rk4_kernel(index, dt, state, max_step, pos, vel):
     """RK4 from each set's ``tb`` over ``dt`` (s) in ``ceil(|dt| / max_step)`` equal steps."""
     x = np.empty(6)
@@ -201,7 +201,7 @@ def _rk4_kernel(index, dt, state, max_step, pos, vel):
 
 def warm_up():
     """Compile (or load from the on-disk cache) the RK4 kernel with the argument types
-    :func:`satellite_states` passes (the types of the kernel library's copy)."""
+    :func:`satellite_states` passes."""
     state = np.zeros((1, 9))
     state[0, 0], state[0, 4] = 25.5e6, 3.9e3  # a GLONASS orbit
     _rk4_kernel(

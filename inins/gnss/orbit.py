@@ -162,7 +162,7 @@ def _wrap(dt):
     return dt - WEEK * np.floor((dt + 0.5 * WEEK) / WEEK)
 
 
-@jit.njit(cache=True, aot=True)
+@jit.njit(cache=True)
 def _states_kernel(index, week, sow, par, consts, eph_week, tgd, pos, vel, clock, drift):
     """IS-GPS-200 Table 20-IV per state (see :func:`satellite_states`); outputs filled in place.
 
@@ -259,7 +259,7 @@ def _states_kernel(index, week, sow, par, consts, eph_week, tgd, pos, vel, clock
 
 def warm_up():
     """Compile (or load from the on-disk cache) the orbit kernel with the argument types
-    :func:`satellite_states` passes (the types of the kernel library's copy)."""
+    :func:`satellite_states` passes."""
     pos, vel = np.empty((1, 3)), np.empty((1, 3))
     clock, drift = np.empty(1), np.empty(1)
     one = np.zeros(1, np.int64)

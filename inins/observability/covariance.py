@@ -27,7 +27,7 @@ from inins.observability import measurements as meas
 from inins.observability.pwcs import combination
 
 
-@jit.njit(cache=True, aot=True)
+@jit.njit(cache=True)
 def _riccati(P, Phi, Qd, H, R, steps, sigma, start):
     """``steps`` predict + Joseph-update cycles; writes sqrt(diag P) to ``sigma[start + k]``."""
     n = P.shape[0]

@@ -166,7 +166,7 @@ def make_segment(
     return Segment(duration, mat, f_n, omega_ib_b, vel, lla_arr, los_n, key)
 
 
-@jit.njit(cache=True, aot=True)
+@jit.njit(cache=True)
 def _segment_starts(mat_nb, f_b, trace_min, force_max):
     """Indices where a segment starts: attitude angle since the start > threshold
     (``trace(C_s^T C_k) < 1 + 2 cos(threshold)``) or ``|f_k - f_s| > force_max``."""

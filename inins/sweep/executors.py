@@ -67,7 +67,7 @@ def start_server(command: str | None = None):
     """Start the process the local workers are forked from (``forkserver``), and
     return the multiprocessing context.
 
-    The server imports numpy, the runner and ``command``'s module (scenario
+    The server imports numpy, numba, the runner and ``command``'s module (scenario
     model, writers) once, while the caller goes on (loading the sweep, checking
     the folder): every worker then starts with them imported, in a few
     milliseconds. Idempotent; a later call's ``command`` is imported by the
@@ -76,7 +76,7 @@ def start_server(command: str | None = None):
     import multiprocessing
     from multiprocessing import forkserver
 
-    preload = ["numpy", "inins.commands.execute"]
+    preload = ["numpy", "numba", "inins.commands.execute"]
     if command is not None:
         from inins.commands import find_command
 
@@ -130,7 +130,7 @@ class LocalExecutor:
             self.workers,
             mp_context=ctx,
             initializer=warm_up,
-            initargs=(self.command, True, os.getpid(), False),
+            initargs=(self.command, True, os.getpid()),
         )
 
     def __exit__(self, exc_type, exc, tb):

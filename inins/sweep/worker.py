@@ -45,20 +45,14 @@ def warm_up(
     command: str | None = None,
     ignore_sigint: bool = True,
     parent: int | None = None,
-    load_numba: bool = True,
 ) -> None:
     """Worker initialiser: leave Ctrl-C to the parent, load numba, import the command.
 
     ``parent``: the pid of the sweep process; the worker ends itself when that
     process is gone (:func:`exit_with_parent`), so a sweep killed outright
-    (``kill -9``) leaves no worker behind.
-
-    ``load_numba``: a Dask worker loads numba's kernels at once (its threads share
-    one process for many points). A local worker process starts on the kernel
-    library, as a single run does (:mod:`inins.core.jit`): a sweep never pays numba's
-    start-up (0.5-1 s a worker); with a generic library (no processor description)
-    a worker loads numba when a kernel's share of it runs out
-    (:data:`inins.core.jit.LIBRARY_ROWS`).
+    (``kill -9``) leaves no worker behind. numba is loaded once per worker, and its
+    kernels from the on-disk cache on their first call (:mod:`inins.core.jit`), so
+    the runs of a sweep pay neither again.
     """
     import signal
 
@@ -68,8 +62,7 @@ def warm_up(
         signal.signal(signal.SIGINT, signal.SIG_IGN)
     if parent is not None:
         exit_with_parent(parent)
-    if load_numba:
-        jit.activate()
+    jit.activate()
     if command is not None:
         from inins.commands import find_command, load_command
 

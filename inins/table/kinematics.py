@@ -228,7 +228,7 @@ def _rodrigues_vec(m, a, b):
     )
 
 
-@jit.njit(cache=True, nogil=True, error_model="numpy", aot=True)
+@jit.njit(cache=True, nogil=True, error_model="numpy")
 def _kinematics_kernel(
     time,
     seg_t0,

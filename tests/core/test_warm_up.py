@@ -14,8 +14,7 @@ from tests.helpers import kernel_argument_types
 
 @pytest.fixture(autouse=True)
 def _through_numba():
-    """The specialisations are numba's: load it (else the kernel library, which takes
-    calls of the library's own types, would leave the dispatchers uncompiled)."""
+    """The specialisations are numba's dispatchers': load numba."""
     jit.activate()
 
 
@@ -65,24 +64,49 @@ def test_pulse_counts_share_one_specialisation(monkeypatch):
     assert len(types) == 2 and len(set(types)) == 1
 
 
-def test_a_compile_is_announced_with_progress_and_a_cache_load_is_not():
+def test_a_compile_is_announced_with_its_expected_time_and_a_cache_load_is_not():
     from inins.commands.warmup import CompileNotice
-    from inins.core import jit
 
     jit.activate()
-    lines = []
-    notice = jit.on_compile(CompileNotice("inins test", lines.append, every_s=0.0))
+    lines, during = [], []
+    notice = jit.on_compile(CompileNotice("inins test", lines.append, expected_s=30, every_s=60))
+    probe = jit.on_compile(
+        lambda event, name, s: during.append(notice.line()) if event == "start" else None
+    )
     try:
 
-        @jit.njit
+        @jit.njit(cache=False)  # a cached copy from an earlier run would load silently
         def scaled(x):
             return 3.0 * x
 
         assert scaled(2.0) == 6.0
-        assert lines[0].startswith("inins test: compiling numerical kernels for this machine")
-        assert lines[1].startswith("inins test:   1 kernels compiled")
-        assert "scaled" in lines[1]
+        assert lines == [
+            "inins test: compiling numerical kernels for this machine (once after an install, "
+            "an upgrade or an edit, up to about 30 s; later runs load them) ..."
+        ]
+        assert "compiling " in during[0] and ".scaled (" in during[0]
+        assert "(0 compiled," in during[0] and "s left)" in during[0]
+        assert notice.count == 1 and notice.active == []
         assert scaled(3.0) == 9.0  # compiled already: nothing more to say
-        assert len(lines) == 2
+        assert len(lines) == 1 and len(during) == 1
     finally:
         jit.remove_compile_listener(notice)
+        jit.remove_compile_listener(probe)
+        notice.close()
+
+
+def test_a_long_compile_prints_a_line_every_few_seconds_until_it_ends():
+    import time
+
+    from inins.commands.warmup import CompileNotice
+
+    lines = []
+    notice = CompileNotice("inins test", lines.append, expected_s=None, every_s=0.02)
+    notice("start", "inins.ekf.step.epoch", 0.0)
+    deadline = time.monotonic() + 10.0
+    while len(lines) < 3 and time.monotonic() < deadline:
+        time.sleep(0.01)
+    notice("done", "inins.ekf.step.epoch", 1.0)
+    notice.close()
+    assert len(lines) >= 3
+    assert lines[1].startswith("inins test:   compiling ekf.step.epoch (0 compiled, ")
