@@ -112,11 +112,11 @@ def test_an_edit_of_a_callee_in_another_module_recompiles_the_cached_caller(tmp_
     command = package / "commands" / "warmup.py"  # not a kernel source
     command.write_text(command.read_text() + "\n# edited\n")
     assert probe() == [4.0, 1]  # loaded from the cache: the edit keeps it
-    first = sorted(p.name for p in (cache / "inins").iterdir())
+    first = sorted(p.name for p in (cache / "inins").glob("kernels-*"))
     callee.write_text(CALLEE.format("2.0"))  # the callee only: the caller's file is unchanged
     assert probe() == [6.0, 0]
     assert probe() == [6.0, 1]
-    second = sorted(p.name for p in (cache / "inins").iterdir())
+    second = sorted(p.name for p in (cache / "inins").glob("kernels-*"))
     assert len(first) == len(second) == 1 and first != second  # the stale folder removed
 
 
@@ -146,3 +146,34 @@ def test_a_run_on_a_fresh_install_says_what_it_compiles(tmp_path):
     assert "inins simulate-table: compiling numerical kernels for this machine" in first
     assert re.search(r"up to about \d+ s; later runs load them", first)
     assert "compiling" not in run()
+
+
+def test_the_sources_digest_is_kept_until_a_source_changes(tmp_path):
+    """The digest is read from ``sources.json`` while every source's size and time are
+    those it was computed from (no hashing in a run); a touched source recomputes it."""
+    import shutil
+
+    package = tmp_path / "inins"
+    shutil.copytree(PACKAGE, package, ignore=shutil.ignore_patterns("__pycache__"))
+    env = {**os.environ, "PYTHONPATH": str(tmp_path), "NUMBA_CACHE_DIR": str(tmp_path / "c")}
+    probe = "from inins.core import jit\nprint(jit.source_digest())\n"
+
+    def digest():
+        done = subprocess.run(
+            [sys.executable, "-c", probe],
+            capture_output=True,
+            text=True,
+            env=env,
+            check=True,
+            cwd=tmp_path,
+        )
+        return done.stdout.strip()
+
+    first = digest()
+    memo = tmp_path / "c" / "inins" / "sources.json"
+    kept = json.loads(memo.read_text())
+    memo.write_text(json.dumps({**kept, "digest": "kept"}))
+    assert digest() == "kept"  # read, not recomputed
+    strapdown = package / "core" / "strapdown.py"
+    strapdown.write_text(strapdown.read_text() + "\n")  # a kernel source changed
+    assert digest() not in ("kept", first)
