@@ -2,17 +2,23 @@
 PYTHON ?= python3
 VENV   := .venv
 BIN    := $(VENV)/bin
-STAMP  := $(VENV)/.installed
+BASE   := $(VENV)/.installed
+STAMP  := $(VENV)/.installed-dev
 OUT    ?= out
 # a line every 5 s while a long step works (pip can unpack wheels for a minute silently)
 BEAT   := .ci/heartbeat
 
 .PHONY: demo test fuzz lint bench bench-quick clean venv warmup
 
-$(STAMP): pyproject.toml
-	$(PYTHON) -m venv $(VENV)
-	$(BEAT) "upgrading pip" $(BIN)/python -m pip install --progress-bar off --upgrade pip
+# inins and what it needs to run (the demo); then the test, plot and cluster extras
+$(BASE): pyproject.toml
+	$(BEAT) "creating $(VENV)" $(PYTHON) -m venv $(VENV)
 	$(BEAT) "installing inins and its dependencies" \
+	  $(BIN)/python -m pip install --progress-bar off -e .
+	touch $(BASE)
+
+$(STAMP): $(BASE)
+	$(BEAT) "installing the test, plot and cluster extras" \
 	  $(BIN)/python -m pip install --progress-bar off -e '.[dev,plot,cluster]'
 	touch $(STAMP)
 
@@ -20,10 +26,10 @@ venv: $(STAMP)
 
 # The first run of a command compiles the numerical kernels it needs (and says so);
 # later runs load them from numba's on-disk cache. `inins warmup` compiles them ahead.
-warmup: $(STAMP)
+warmup: $(BASE)
 	$(BIN)/inins warmup
 
-demo: $(STAMP)
+demo: $(BASE)
 	$(BIN)/inins calibrate-bias -o $(OUT)/demo
 	@echo; echo "the full report: $(OUT)/demo/calibrate-bias.txt"
 
