@@ -6,8 +6,8 @@ speed and memory requirements, :data:`TARGETS`) against it, so a regression show
 once; ``--json FILE`` also writes them. ``--quick`` (``make bench-quick``) skips the
 24 h runs and the cold-cache compile measurement (about a minute). Command figures
 are whole processes: interpreter start-up, imports and loading the cached JIT code
-included. Kernel throughput is numba's, as long runs get it: each module's child
-loads numba first (short runs take the kernel library, :mod:`inins.core.jit`).
+included. Each module's child loads numba first (:mod:`inins.core.jit`), so that a
+kernel's throughput is measured without numba's start-up.
 """
 
 import argparse
@@ -61,12 +61,26 @@ TARGETS = (  # (figure path, relation, target, what)
     ("bench_sweep.throughput.dask_over_local", ">=", 0.8, "sweep Dask loopback / local"),
     ("bench_strapdown.free_over_pyins_kernel", ">=", 5.0, "strapdown / pyins' numba kernel"),
     ("bench_sweep.overhead.local_start_s", "<", 0.5, "sweep start-up (2 points), s"),
-    ("bench_fixed_cost.simulate_table_s", "<", 0.4, "default simulate-table whole process, s"),
-    ("bench_fixed_cost.observability_s", "<", 0.6, "default observability whole process, s"),
-    ("bench_fixed_cost.run_ekf_s", "<", 1.5, "default run-ekf whole process, s"),
-    ("bench_fixed_cost.first_simulate_table_s", "<", 5.0, "first simulate-table after install, s"),
-    ("bench_fixed_cost.first_observability_s", "<", 5.0, "first observability after install, s"),
-    ("bench_fixed_cost.first_run_ekf_s", "<", 5.0, "first run-ekf after install, s"),
+    *(
+        (f"bench_fixed_cost.{c}_cpu_rise_s", "<", 0.5, f"default {c} CPU over the AOT library, s")
+        for c in (
+            "simulate_table",
+            "calibrate_bias",
+            "align_ett",
+            "import_log",
+            "import_flight",
+            "run_ekf",
+            "observability",
+            "noise",
+            "calibrate_imu",
+        )
+    ),
+    *(
+        (f"bench_fixed_cost.first_{c}_longest_silence_s", "<", 10.0, f"first {c}: silent, s")
+        for c in ("simulate_table", "calibrate_bias", "run_ekf", "observability")
+    ),
+    ("bench_fixed_cost.pip_install_s", "<", 90.0, "pip install . (wheel of this tree), s"),
+    ("bench_fixed_cost.wheel_pure", ">=", 1.0, "the wheel is pure Python (1 = yes)"),
     ("bench_ekf.hour_filter_alone_s", "<", 0.15, "EKF2-FB filter alone one hour, s"),
     ("bench_ekf.hour_truth_scoring_s", "<", 0.1, "EKF truth scoring one hour, s"),
     ("bench_ekf.simulation_4h_over_1h_cpu", "<=", 4.2, "run-ekf simulation 4 h / 1 h"),
@@ -96,7 +110,6 @@ MODULES = (
 
 def _module(name, quick=False):
     call = "m.run(quick=True)" if quick and name in QUICK_AWARE else "m.run()"
-    # the kernels' throughput as long runs get it: numba's, not the kernel library's
     code = (
         "import json; from inins.core import jit; jit.activate()\n"
         f"import benchmarks.{name} as m; print(json.dumps({call}))"
@@ -188,22 +201,18 @@ def _calibrate_memory(outdir):
     return figures
 
 
-def _fixed_cost(outdir, runs=3, compare=True):
+def _fixed_cost(outdir, runs=3):
     """Whole-process wall time of simulate-table on a one-minute scenario (median of
-    runs): the fixed cost a short run pays (start-up, imports, kernels).
-
-    Measured as a user's install runs it: with the kernel library (no numba), and
-    beside it the same run through numba (an empty kernel-library folder), the way
-    every run started before the library (``compare``). Bytecode is written and used as a normal
-    install does (``PYTHONDONTWRITEBYTECODE`` unset; one untimed run first).
+    runs): the fixed cost a short run pays (start-up, imports, loading the cached
+    kernels). Bytecode is written and used as a normal install does
+    (``PYTHONDONTWRITEBYTECODE`` unset; one untimed run first).
     """
     import os
 
     case = ROOT / "configs" / "simulate-table" / "default.yaml"
     env = {k: v for k, v in os.environ.items() if k != "PYTHONDONTWRITEBYTECODE"}
-    numba_env = {**env, "ININS_KERNEL_DIR": str(Path(outdir) / "no-library")}
 
-    def once(k, environment):
+    def once(k):
         start = time.perf_counter()
         subprocess.run(
             [
@@ -222,20 +231,12 @@ def _fixed_cost(outdir, runs=3, compare=True):
             check=True,
             capture_output=True,
             cwd=ROOT,
-            env=environment,
+            env=env,
         )
         return time.perf_counter() - start
 
-    once(-1, env)
-    library, numba = [], []
-    for k in range(runs):  # alternate, so that both see the same machine load
-        library.append(once(k, env))
-        if compare:
-            numba.append(once(k, numba_env))
-    figures = {"one_minute_wall_s": statistics.median(library)}
-    if compare:
-        figures["one_minute_wall_s_through_numba"] = statistics.median(numba)
-    return figures
+    once(-1)
+    return {"one_minute_wall_s": statistics.median(once(k) for k in range(runs))}
 
 
 def _import_log(outdir):
@@ -271,7 +272,9 @@ def main():
     figures = {name: _module(name, args.quick) for name in modules}
     from benchmarks import bench_fixed_cost
 
-    figures[FIXED_COST] = bench_fixed_cost.run(3 if args.quick else 5, not args.quick)
+    figures[FIXED_COST] = bench_fixed_cost.run(
+        3 if args.quick else 5, not args.quick, None if args.quick else bench_fixed_cost.BEFORE
+    )
     figures["inins_help"] = _help_startup(3 if args.quick else 7)
     with tempfile.TemporaryDirectory() as outdir:
         figures["commands"] = _table_commands(outdir, not args.quick)
@@ -279,7 +282,7 @@ def main():
         figures["commands"]["import_log_rlg_excerpt"] = _import_log(outdir)
         figures["commands"].update(_calibrate_imu(outdir))
         figures["commands"]["simulate_table_fixed_cost"] = _fixed_cost(
-            outdir, 3 if args.quick else 5, compare=not args.quick
+            outdir, 3 if args.quick else 5
         )
         if not args.quick:
             figures["calibrate_memory"] = _calibrate_memory(outdir)

@@ -88,7 +88,7 @@ def _child(src, cache_dir, outdir, workload):
     """Run one workload in a child with its own numba cache; its JSON figures."""
     args = [
         list(workload)
-        if workload[0] == "warm-up"
+        if workload[0] in ("warm-up", "warmup")
         else [*workload, "-o", str(Path(outdir) / workload[0])]
     ]
     env = dict(os.environ, NUMBA_CACHE_DIR=str(cache_dir), PYTHONPATH=str(src))
@@ -173,9 +173,25 @@ def _summary(figures):
     return result
 
 
+def warmup_times(src=ROOT):
+    """``inins warmup COMMAND`` of each command on an empty cache, one process: the
+    compile time a command's first runs pay (``inins.commands.warmup.COMPILE_S``)."""
+    from inins.commands.warmup import RUNS
+
+    figures = {}
+    for command in RUNS:
+        with tempfile.TemporaryDirectory() as tmp:
+            cache = Path(tmp) / "numba-cache"
+            cache.mkdir()
+            done = _child(src, cache, tmp, ("warmup", command, "--jobs", "1"))
+        figures[f"warmup_{command}_wall_s"] = done["process_wall_s"]
+        figures[f"warmup_{command}_cpu_s"] = done["cpu_s"]
+    return figures
+
+
 def run():
     """Cold-cache compile figures of the working tree (flat dict, unit in each key)."""
-    return _summary(measure())
+    return {**_summary(measure()), **warmup_times()}
 
 
 def _export(rev, dest):

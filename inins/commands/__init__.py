@@ -103,7 +103,10 @@ COMMANDS = (
     CommandSpec(
         "run-ekf",
         "Tightly coupled INS/GPS EKF (17 or 26 states, feedforward or feedback) on a "
-        "simulated flight (climbs, descents, repeated bank turns) or on recorded data.",
+        "simulated flight (climbs, descents, repeated bank turns) or on recorded data. "
+        "With a post: section, a loosely coupled post-processor of a recorded drive: an "
+        "IMU log and a GNSS solution file (RTKLIB .pos, CSV, .mat), RTS smoother, vehicle "
+        "aiding, outage scoring.",
     ),
     CommandSpec(
         "observability",
