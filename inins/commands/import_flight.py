@@ -21,7 +21,7 @@ from inins.gnss import broadcast, ephemeris, glonass, measurements, spp
 from inins.gnss import systems as systems_mod
 from inins.gnss.spp import FixStatus
 from inins.gnss.systems import LETTERS, NAMES, rinex_name
-from inins.io import flight_layout, solution_layout
+from inins.io import flight_layout, imu_units, solution_layout
 from inins.io.flight_checks import checked_flight
 from inins.io.flight_layout import ImuRecord, RecordedFlight
 from inins.io.psins_tc import read_psins_tc
@@ -86,14 +86,16 @@ def run(scenario, seed, *, sink=None, progress=None):
 
 def run_solution(scenario):
     """Join a GNSS solution file to an IMU log in the recorded-solution layout
-    (:mod:`inins.io.solution_layout`); both files read and checked by
-    :mod:`inins.io.solution_files` (unknown columns, time not increasing, sigma <= 0:
-    the file and line named). The IMU keeps its own time axis: run-ekf's ``post.time``
+    (:mod:`inins.io.solution_layout`); both files read and checked by the rules run-ekf
+    applies (:mod:`inins.io.solution_checks`, :mod:`inins.io.imu_checks`, the units and
+    axes of :mod:`inins.io.imu_units` but the gyro grade at rest, which is a run-ekf
+    setting: the file and line named). The IMU keeps its own time axis: run-ekf's ``post.time``
     maps it to GNSS time, as from the source files. Refused: IMU and GNSS spans that
     cannot overlap (the IMU log shorter than a tenth of the GNSS span, or the other way,
     so no mapping of the IMU tick onto GNSS time would cover the drive)."""
     sol = read_post_gnss(scenario.solution_gnss)
     imu = read_post_imu(scenario.solution_imu)
+    imu_units.check_against_gnss(imu, sol, scenario.solution_imu.axes)
     span_g = float(sol.time[-1] - sol.time[0])
     span_i = float(imu.time[-1] - imu.time[0])
     if span_g <= 0.0 or span_i < 0.1 * span_g or span_g < 0.1 * span_i:
