@@ -164,7 +164,8 @@ def read_imu_rates_csv(
     odo = None
     if odometer_column is not None:
         odo = a[:, _column(int(odometer_column), width, "odometer_column", path)] * odometer_scale
-    rows = RowNames(path, line=line)
+    keys = {"time": "time_column", "gyro": "gyro_columns", "accel": "accel_columns"}
+    rows = RowNames(path, line=line, keys=keys | {"odometer": "odometer_column"})
     imu = ImuRates(
         path, a[:, int(time_column)] * time_scale, gyro[:, index] * sign, acc[:, index] * sign,
         odo, rows,

@@ -254,7 +254,40 @@ def read_rtklib_pos(path):
         vel = np.einsum("kji,kj->ki", m_en, need("vx-ecef(m/s)", "vy-ecef(m/s)", "vz-ecef(m/s)"))
         if "sdvx" in col:
             svel = _ned_sigma(lla, need("sdvx", "sdvy", "sdvz"))
+    _other_fields(col, path, np.asarray(lines))
     return checked(path, time, lla, sig, vel, svel, need("Q")[:, 0], np.asarray(lines))
+
+
+_OTHER_FIELDS = {
+    "ns": (0.0, 999.0, True),
+    "age(s)": (0.0, 1e6, False),
+    "ratio": (0.0, 1000.0, False),
+}
+"""Bounds of the .pos fields the filter does not use: (low, high, integer)."""
+
+
+def _other_fields(col, path, lines):
+    """The .pos fields the filter does not use are still numbers of their kind: ``ns``
+    an integer 0-999, ``age`` 0-1e6 s, ``ratio`` 0-1000, cross terms (``sdne`` ...)
+    finite within ±:data:`~inins.io.solution_checks.SIGMA_M` (m or m/s)."""
+    for name, values in col.items():
+        if name in _OTHER_FIELDS:
+            lo, hi, integer = _OTHER_FIELDS[name]
+        elif name.startswith(("sdne", "sdeu", "sdun", "sdxy", "sdyz", "sdzx", "sdv")):
+            lo, hi, integer = -solution_checks.SIGMA_M, solution_checks.SIGMA_M, False
+        else:
+            continue
+        with np.errstate(invalid="ignore"):
+            bad = ~((values >= lo) & (values <= hi) & ((values % 1 == 0) | (not integer)))
+        if bad.any():
+            i = int(np.flatnonzero(bad)[0])
+            kind = "an integer " if integer else ""
+            raise InputError(
+                f"{name} {values[i]:.6g} is not {kind}within {lo:g}..{hi:g}",
+                source=path,
+                line=int(lines[i]),
+                key=name,
+            )
 
 
 def _llh_of_ecef(xyz, path, line, rows=None):
