@@ -333,14 +333,14 @@ def check_leap_seconds(nav):
         return
     date = str(gpstime.to_datetime64(int(week[k]), float(sow[k])))[:10]
     where = "the header's LEAP SECONDS" if nav.leap_line else "leap_seconds"
-    raise InputError(
+    problem = (
         f"{where} is {nav.leap_seconds} s, but GPS - UTC was {expected} s on {date}, the "
-        "date of the file's records (IERS Bulletin C): a wrong value turns every GLONASS "
-        "orbit with the Earth by that time",
-        source=nav.path,
-        line=nav.leap_line,
-        key=None if nav.leap_line else "leap_seconds",
+        "date of the records of {file}(IERS Bulletin C): a wrong value turns every GLONASS "
+        "orbit with the Earth by that time"
     )
+    if nav.leap_line:  # the file's header is wrong
+        raise InputError(problem.format(file=""), source=nav.path, line=nav.leap_line)
+    raise InputError(problem.format(file=f"{nav.path} "), key="leap_seconds")
 
 
 def _navigation(scenario, flight):
