@@ -9,10 +9,11 @@ Refused (bad input, :class:`~inins.exceptions.InputError`, the dataset and row n
 a missing or wrongly shaped array (an empty or transposed IMU array), NaN or infinity
 in the IMU time or increments, IMU time that runs backwards, skips samples or is
 scaled wrongly (an interval outside 50 us - 0.1 s, or increments implying rates no IMU
-measures: the limits of every IMU reader, :mod:`inins.io.imu_checks`), epoch offsets out of range, duplicated or swapped epochs, a satellite number
-that is no GPS PRN 1-32 nor another system's number (:mod:`inins.core.satellites`:
-GLONASS 101-127, Galileo 201-236, BeiDou 301-363, ...) or twice in one epoch, an IMU
-record outside every GNSS epoch.
+measures: the limits of every IMU reader, :mod:`inins.io.imu_checks`), epoch offsets
+out of range, duplicated or swapped epochs, a satellite number that is no GPS PRN 1-32
+nor another system's number (:mod:`inins.core.satellites`: GLONASS 101-127, Galileo
+201-236, BeiDou 301-363, ...) or twice in one epoch, an IMU record outside every GNSS
+epoch.
 
 Dropped and counted (the count is in :attr:`RecordedFlight.dropped`, which the
 commands print in their report and warnings): epochs with a non-finite time and their

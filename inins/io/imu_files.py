@@ -152,7 +152,8 @@ def read_imu_rates_csv(
     index, sign = axis_map(axes)
     a, line = read_csv_numbers(path, "an IMU log (CSV of numbers)")
     if a.shape[0] < 2:
-        raise InputError(f"{a.shape[0]} IMU rows, at least 2 needed", source=path)
+        last = int(line[-1]) if line.size else 1
+        raise InputError(f"{a.shape[0]} IMU rows, at least 2 needed", source=path, line=last)
     width = a.shape[1]
     cols = {"accel_columns": accel_columns, "gyro_columns": gyro_columns}
     for key, c in cols.items():

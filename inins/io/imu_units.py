@@ -211,6 +211,13 @@ def _bins(time, values, step):
         return out / count[:, None]
 
 
+def _corr(a, b):
+    """Correlation coefficient of two series (0 when either is constant)."""
+    a, b = a - a.mean(), b - b.mean()
+    den = math.sqrt(float(np.dot(a, a)) * float(np.dot(b, b)))
+    return float(np.dot(a, b)) / den if den > 0 else 0.0
+
+
 def _best_lags(x, y, lags):
     """For each column of ``x`` (n, k): the lag (bins) of the largest |correlation| with
     ``y`` (m,) pairing ``x[t]`` with ``y[t + lag]``, and that correlation."""
@@ -223,8 +230,8 @@ def _best_lags(x, y, lags):
             ok = np.isfinite(a) & np.isfinite(b)
             if ok.sum() < 40:
                 continue
-            r = np.corrcoef(a[ok], b[ok])[0, 1]
-            if np.isfinite(r) and abs(r) > abs(top[1]):
+            r = _corr(a[ok], b[ok])
+            if abs(r) > abs(top[1]):
                 top = (lag, float(r))
         best[c] = top
     return best
@@ -302,6 +309,8 @@ def check_turns(
         )
     a, b = _pair(x[:, 2:3], y, lag)
     ok = np.isfinite(a[:, 0]) & (b != 0.0)
+    if not ok.any():
+        return
     scale = float(np.dot(a[ok, 0], b[ok]) / np.dot(b[ok], b[ok]))
     if not SCALE_BAND[0] <= scale <= SCALE_BAND[1]:
         mistake = _likely("gyro", scale, SCALE_BAND)
@@ -359,12 +368,13 @@ def check_against_gnss(
     InputError
         A check failed (the check, the data and the likely mistake named).
     """
-    quiet = check_gravity(imu, sol, axes, mounting_deg)
-    check_rest_rate(imu, sol, quiet, gyro_bias_sigma_dps, min_speed)
-    check_turns(
-        imu, sol, axes, search_s=search_s, offset_s=offset_s, min_speed=min_speed,
-        forward_needed=forward_needed,
-    )  # fmt: skip
+    with np.errstate(invalid="ignore", divide="ignore"):  # NaN comparisons refuse nothing
+        quiet = check_gravity(imu, sol, axes, mounting_deg)
+        check_rest_rate(imu, sol, quiet, gyro_bias_sigma_dps, min_speed)
+        check_turns(
+            imu, sol, axes, search_s=search_s, offset_s=offset_s, min_speed=min_speed,
+            forward_needed=forward_needed,
+        )  # fmt: skip
 
 
 def post_settings(post):

@@ -190,7 +190,7 @@ def _is_float(v):
 def _pos_rows(path):
     """``(header line, columns, values (m, k), time (m,), lines (m,))`` of a .pos file,
     each row parsed as it is read."""
-    header, cols, width = None, None, None
+    header, cols, width, n = None, None, None, 0
     values, times, lines = array.array("d"), array.array("d"), array.array("q")
     for n, text in textlines.lines(path, what="an RTKLIB .pos file"):
         s = text.strip()
@@ -211,9 +211,9 @@ def _pos_rows(path):
         values.extend(_floats(r[2:], path, n))
         lines.append(n)
     if header is None:
-        raise InputError("no column header line (% GPST ...)", source=path)
+        raise InputError("no column header line (% GPST ...)", source=path, line=max(n, 1))
     if not times:
-        raise InputError("no solution epochs", source=path)
+        raise InputError("no solution epochs", source=path, line=max(n, 1))
     m = len(times)
     return header, cols, np.frombuffer(values).reshape(m, -1), np.frombuffer(times), lines
 
@@ -446,7 +446,7 @@ def _csv_header(path):
             return [h.strip() for h in next(csv.reader([text]))]
     except csv.Error as exc:
         raise InputError(f"unreadable header row: {exc}", source=path, line=1) from None
-    raise InputError("empty file: no header row", source=path)
+    raise InputError("empty file: no header row", source=path, line=1)
 
 
 def _csv_keys(columns):
@@ -496,7 +496,7 @@ def read_solution_csv(path, columns, angle_unit="deg", time_scale=1.0, time_offs
     index = [head.index(columns[r]) for r in order]
     values, line = _csv_rows(path, index, {head.index(columns[r]): columns[r] for r in order})
     if line.size == 0:
-        raise InputError("no data rows", source=path)
+        raise InputError("no data rows", source=path, line=2)
     get = {r: values[:, k] for k, r in enumerate(order)}
     get["time"] = time_offset + time_scale * get["time"]
     rows = RowNames(path, line=line, keys=_csv_keys(columns))

@@ -135,8 +135,14 @@ def read_recorded_solution(path):
     }
     rows = RowNames(str(path), base=0, keys=keys)
     line = v["line"]
-    if not np.all(np.isfinite(line)):
-        raise InputError("not finite numbers", source=str(path), key="solution/line")
+    with np.errstate(invalid="ignore"):
+        bad = np.flatnonzero(~((line >= 1) & (line < 2**31) & (line % 1 == 0)))
+    if bad.size:
+        raise InputError(
+            f"row {int(bad[0])}: {line[bad[0]]:.6g} is not a line number (an integer >= 1)",
+            source=str(path),
+            key="solution/line",
+        )
     return checked(
         str(path), v["time"], v["lla"], v["sigma_ned"], v["vel_ned"], v["sigma_vel"], v["q"],
         line.astype(np.int64), rows,
