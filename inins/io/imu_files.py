@@ -190,13 +190,8 @@ def read_imu_increments_mat(path, variable, gyro_columns, accel_columns, time_co
     rows = RowNames(path, base=1, keys=dict.fromkeys(("time", "gyro", "accel"), variable))
     imu_checks.check_time(t, rows, increments=True)
     dt = np.diff(t, prepend=t[0] - np.median(np.diff(t)))
-    imu = ImuRates(
-        path,
-        t - 0.5 * dt,
-        (inc_g / dt[:, None])[:, index] * sign,
-        (inc_a / dt[:, None])[:, index] * sign,
-        None,
-        rows,
-    )
+    with np.errstate(over="ignore", invalid="ignore"):  # beyond any IMU: refused below
+        gyro, acc = (inc_g / dt[:, None])[:, index] * sign, (inc_a / dt[:, None])[:, index] * sign
+    imu = ImuRates(path, t - 0.5 * dt, gyro, acc, None, rows)
     imu_checks.check_rates(imu, rows, increments=True)
     return imu

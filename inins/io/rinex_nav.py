@@ -227,8 +227,9 @@ def read_nav(path):
     if not rows:
         raise InputError("no GPS navigation record", source=str(path), line=end)
     alpha, beta = _iono(header, version, path)
+    records = _records(rows, path)
     return NavigationFile(
-        path=str(path), version=version, records=_records(rows), iono_alpha=alpha, iono_beta=beta
+        path=str(path), version=version, records=records, iono_alpha=alpha, iono_beta=beta
     )
 
 
@@ -254,7 +255,18 @@ def _gps_rows(reader, header, version, ftype, system, path):
     return rows
 
 
-def _records(rows):
+def _whole(values, rows, name, path):
+    """``values`` of an integer field; a fraction is bad input naming the record's line."""
+    bad = np.flatnonzero(values % 1 != 0)
+    if bad.size:
+        i = int(bad[0])
+        raise InputError(
+            f"{name} {values[i]!r} is not a whole number", source=str(path), line=rows[i][3]
+        )
+    return values
+
+
+def _records(rows, path=None):
     """Structured array of :data:`EPHEMERIS_FIELDS` (plus ``line``) from parsed records."""
     dtype = [(name, dt) for name, dt, _, _ in EPHEMERIS_FIELDS] + [("line", "int64")]
     out = np.zeros(len(rows), dtype=dtype)
@@ -267,7 +279,8 @@ def _records(rows):
     out["af0"], out["af1"], out["af2"] = values[:, 0], values[:, 1], values[:, 2]
     for j, name in enumerate(_ORBIT):
         if name is not None:
-            out[name] = values[:, 3 + j]
+            v = values[:, 3 + j]
+            out[name] = _whole(v, rows, name, path) if out.dtype[name].kind == "i" else v
     fit = out["fit_interval"]
     out["fit_interval"] = np.where(fit > 0, fit, 4.0)  # 0 or blank: the 4 h fit
     # toc is a calendar date: its week may differ from that of toe across a week boundary
@@ -477,8 +490,8 @@ def read_navigation(path, *, leap_seconds=None):
     return MixedNavigation(
         path=str(path),
         version=version,
-        records=_kepler_records(kepler),
-        glonass=_glonass_records(glo, leap or 0),
+        records=_kepler_records(kepler, path),
+        glonass=_glonass_records(glo, leap or 0, path),
         iono_alpha=alpha,
         iono_beta=beta,
         leap_seconds=leap,
@@ -559,23 +572,23 @@ def _rinex4_record(rec, n, path, kepler, glo, skipped, iono=None):
     _record(rec[1 : 1 + count], n + 1, letter, False, path, kepler, glo, skipped)
 
 
-def _kepler_records(rows):
+def _kepler_records(rows, path=None):
     dtype = [(name, dt) for name, dt, _, _ in EPHEMERIS_FIELDS] + [("line", "int64")]
     if not rows:
         return np.zeros(0, dtype=dtype)
-    out = _records(rows)
+    out = _records(rows, path)
     values = np.array([r[2] for r in rows])
     system = out["prn"] // 100
     gal = system == 2
     if gal.any():  # BGD of the message's frequency pair: E5b/E1 for I/NAV (source bit 9)
-        sources = values[:, 3 + 17].astype(np.int64)
+        sources = _whole(values[:, 3 + 17], rows, "data sources", path).astype(np.int64)
         e5b = (sources & (1 << 9)) != 0
         out["tgd"] = np.where(gal & e5b, values[:, 3 + 23], out["tgd"])
     out["fit_interval"] = np.where(system == 0, out["fit_interval"], 4.0)
     return out
 
 
-def _glonass_records(rows, leap_seconds):
+def _glonass_records(rows, leap_seconds, path=None):
     dtype = [(f[0], f[1], f[4]) if len(f) == 5 else (f[0], f[1]) for f in GLONASS_FIELDS]
     out = np.zeros(len(rows), dtype=dtype)
     if not rows:
@@ -591,6 +604,6 @@ def _glonass_records(rows, leap_seconds):
     out["clock_bias"], out["gamma"] = values[:, 0], values[:, 1]
     orbit = values[:, 3:15].reshape(-1, 3, 4) * 1e3  # km -> m
     out["pos"], out["vel"], out["acc"] = orbit[:, :, 0], orbit[:, :, 1], orbit[:, :, 2]
-    out["health"] = values[:, 6].astype(np.int64)
-    out["channel"] = values[:, 10].astype(np.int64)
+    out["health"] = _whole(values[:, 6], rows, "health", path).astype(np.int64)
+    out["channel"] = _whole(values[:, 10], rows, "frequency channel", path).astype(np.int64)
     return out

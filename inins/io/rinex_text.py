@@ -54,15 +54,24 @@ def version_line(header, path):
     return version, content[20:21].upper(), content[40:41].upper() or "G"
 
 
+MAX_NUMBER = 1e12
+"""Largest magnitude of a number in a navigation record (the largest real ones, GLONASS
+positions in km and seconds of week, are below 1e6)."""
+
+
 def parse_float(text, path, line):
-    """A RINEX number (Fortran D exponent allowed; blank is 0.0)."""
+    """A RINEX number (Fortran D exponent allowed; blank is 0.0); NaN, infinity and
+    magnitudes from :data:`MAX_NUMBER` on are no RINEX numbers (bad input, line named)."""
     text = text.strip().replace("D", "E").replace("d", "E")
     if not text:
         return 0.0
     try:
-        return float(text)
+        value = float(text)
     except ValueError:
         raise InputError(f"not a number: {text!r}", source=str(path), line=line) from None
+    if not abs(value) < MAX_NUMBER:
+        raise InputError(f"not a RINEX number: {text!r}", source=str(path), line=line)
+    return value
 
 
 _GPS_EPOCH = np.datetime64("1980-01-06", "D")
