@@ -3,7 +3,7 @@
 :func:`check_rates` is called by every reader of an IMU log for the loosely coupled
 filter (a CSV of rates, a .mat array of increments, the recorded-solution layout), so
 that ``import-flight format: solution`` and ``run-ekf post:`` refuse the same logs
-(docs/design.md §10a). Refused, as bad input naming the file and the line (text), row
+(spec §10a). Refused, as bad input naming the file and the line (text), row
 (.mat, 1-based) or dataset and row (HDF5, 0-based):
 
 - NaN or infinity anywhere (time, gyro, accelerometer, odometer);

@@ -1,5 +1,5 @@
 """Units and axes of an IMU log of rates checked against its GNSS solution, before any
-filter runs (docs/design.md §10a).
+filter runs (spec §10a).
 
 :func:`check_against_gnss` is called by every command that joins an IMU log of rates
 to a solution file (``run-ekf post:``, ``import-flight format: solution``). It refuses,

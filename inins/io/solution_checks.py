@@ -3,7 +3,7 @@
 :func:`check_rows` is called by every reader of solution epochs (RTKLIB ``.pos``,
 the named-column CSV, a ``.mat`` array, the recorded-solution layout), so that
 ``import-flight format: solution`` and ``run-ekf post:`` accept and refuse the same
-files: import-flight never writes an epoch run-ekf would refuse (docs/design.md §10a).
+files: import-flight never writes an epoch run-ekf would refuse (spec §10a).
 
 A row that cannot be a position of a vehicle near the Earth is bad input
 (:class:`~inins.exceptions.InputError`), naming the file and its line (text files),
