@@ -99,36 +99,6 @@ def _iono(header, version, path):
     return alpha, beta
 
 
-def _epoch(first, version, path, line):
-    """PRN, calendar fields and the position of af0 on the epoch line."""
-    try:
-        if version < 3:
-            prn = int(first[0:2])
-            cal = [
-                int(first[3:5]),
-                int(first[6:8]),
-                int(first[9:11]),
-                int(first[12:14]),
-                int(first[15:17]),
-                float(first[17:22]),
-            ]
-            return prn, _calendar(cal, path, line), 22
-        prn = int(first[1:3])
-        cal = [
-            int(first[4:8]),
-            int(first[9:11]),
-            int(first[12:14]),
-            int(first[15:17]),
-            int(first[18:20]),
-            float(first[21:23]),
-        ]
-        return prn, _calendar(cal, path, line), 23
-    except ValueError:
-        raise InputError(
-            f"unreadable epoch line {first.rstrip()!r}", source=str(path), line=line
-        ) from None
-
-
 def _calendar(cal, path, line):
     problem = calendar_problem(*cal)
     if problem:
@@ -188,8 +158,9 @@ def _records4(reader, path):
 
 
 def read_nav(path):
-    """Read a RINEX 2 or 3 GPS navigation file (a RINEX 4 file: its GPS LNAV records,
-    through :func:`read_navigation`).
+    """Read the GPS records of a RINEX 2 or 3 GPS (or mixed) navigation file, or of a
+    RINEX 4 file (its LNAV records): :func:`read_navigation` of system G, the records of
+    other systems counted and not parsed (so no leap seconds are needed).
 
     Parameters
     ----------
@@ -207,52 +178,22 @@ def read_nav(path):
         (file and line named); no GPS record at all.
     """
     with open_rinex(path) as reader:
-        header = read_header(reader)
-        version, ftype, system = version_line(header, path)
-        if not (4.0 <= version < 5.0 and ftype == "N"):
-            rows = _gps_rows(reader, header, version, ftype, system, path)
-        end = reader.number
-    if 4.0 <= version < 5.0 and ftype == "N":  # RINEX 4: message records
-        mixed = read_navigation(path)
-        gps = mixed.records[mixed.records["prn"] < 100]
-        if not len(gps):
-            raise InputError("no GPS navigation record", source=str(path), line=end)
-        return NavigationFile(
-            path=str(path),
-            version=version,
-            records=gps,
-            iono_alpha=mixed.iono_alpha,
-            iono_beta=mixed.iono_beta,
-        )
-    if not rows:
-        raise InputError("no GPS navigation record", source=str(path), line=end)
-    alpha, beta = _iono(header, version, path)
-    records = _records(rows, path)
-    return NavigationFile(
-        path=str(path), version=version, records=records, iono_alpha=alpha, iono_beta=beta
-    )
-
-
-def _gps_rows(reader, header, version, ftype, system, path):
-    """The parsed GPS records of a RINEX 2 or 3 navigation body."""
-    if not (
-        (2.0 <= version < 3.0 and ftype == "N")
-        or (3.0 <= version < 4.0 and ftype == "N" and system in ("G", "M"))
-    ):
+        version, ftype, system = version_line(read_header(reader), path)
+    if not (ftype == "N" and (version < 3.0 or version >= 4.0 or system in ("G", "M"))):
         raise InputError(
-            f"not a GPS navigation file of RINEX 2 or 3 (version {version}, "
+            f"not a GPS navigation file of RINEX 2, 3 or 4 (version {version}, "
             f"type {ftype!r}, system {system!r})",
             source=str(path),
             line=1,
         )
-    indent = 4 if version >= 3 else 3
-    rows = []
-    for letter, n, rec in _records23(reader, "G" if version < 3 else None, path):
-        if letter != "G":  # another system of a mixed file
-            continue
-        prn, cal, col = _epoch(rec[0], version, path, n)
-        rows.append((prn, cal, _values(rec, n, col, indent, path), n))
-    return rows
+    mixed = read_navigation(path, systems="G")
+    return NavigationFile(
+        path=str(path),
+        version=version,
+        records=mixed.records,
+        iono_alpha=mixed.iono_alpha,
+        iono_beta=mixed.iono_beta,
+    )
 
 
 def _whole(values, rows, name, path):
@@ -427,7 +368,7 @@ def _v2_calendar(first):
     ]
 
 
-def read_navigation(path, *, leap_seconds=None):
+def read_navigation(path, *, leap_seconds=None, systems=None):
     """Read the broadcast data of every system from a RINEX navigation file.
 
     RINEX 2.1x GPS (``.n``) and GLONASS (``.g``), RINEX 3.0x of any system or mixed,
@@ -442,6 +383,9 @@ def read_navigation(path, *, leap_seconds=None):
     leap_seconds : int, optional
         GPS - UTC (s) for the GLONASS epochs (UTC) when the header has no LEAP SECONDS;
         the header's value otherwise (a different value given here is refused).
+    systems : str, optional
+        RINEX letters of the systems parsed (default all); records of the others are
+        counted in ``skipped``.
 
     Returns
     -------
@@ -468,11 +412,11 @@ def read_navigation(path, *, leap_seconds=None):
         kepler, glo, skipped, iono4 = [], [], {}, {}
         if version >= 4:
             for n, rec in _records4(reader, path):
-                _rinex4_record(rec, n, path, kepler, glo, skipped, iono4)
+                _rinex4_record(rec, n, path, (kepler, glo, skipped, systems), iono4)
         else:
             v2_letter = ("R" if ftype == "G" else "G") if v2 else None
             for letter, n, rec in _records23(reader, v2_letter, path):
-                _record(rec, n, letter, v2, path, kepler, glo, skipped)
+                _record(rec, n, letter, v2, path, (kepler, glo, skipped, systems))
         end = reader.number
     leap, leap_line = _leap(header, leap_seconds, path)
     if glo and leap is None:
@@ -483,7 +427,8 @@ def read_navigation(path, *, leap_seconds=None):
             line=glo[0][-1],
         )
     if not kepler and not glo:
-        raise InputError("no navigation record", source=str(path), line=end)
+        what = "GPS navigation record" if systems == "G" else "navigation record"
+        raise InputError(f"no {what}", source=str(path), line=end)
     alpha, beta = _iono_all(header, version, path)
     if version >= 4 and iono4:
         alpha, beta = iono4["alpha"], iono4["beta"]
@@ -514,9 +459,12 @@ def _leap(header, given, path):
     return (header_leap, line) if header_leap is not None else (given, None)
 
 
-def _record(rec, n, letter, v2, path, kepler, glo, skipped):
-    """Parse one RINEX 2/3 record (lines ``rec``, the first at line ``n``) or count it."""
-    if letter not in "GRECJ":
+def _record(rec, n, letter, v2, path, into):
+    """Parse one RINEX 2/3 record (lines ``rec``, the first at line ``n``) or count it;
+    ``into``: the lists of Keplerian and GLONASS records, the counts of skipped ones and
+    the systems parsed (None: all)."""
+    kepler, glo, skipped, systems = into
+    if letter not in "GRECJ" or (systems is not None and letter not in systems):
         skipped[letter] = skipped.get(letter, 0) + 1
         return
     _, number, cal, col = _epoch_any(rec[0], v2, path, n)
@@ -527,8 +475,10 @@ def _record(rec, n, letter, v2, path, kepler, glo, skipped):
         kepler.append((satellite_number(letter, number), cal, values, n))
 
 
-def _rinex4_record(rec, n, path, kepler, glo, skipped, iono=None):
-    """One RINEX 4 record (a '>' line and its lines, the first at line ``n``)."""
+def _rinex4_record(rec, n, path, into, iono=None):
+    """One RINEX 4 record (a '>' line and its lines, the first at line ``n``); ``into`` as
+    :func:`_record`."""
+    skipped = into[2]
     head = rec[0]
     parts = head[1:].split()
     if head[:1] != ">" or not parts or parts[0] not in RINEX4_RECORDS:
@@ -569,7 +519,7 @@ def _rinex4_record(rec, n, path, kepler, glo, skipped, iono=None):
             source=str(path),
             line=n + 1,
         )
-    _record(rec[1 : 1 + count], n + 1, letter, False, path, kepler, glo, skipped)
+    _record(rec[1 : 1 + count], n + 1, letter, False, path, into)
 
 
 def _kepler_records(rows, path=None):
