@@ -35,7 +35,7 @@ from inins.io.imu_files import (  # noqa: F401 (the IMU readers, re-exported)
     read_imu_increments_mat,
     read_imu_rates_csv,
 )
-from inins.io.solution_checks import RowNames
+from inins.io.solution_checks import CSV_ROLES, RowNames, role_problem  # noqa: F401
 
 WEEK = 604800.0
 """Seconds in a GPS week."""
@@ -306,76 +306,6 @@ def _llh_of_ecef(xyz, path, line, rows=None):
             "position",
         )
     return earth.llh_from_ecef(xyz)
-
-
-CSV_ROLES = (
-    "vel_u",
-    "time",
-    "lat",
-    "lon",
-    "height",
-    "x",
-    "y",
-    "z",
-    "sigma_n",
-    "sigma_e",
-    "sigma_d",
-    "vel_n",
-    "vel_e",
-    "vel_d",
-    "sigma_vn",
-    "sigma_ve",
-    "sigma_vd",
-    "q",
-)
-"""Roles a CSV column can take (the scenario maps role -> column name)."""
-
-
-def role_problem(columns, need_sigma):
-    """What is wrong with a role -> column mapping, or None (one rule for the CSV and
-    .mat readers and the scenario): known roles; ``time``; ``lat lon height`` or
-    ``x y z``, complete and not both; ``sigma_n sigma_e sigma_d`` complete (required
-    when ``need_sigma``); velocity ``vel_n vel_e`` with one of ``vel_d``/``vel_u``, or
-    none; velocity sigmas complete and only with a velocity.
-
-    Returns
-    -------
-    (role, message) or None
-    """
-    have = set(columns)
-    for role in sorted(have):
-        if role not in CSV_ROLES:
-            return role, f"unknown role {role!r} (known: {', '.join(CSV_ROLES)})"
-    if "time" not in have:
-        return "time", "the time column is required"
-    groups = (
-        ("position", ("lat", "lon", "height"), ("x", "y", "z")),
-        ("sigma", ("sigma_n", "sigma_e", "sigma_d"), None),
-        ("velocity sigma", ("sigma_vn", "sigma_ve", "sigma_vd"), None),
-    )
-    for name, first, other in groups:
-        for group in (first, other):
-            if group and have & set(group) and not set(group) <= have:
-                missing = sorted(set(group) - have)
-                return missing[0], f"{name} columns incomplete: {', '.join(missing)} missing"
-    if not ({"lat", "lon", "height"} <= have or {"x", "y", "z"} <= have):
-        return "lat", "need lat, lon, height (or x, y, z ECEF) columns"
-    if {"lat", "x"} <= have:
-        return "x", "give lat, lon, height or x, y, z, not both"
-    if need_sigma and "sigma_n" not in have:
-        return "sigma_n", "the sigma_n, sigma_e, sigma_d columns are required"
-    vel = have & {"vel_n", "vel_e", "vel_d", "vel_u"}
-    if vel:
-        if {"vel_d", "vel_u"} <= vel:
-            return "vel_u", "give vel_d or vel_u, not both"
-        missing = sorted({"vel_n", "vel_e"} - vel) or (
-            [] if vel & {"vel_d", "vel_u"} else ["vel_d (or vel_u)"]
-        )
-        if missing:
-            return missing[0], f"velocity columns incomplete: {', '.join(missing)} missing"
-    elif "sigma_vn" in have:
-        return "sigma_vn", "velocity sigma columns without velocity columns"
-    return None
 
 
 def _roles(columns, need_sigma, key):

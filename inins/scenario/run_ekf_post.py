@@ -143,7 +143,7 @@ class GnssFile(Section):
 
     @model_validator(mode="after")
     def _roles(self):
-        from inins.io.solution_files import role_problem
+        from inins.io.solution_checks import role_problem
 
         if self.format in ("csv", "mat"):
             problem = role_problem(self.columns, self.format == "csv" or self.sigma_m is None)
