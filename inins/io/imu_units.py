@@ -14,7 +14,7 @@ as bad input naming the check, the data it was made on and the likely mistake:
    (within :data:`TILT_DEG` of the vehicle's vertical through ``mounting_deg``): body
    z points down. Otherwise the axis map is wrong; the message gives the IMU axis that
    carries gravity and an axis map that puts it on z.
-3. **Angular rate at rest.** Where the GNSS stands still for 10 s and the quietest
+3. **Angular rate at rest.** Where the GNSS stands still for :data:`STAND_S` and the quietest
    second is still (scatter below :data:`STILL_SCATTER` of ``|f|``), ``|ω|`` there
    must be below the Earth rate plus :data:`BIAS_SIGMAS` times the gyro bias 1-sigma
    the scenario states (its grade); a gyro in deg/s declared rad/s reads 57 times its
@@ -42,6 +42,8 @@ GRAVITY_BAND = (0.8, 1.25)
 """Accepted ``|f| / g`` in the quietest second (a car, a drone, an aircraft in level flight)."""
 TILT_DEG = 30.0
 """Largest angle between the measured up and body -z at rest (deg)."""
+STAND_S = 10.0
+"""The GNSS must stand still this long (s, below 0.2 m/s) for the rate at rest to be checked."""
 STILL_SCATTER = 0.02
 """RMS scatter of the specific force, as a fraction of ``|f|``, below which a second is
 still (a parked car with its engine running: 0.4 %)."""
@@ -183,7 +185,9 @@ def check_rest_rate(imu, sol, quiet, gyro_bias_sigma_dps, min_speed):
     norm = float(np.linalg.norm(imu.accel[i:j].mean(axis=0)))
     tg, vel = _gnss_motion(sol)
     slow = np.linalg.norm(vel, axis=1) < 0.2 * min(min_speed, 1.0)
-    stands = bool(np.any(np.convolve(slow, np.ones(11), "valid") >= 11)) and tg[-1] > 10.0
+    edges = np.diff(np.concatenate([[0], slow.astype(np.int8), [0]]))
+    first, last = np.flatnonzero(edges == 1), np.flatnonzero(edges == -1) - 1
+    stands = bool(np.any(tg[last] - tg[first] >= STAND_S))
     if gyro_bias_sigma_dps is None or scatter > STILL_SCATTER * norm or not stands:
         return
     w = imu.gyro[i:j].mean(axis=0)
