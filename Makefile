@@ -44,11 +44,12 @@ lint: $(STAMP)
 test: lint warmup
 	PYTHONDONTWRITEBYTECODE= $(BIN)/python -m pytest -n auto --dist loadscope
 
-# More examples of the property tests (tests/cli/test_fuzz*.py), random seed:
-# FUZZ_EXAMPLES per test (make test runs 150 of each, derandomized).
+# More examples of the property tests (tests/cli/test_fuzz*.py: scenarios, table data,
+# the recorded flight, every reader of solutions, IMU logs and RINEX), random seed:
+# FUZZ_EXAMPLES per test (make test runs a derandomized subset of each).
 FUZZ_EXAMPLES ?= 5000
 fuzz: $(STAMP)
-	ININS_FUZZ_EXAMPLES=$(FUZZ_EXAMPLES) $(BIN)/python -m pytest tests/cli/test_fuzz.py tests/cli/test_fuzz_flight.py -q
+	ININS_FUZZ_EXAMPLES=$(FUZZ_EXAMPLES) $(BIN)/python -m pytest tests/cli/test_fuzz.py tests/cli/test_fuzz_flight.py tests/cli/test_fuzz_readers.py -q
 
 # the yardsticks the benchmarks compare with (pyins' strapdown, allantools): the bench extra
 BENCH := $(VENV)/.bench

@@ -29,10 +29,14 @@ def compensation_terms(path, unit_name=None, serial=None):
         or made for another unit (when ``unit_name`` / ``serial`` are given), naming
         the file and key.
     """
-    from inins.io.rawlog import read_compensation
+    from inins.scenario.base import load_scenario
     from inins.scenario.calibrate_imu import CompensationFile  # its scenario models: lazily
 
-    comp = read_compensation(path, CompensationFile)
+    try:
+        comp = load_scenario(CompensationFile, path, [], None)[0]
+    except InputError as exc:
+        exc.source = exc.source or str(path)
+        raise
     want = (unit_name, serial)
     have = (comp.unit.name, comp.unit.serial)
     if any(w is not None and w != h for w, h in zip(want, have, strict=True)):

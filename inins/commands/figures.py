@@ -19,6 +19,7 @@ Earth rate seen in each block, and the Allan deviation of each gyro axis.
 import numpy as np
 
 from inins.core import earth
+from inins.core.satellites import LETTERS
 from inins.core.units import ARCSEC, DEG, DPH
 
 FORMULAS = {
@@ -653,7 +654,8 @@ def import_flight_sky(result, path):
         rows = ok & (prn == p)
         ax.plot(az[rows], 90.0 - np.degrees(el[rows]), ".", ms=1.5, color=plt.cm.tab20(k % 20))
         last = np.flatnonzero(rows)[-1]
-        ax.annotate(f"G{p:02d}", (az[last], 90.0 - np.degrees(el[last])), fontsize=7)
+        name = f"{LETTERS[int(p) // 100]}{int(p) % 100:02d}"  # R01 for GLONASS slot 1 (101)
+        ax.annotate(name, (az[last], 90.0 - np.degrees(el[last])), fontsize=7)
     ax.set_rlim(0, 90)
     ax.set_yticks([0, 30, 60, 90], ["90", "60", "30", "0 deg"])
     ax.set_title("sky plot (elevation, azimuth from the fix)", fontsize=9)

@@ -17,11 +17,11 @@ from inins.commands.run_ekf_post import read_post_gnss, read_post_imu
 from inins.core import earth
 from inins.core.units import DEG
 from inins.exceptions import InputError
-from inins.gnss import broadcast, ephemeris, glonass, measurements, spp
+from inins.gnss import broadcast, ephemeris, glonass, gpstime, measurements, spp, timescales
 from inins.gnss import systems as systems_mod
 from inins.gnss.spp import FixStatus
 from inins.gnss.systems import LETTERS, NAMES, rinex_name
-from inins.io import flight_layout, solution_layout
+from inins.io import flight_layout, imu_units, solution_layout
 from inins.io.flight_checks import checked_flight
 from inins.io.flight_layout import ImuRecord, RecordedFlight
 from inins.io.psins_tc import read_psins_tc
@@ -74,11 +74,13 @@ def run(scenario, seed, *, sink=None, progress=None):
         for path, (value, unit, description) in flight_layout.flight_arrays(flight).items()
     }
     datasets.update(check.datasets())
+    used = "".join(LETTERS[k] for k in np.unique(epochs.obs.prn[solution.used] // 100).tolist())
+    systems = {"systems_asked": scenario.systems, "systems_used": used}
     return CommandResult(
         command="import-flight",
-        results=check.results(),
+        results=check.results() | {"systems_used": len(used)},
         datasets=datasets,
-        attrs={"": flight_layout.flight_attrs(flight), "spp": {"ionosphere": iono}},
+        attrs={"": flight_layout.flight_attrs(flight), "spp": {"ionosphere": iono} | systems},
         report=report(scenario, flight, epochs, check, iono),
         warnings=(*flight.dropped, *check.warnings),
     )
@@ -86,14 +88,16 @@ def run(scenario, seed, *, sink=None, progress=None):
 
 def run_solution(scenario):
     """Join a GNSS solution file to an IMU log in the recorded-solution layout
-    (:mod:`inins.io.solution_layout`); both files read and checked by
-    :mod:`inins.io.solution_files` (unknown columns, time not increasing, sigma <= 0:
-    the file and line named). The IMU keeps its own time axis: run-ekf's ``post.time``
+    (:mod:`inins.io.solution_layout`); both files read and checked by the rules run-ekf
+    applies (:mod:`inins.io.solution_checks`, :mod:`inins.io.imu_checks`, the units and
+    axes of :mod:`inins.io.imu_units` but the gyro grade at rest, which is a run-ekf
+    setting: the file and line named). The IMU keeps its own time axis: run-ekf's ``post.time``
     maps it to GNSS time, as from the source files. Refused: IMU and GNSS spans that
     cannot overlap (the IMU log shorter than a tenth of the GNSS span, or the other way,
     so no mapping of the IMU tick onto GNSS time would cover the drive)."""
     sol = read_post_gnss(scenario.solution_gnss)
     imu = read_post_imu(scenario.solution_imu)
+    imu_units.check_against_gnss(imu, sol, scenario.solution_imu.axes)
     span_g = float(sol.time[-1] - sol.time[0])
     span_i = float(imu.time[-1] - imu.time[0])
     if span_g <= 0.0 or span_i < 0.1 * span_g or span_g < 0.1 * span_i:
@@ -160,8 +164,11 @@ RESULT_NAMES = (
     "track_length_imu_m",
     "static_horizontal_std_m",
     "static_speed_rms_mps",
+    "systems_used",
 )
-"""Every result a run gives (null where not applicable)."""
+"""Every result a run gives (null where not applicable); ``systems_used``: how many
+satellite systems the fixes used (the report and the ``spp`` attributes name them and
+the systems asked)."""
 
 
 def declared_results(scenario):
@@ -204,8 +211,30 @@ def read_recording(scenario):
         reference_pos_e=np.full(3, np.nan),
         iono_alpha=nav.iono_alpha,
         iono_beta=nav.iono_beta,
+        dropped=obs_notes(obs_file, scenario.systems),
     )
     return flight, obs_file.approx_pos_e
+
+
+def _system_name(letter):
+    if letter in LETTERS:
+        return f"{NAMES[LETTERS.index(letter)]} ({letter})"
+    return {"I": "NavIC (I)"}.get(letter, letter)
+
+
+def obs_notes(obs_file, systems):
+    """Report lines for what the observation file held and was not read: records of
+    systems not asked (or of no RINEX system) and event epochs, each counted."""
+    notes = []
+    if obs_file.skipped:
+        what = ", ".join(
+            f"{n} of {_system_name(name)}" for name, n in sorted(obs_file.skipped.items())
+        )
+        notes.append(f"satellite records not read (systems asked: {systems}): {what}")
+    if obs_file.events:
+        what = ", ".join(f"{n} with flag {f}" for f, n in sorted(obs_file.events.items()))
+        notes.append(f"event epochs skipped (RINEX flags 2-6): {what}")
+    return tuple(notes)
 
 
 def _gnss_record(obs, carrier):
@@ -274,11 +303,44 @@ def spp_options(section, klobuchar):
 
 
 def _nav_files(scenario):
-    """The scenario's navigation files read for all systems."""
-    return [
+    """The scenario's navigation files read for all systems, their leap seconds checked
+    against the date of their records (:func:`check_leap_seconds`)."""
+    files = [
         read_navigation(path, leap_seconds=scenario.leap_seconds)
         for path in (scenario.nav_file, *scenario.extra_nav_files)
     ]
+    for f in files:
+        check_leap_seconds(f)
+    return files
+
+
+def check_leap_seconds(nav):
+    """The leap seconds of a navigation file (its header's, or the scenario's) must be
+    GPS - UTC at the date of its records (:data:`inins.gnss.timescales.LEAP_SECONDS`):
+    a wrong value moves every GLONASS orbit by the Earth's turn in that time."""
+    if nav.leap_seconds is None:
+        return
+    if len(nav.glonass):
+        week, sow = nav.glonass["week"], nav.glonass["toe"] - nav.leap_seconds
+    else:
+        gps = nav.records[(nav.records["prn"] < 100) | (nav.records["prn"] // 100 == 2)]
+        if not len(gps):
+            return
+        week, sow = gps["week"], gps["toe"]
+    k = len(week) // 2
+    expected = timescales.leap_seconds_at(int(week[k]), float(sow[k]))
+    if expected is None or expected == nav.leap_seconds:
+        return
+    date = str(gpstime.to_datetime64(int(week[k]), float(sow[k])))[:10]
+    where = "the header's LEAP SECONDS" if nav.leap_line else "leap_seconds"
+    problem = (
+        f"{where} is {nav.leap_seconds} s, but GPS - UTC was {expected} s on {date}, the "
+        "date of the records of {file}(IERS Bulletin C): a wrong value turns every GLONASS "
+        "orbit with the Earth by that time"
+    )
+    if nav.leap_line:  # the file's header is wrong
+        raise InputError(problem.format(file=""), source=nav.path, line=nav.leap_line)
+    raise InputError(problem.format(file=f"{nav.path} "), key="leap_seconds")
 
 
 def _navigation(scenario, flight):
@@ -346,6 +408,14 @@ def _read_multi(scenario):
     wavelength = systems_mod.l1_wavelength(obs.prn, channel)
     gnss = _gnss_record(obs, system_observable(obs_file, "L1") * wavelength)
     names = ", ".join(p.name for p in (scenario.nav_file, *scenario.extra_nav_files))
+    notes = obs_notes(obs_file, scenario.systems)
+    absent = [s for s in scenario.systems if s not in observed]
+    if absent:
+        notes += (
+            f"systems asked {scenario.systems}: no "
+            f"{', '.join(_system_name(s) for s in absent)} observation in the file, solved "
+            f"with {''.join(s for s in scenario.systems if s in observed)}",
+        )
     flight = RecordedFlight(
         gnss=gnss,
         ephemeris=nav_records(nav),
@@ -358,6 +428,7 @@ def _read_multi(scenario):
         iono_alpha=next((f.iono_alpha for f in files if f.iono_alpha is not None), None),
         iono_beta=next((f.iono_beta for f in files if f.iono_beta is not None), None),
         glonass=flight_layout.glonass_columns(nav.glonass),
+        dropped=notes,
     )
     return flight, obs_file.approx_pos_e
 
@@ -557,8 +628,10 @@ def report(scenario, flight, epochs, check, iono):
     s = check.sol
     g = flight.gnss
     span = (s.time[-1] - s.time[0]) if len(s.time) else 0.0
+    used = "".join(LETTERS[k] for k in np.unique(epochs.obs.prn[s.used] // 100).tolist())
     lines = [
         f"source: {flight.source}",
+        f"systems: asked {scenario.systems}, used by the fixes {used or 'none'}",
         f"{r['epochs']} epochs over {span:g} s, {len(g.prn)} satellite measurements, "
         f"{len(flight.ephemeris)} broadcast ephemeris sets",
         f"ionosphere: {iono}",
@@ -567,7 +640,7 @@ def report(scenario, flight, epochs, check, iono):
         f"test at false-alarm {scenario.spp.false_alarm:g}",
     ]
     if flight.dropped:
-        lines.append("dropped at the edge checks (counted, not used):")
+        lines.append("read but not used (counted):")
         lines += [f"  {note}" for note in flight.dropped]
     dropped = dict(zip(epochs.dropped_prn.tolist(), epochs.dropped_count.tolist(), strict=True))
     if dropped:

@@ -31,7 +31,7 @@ from inins.core.units import DEG, UG
 from inins.ekf import outages, smoother, sources, timeoffset
 from inins.ekf.tight_store import TightStore
 from inins.exceptions import InputError
-from inins.io import scratch, solution_layout
+from inins.io import imu_units, scratch, solution_layout
 from inins.io import solution_files as sf
 from inins.results import CommandResult, Series
 from inins.scenario.si.run_ekf_post import loose_config
@@ -153,6 +153,7 @@ def run(scenario, seed, *, sink=None, progress=None):
     sol = full.select(keep)
     scale = np.array([g.sigma_scale.get(int(q), 1.0) for q in sol.q])
     imu = read_post_imu(p.imu)
+    imu_units.check_against_gnss(imu, full, p.imu.axes, **imu_units.post_settings(p))
     ref_att = _reference_attitude(g)
     if ref_att is not None:
         ref_att = ref_att[keep]

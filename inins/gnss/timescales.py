@@ -68,3 +68,44 @@ def system_from_gps(system, week, sow):
 def needs_leap_seconds(system):
     """True for the systems whose RINEX epochs are UTC (GLONASS)."""
     return np.asarray(system) == GLONASS
+
+
+LEAP_SECONDS = (
+    ("1981-07-01", 1),
+    ("1982-07-01", 2),
+    ("1983-07-01", 3),
+    ("1985-07-01", 4),
+    ("1988-01-01", 5),
+    ("1990-01-01", 6),
+    ("1991-01-01", 7),
+    ("1992-07-01", 8),
+    ("1993-07-01", 9),
+    ("1994-07-01", 10),
+    ("1996-01-01", 11),
+    ("1997-07-01", 12),
+    ("1999-01-01", 13),
+    ("2006-01-01", 14),
+    ("2009-01-01", 15),
+    ("2012-07-01", 16),
+    ("2015-07-01", 17),
+    ("2017-01-01", 18),
+)
+"""GPS - UTC (s) from each UTC date on (IERS Bulletin C; 0 from 1980-01-06)."""
+LEAP_KNOWN_UNTIL = "2026-06-30"
+"""Last date the table is known for: IERS Bulletin C 70 (July 2025) announced no leap
+second at the end of December 2025; later dates are not checked."""
+
+
+def leap_seconds_at(week, sow):
+    """GPS - UTC (s) at GPS (week, sow) by :data:`LEAP_SECONDS`, or None after
+    :data:`LEAP_KNOWN_UNTIL` (not known here) or before the GPS epoch.
+
+    The instant is taken on the GPS scale; within the 18 s before a leap second the
+    answer can be the old value (irrelevant for a day's file).
+    """
+    when = gpstime.to_datetime64(week, sow)
+    if when < np.datetime64("1980-01-06") or when > np.datetime64(LEAP_KNOWN_UNTIL):
+        return None
+    dates = np.array([d for d, _ in LEAP_SECONDS], dtype="datetime64[ns]")
+    k = int(np.searchsorted(dates, when, side="right"))
+    return 0 if k == 0 else LEAP_SECONDS[k - 1][1]

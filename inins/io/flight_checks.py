@@ -8,11 +8,12 @@ same data: import-flight never writes what run-ekf would later reject.
 Refused (bad input, :class:`~inins.exceptions.InputError`, the dataset and row named):
 a missing or wrongly shaped array (an empty or transposed IMU array), NaN or infinity
 in the IMU time or increments, IMU time that runs backwards, skips samples or is
-scaled wrongly (an interval outside 10 us - 1 s, or increments implying rates no IMU
-measures), epoch offsets out of range, duplicated or swapped epochs, a satellite number
-that is no GPS PRN 1-32 nor another system's number (:mod:`inins.core.satellites`:
-GLONASS 101-127, Galileo 201-236, BeiDou 301-363, ...) or twice in one epoch, an IMU
-record outside every GNSS epoch.
+scaled wrongly (an interval outside 50 us - 0.1 s, or increments implying rates no IMU
+measures: the limits of every IMU reader, :mod:`inins.io.imu_checks`), epoch offsets
+out of range, duplicated or swapped epochs, a satellite number that is no GPS PRN 1-32
+nor another system's number (:mod:`inins.core.satellites`: GLONASS 101-127, Galileo
+201-236, BeiDou 301-363, ...) or twice in one epoch, an IMU record outside every GNSS
+epoch.
 
 Dropped and counted (the count is in :attr:`RecordedFlight.dropped`, which the
 commands print in their report and warnings): epochs with a non-finite time and their
@@ -27,15 +28,20 @@ import numpy as np
 
 from inins.core import satellites
 from inins.exceptions import InputError
+from inins.io import imu_checks
 
 GPS_PRN = (1, 32)
 """Satellite numbers of GPS; other systems' numbers are those of :mod:`inins.core.satellites`."""
-IMU_INTERVAL_S = (1e-5, 1.0)
-"""Median IMU interval accepted (100 kHz to 1 Hz): outside it the time is scaled wrongly."""
-MAX_RATE = {"imu/dtheta": (100.0, "rad/s"), "imu/dv": (2000.0, "m/s^2")}
+IMU_INTERVAL_S = imu_checks.INTERVAL_S
+"""Median IMU interval accepted (20 kHz to 10 Hz, the rule of every IMU reader,
+:mod:`inins.io.imu_checks`): outside it the time is scaled wrongly."""
+MAX_RATE = {
+    "imu/dtheta": (imu_checks.MAX_GYRO_RADPS, "rad/s"),
+    "imu/dv": (imu_checks.MAX_ACCEL_MPS2, "m/s^2"),
+}
 """Largest increment / interval an IMU can record: beyond it the increments are not
 increments (rates, degrees, another unit) or the time is scaled wrongly."""
-GAP_INTERVALS = 2.5
+GAP_INTERVALS = imu_checks.GAP_INTERVALS
 """A step of more than this many median intervals is a gap (lost samples); the PSINS
 recording's 2 ms / 8 ms pairs around its 5 ms are jitter, not gaps."""
 SECONDS_PER_WEEK = 604800.0

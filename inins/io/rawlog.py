@@ -1,8 +1,9 @@
 """Raw-count IMU logs without a table, and calibrate-imu compensation files.
 
 Raw logs: one text file per triad (plain or gzip), rows ``time (s), x, y, z counts``,
-the layout of the imu_tk test data. Compensation files: YAML written by
-``inins calibrate-imu`` (:class:`inins.scenario.calibrate_imu.CompensationFile`).
+the layout of the imu_tk test data. Compensation files: the YAML text written by
+``inins calibrate-imu`` (read back, as a scenario model, by
+:func:`inins.commands._compensation.compensation_terms`: io loads no scenario).
 """
 
 import gzip
@@ -83,18 +84,6 @@ def read_raw_log(accel_file, gyro_file, saturation):
                 key="log.saturation_counts",
             )
     return t_a, acc, gyro
-
-
-def read_compensation(path, model):
-    """A compensation file validated by ``model``; bad input names the file and key."""
-    from inins.scenario.base import load_scenario
-
-    try:
-        loaded, _, _ = load_scenario(model, path, [], None)
-    except InputError as exc:
-        exc.source = exc.source or str(path)
-        raise
-    return loaded
 
 
 def compensation_text(payload):

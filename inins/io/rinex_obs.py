@@ -1,26 +1,41 @@
-"""RINEX 2.11 and 3.x GPS observation files, plain or gzip-compressed.
+"""RINEX 2.11 and 3.x observation files of any of GPS, GLONASS, Galileo, BeiDou and
+QZSS, plain or gzip-compressed, read into one :class:`ObservationFile`.
 
-Header: observation types, APPROX POSITION XYZ, INTERVAL, marker name. Body:
-epoch records (flag 0 or 1 kept; event records 2-5 and cycle-slip records 6
-skipped), each satellite's values as F14.3 in 16-column fields. Only GPS
-satellites are kept (RINEX 2 mixed files: the 'G' and blank entries; RINEX 3:
-lines starting 'G'). The epoch scan is one pass in Python; the numbers of all
-satellite records are converted in one numpy call (fixed-width fields), which
-keeps a 3 MB day file well under half a second.
+Header: observation types (per system in RINEX 3), APPROX POSITION XYZ, INTERVAL,
+marker name, GLONASS SLOT / FRQ #. Body: epoch records with flag 0 or 1 kept; event
+records (flags 2-5) and cycle-slip records (6) skipped and counted
+(:attr:`ObservationFile.events`); a flag above 6 is no RINEX flag: bad input. The
+satellites of the systems asked are kept; the records of other systems, and of
+letters no RINEX version defines, are counted (:attr:`ObservationFile.skipped`) and
+the report says so. An epoch more than :data:`MAX_EPOCH_STEP_S` after the one before
+(a year or month field wrong) is refused, as is one before it.
 
-RINEX 3 observation codes are reported under RINEX 2 names by
-:func:`observable`: ``C1C`` -> C1, ``C1W``/``C1P``/``C1Y`` -> P1,
-``C2W``/``C2P``/``C2Y``/``C2D`` -> P2, ``D1C`` -> D1, ``S1C`` -> S1, ``L1C`` -> L1.
+The file is read a bounded line at a time (:mod:`inins.io.textlines`) and each epoch
+checked as it comes, so junk is refused at its first line; the numbers of all
+satellite records are converted in one numpy call (fixed-width fields), which keeps a
+3 MB day file well under half a second.
+
+:func:`observable` gives a column under its RINEX 2 name (GPS files; RINEX 3 codes
+``C1C`` -> C1, ``C1W``/``C1P``/``C1Y`` -> P1, ``C2W``/``C2P``/``C2Y``/``C2D`` -> P2,
+``D1C`` -> D1, ``S1C`` -> S1, ``L1C`` -> L1); :func:`system_observable` the per-system
+choice of :data:`RINEX3_SYSTEM_NAMES` for every row of a mixed file.
 """
 
 import re
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
 
+from inins.core.satellites import LETTERS
 from inins.exceptions import InputError
-from inins.io.rinex_text import gps_week_sow, read_lines, split_header, version_line
+from inins.io.rinex_text import (
+    calendar_problem,
+    gps_week_sow,
+    open_rinex,
+    read_header,
+    version_line,
+)
 
 RINEX3_NAMES = {
     "C1": ("C1C",),
@@ -31,11 +46,20 @@ RINEX3_NAMES = {
     "L1": ("L1C", "L1W", "L1P"),
 }
 """RINEX 3 codes (first found wins) for each RINEX 2 observable name."""
+READABLE = LETTERS[:5]
+"""Systems whose observations can be read: G R E C J."""
+RINEX_LETTERS = "GRECJSI"
+"""Satellite system letters of RINEX 2.11 and 3.0x (S SBAS and I IRNSS/NavIC not read)."""
+MAX_EPOCH_STEP_S = 7 * 86400.0
+"""Largest step between two epochs of one file (s): a week (a wrong year, month or day
+field is refused, not folded into the week)."""
+MAX_FLAG = 6
+"""Largest RINEX epoch flag (6: cycle-slip records)."""
 
 
 @dataclass(frozen=True)
 class ObservationFile:
-    """GPS observations read from a RINEX file.
+    """Observations of the systems asked, read from a RINEX 2.11 or 3.0x file.
 
     Attributes
     ----------
@@ -45,7 +69,12 @@ class ObservationFile:
     approx_pos_e : ndarray, shape (3,), m (APPROX POSITION XYZ; NaN if absent)
     interval : float, s (NaN if absent)
     types : tuple of str
-        Observation type of each column of ``values`` (as in the file).
+        Observation type of each column of ``values`` (RINEX 2: the header's; RINEX 3:
+        the union of the kept systems' codes, NaN on rows of a system without one).
+    system_types : dict
+        System letter -> its observation codes.
+    glonass_channels : dict
+        GLONASS SLOT / FRQ # of the header (slot -> channel; empty when absent).
     week : ndarray of int64, shape (n_epochs,)
     time : ndarray, shape (n_epochs,), s
         GPS seconds of week of the epoch (receiver time tag).
@@ -53,9 +82,15 @@ class ObservationFile:
     start : ndarray of int64, shape (n_epochs + 1,)
         Satellite rows of epoch ``k``: ``start[k]:start[k + 1]``.
     prn : ndarray of int64, shape (m,)
+        Satellite number of :mod:`inins.core.satellites` (100 * system + number; GPS
+        PRN 1-32 as themselves).
     values : ndarray, shape (m, n_types)
         Observations in the file's units (m, cycles, Hz, dB-Hz); NaN where blank.
     line : ndarray of int64, shape (m,), 1-based line of each satellite record
+    skipped : dict
+        System letter -> satellite records not read (systems not asked, unknown letters).
+    events : dict
+        Epoch flag (2-6) -> records skipped.
     """
 
     path: str
@@ -64,6 +99,8 @@ class ObservationFile:
     approx_pos_e: np.ndarray
     interval: float
     types: tuple
+    system_types: dict
+    glonass_channels: dict
     week: np.ndarray
     time: np.ndarray
     flag: np.ndarray
@@ -71,6 +108,8 @@ class ObservationFile:
     prn: np.ndarray
     values: np.ndarray
     line: np.ndarray
+    skipped: dict = field(default_factory=dict)
+    events: dict = field(default_factory=dict)
 
 
 def observable(obs, name):
@@ -85,7 +124,8 @@ def observable(obs, name):
     return np.full(len(obs.prn), np.nan)
 
 
-def _header_info(header, version, path, keep="G"):
+def _header_info(header, version, path, keep):
+    """(types per kept system, marker, interval, position, GLONASS channels)."""
     types, marker, interval, pos = [], "", np.nan, np.full(3, np.nan)
     system, per_system, channels = "", {}, {}
     for label, content, line in header:
@@ -95,8 +135,6 @@ def _header_info(header, version, path, keep="G"):
             system = content[0] if content[0] != " " else system
             if system in keep:
                 per_system.setdefault(system, []).extend(content[7:60].split())
-                if system == "G":
-                    types += content[7:60].split()
         elif label == "GLONASS SLOT / FRQ #":
             words = content[4:60].split()
             for slot, k in zip(words[::2], words[1::2], strict=False):
@@ -114,17 +152,12 @@ def _header_info(header, version, path, keep="G"):
             interval = _float(content[:10], path, line)
         elif label == "APPROX POSITION XYZ":
             pos = np.array([_float(content[14 * i : 14 * i + 14], path, line) for i in range(3)])
-    if keep != "G":
-        if version < 3:
-            per_system = dict.fromkeys(keep, types)
-        if not any(per_system.values()):
-            raise InputError(
-                f"no observation types of the systems {keep!r} in the header", source=str(path)
-            )
-        return per_system, marker, interval, pos, channels
-    if not types:
-        raise InputError("no GPS observation types in the header", source=str(path))
-    return tuple(types), marker, interval, pos
+    if version < 3:
+        per_system = dict.fromkeys(keep, types) if types else {}
+    if not any(per_system.values()):
+        names = "GPS" if keep == "G" else f"the systems {keep!r}"
+        raise InputError(f"no observation types of {names} in the header", source=str(path))
+    return per_system, marker, interval, pos, channels
 
 
 def _float(text, path, line):
@@ -137,18 +170,102 @@ def _float(text, path, line):
 class _Body:
     """Accumulates epochs and satellite records while scanning."""
 
-    def __init__(self):
+    def __init__(self, keep):
+        self.keep = keep
         self.cal, self.flag, self.count, self.epoch_line = [], [], [], []
         self.prn, self.text, self.line = [], [], []
-        self.count_all = []
+        self.skipped, self.events = {}, {}
+        self.count_all = 0
+
+    def skip(self, letter):
+        """Count a record of a system not asked (or of no RINEX system)."""
+        name = letter if letter in RINEX_LETTERS else f"unknown system {letter!r}"
+        self.skipped[name] = self.skipped.get(name, 0) + 1
+
+    def epoch(self, cal, flag, kept, line):
+        self.cal.append(cal)
+        self.flag.append(flag)
+        self.count.append(kept)
+        self.epoch_line.append(line)
 
 
-def _truncated(path, line, what):
-    return InputError(f"truncated epoch record: {what}", source=str(path), line=line)
+def _take(reader, count, path, what, start_line):
+    """``count`` lines from the reader; the end of the file first is a truncated record."""
+    out = reader.take(count)
+    if len(out) < count:
+        raise InputError(f"truncated epoch record: {what}", source=str(path), line=start_line)
+    return out
 
 
-_V2_EPOCH = re.compile(r"^ [ \d]\d [ \d]\d [ \d]\d [ \d]\d [ \d]\d [ \d]\d\.\d{7}  [0-6][ \d]{2}\d")
+_V2_EPOCH = re.compile(r"^ [ \d]\d [ \d]\d [ \d]\d [ \d]\d [ \d]\d [ \d]\d\.\d{7}  [0-9][ \d]{2}\d")
 """A RINEX 2 epoch line (`` 15  1  8  0  0  0.0000000  0 12G01...``)."""
+
+
+def _epoch_fields(line, path, n, v3):
+    """(calendar, flag, satellite count) of an epoch line; bad input if unreadable."""
+    try:
+        if v3:
+            cal = (int(line[2:6]), int(line[7:9]), int(line[10:12]), int(line[13:15]),
+                   int(line[16:18]), float(line[18:29]))  # fmt: skip
+            flag, nsat = int(line[31:32] or 0), int(line[32:35])
+        else:
+            cal = (int(line[1:3]), int(line[4:6]), int(line[7:9]), int(line[10:12]),
+                   int(line[13:15]), float(line[15:26]))  # fmt: skip
+            flag, nsat = int(line[26:29] or 0), int(line[29:32])
+    except ValueError:
+        raise InputError(
+            f"unreadable epoch line {line.rstrip()[:80]!r}", source=str(path), line=n
+        ) from None
+    if not 0 <= flag <= MAX_FLAG:
+        raise InputError(
+            f"epoch flag {flag} is not a RINEX flag (0-{MAX_FLAG})", source=str(path), line=n
+        )
+    problem = calendar_problem(*cal)
+    if problem:
+        raise InputError(f"epoch line with an impossible {problem}", source=str(path), line=n)
+    return cal, flag, nsat
+
+
+def _scan_v2(reader, n_types, path, keep):
+    """RINEX 2 body: records of ceil(n_types / 5) lines of 80 columns per satellite."""
+    per = (n_types + 4) // 5
+    body = _Body(keep)
+    while (line := reader.next()) is not None:
+        if not line.strip():
+            continue
+        epoch_line = reader.number
+        cal, flag, nsat = _epoch_fields(line, path, epoch_line, v3=False)
+        if flag > 1:  # event record: nsat special lines follow
+            _take(reader, nsat, path, f"{nsat} event lines expected", epoch_line)
+            body.events[flag] = body.events.get(flag, 0) + 1
+            continue
+        extra = (nsat - 1) // 12 if nsat > 0 else 0
+        more = _take(reader, extra, path, "satellite list continues past the end", epoch_line)
+        ids = line[32:68] + "".join(x[32:68] for x in more)
+        _check_satellite_list(ids, nsat, path, epoch_line)
+        first = reader.number + 1
+        block = _take(reader, nsat * per, path, f"{nsat} satellites x {per} lines expected", first)
+        kept = 0
+        for i in range(nsat):
+            rec = block[i * per : (i + 1) * per]
+            if _V2_EPOCH.match(rec[0]):
+                raise InputError(
+                    f"the epoch line {epoch_line} counts {nsat} satellites but only {i} "
+                    "records follow before this epoch line",
+                    source=str(path),
+                    line=first + i * per,
+                )
+            sid = ids[3 * i : 3 * i + 3]
+            if sid[0] in keep:
+                body.prn.append(sid)
+                body.text.append("".join(x.ljust(80)[:80] for x in rec))
+                body.line.append(first + i * per)
+                kept += 1
+            else:
+                body.skip(sid[0])
+        body.epoch(cal, flag, kept, epoch_line)
+    offsets = [(j // 5) * 80 + (j % 5) * 16 for j in range(n_types)]
+    return body, per * 80, offsets
 
 
 def _check_satellite_list(ids, nsat, path, line):
@@ -163,136 +280,57 @@ def _check_satellite_list(ids, nsat, path, line):
         )
 
 
-def _epoch_v2(line, path, k):
-    try:
-        cal = (
-            int(line[1:3]),
-            int(line[4:6]),
-            int(line[7:9]),
-            int(line[10:12]),
-            int(line[13:15]),
-            float(line[15:26]),
-        )
-        return cal, int(line[26:29] or 0), int(line[29:32])
-    except ValueError:
-        raise InputError(
-            f"unreadable epoch line {line.rstrip()!r}", source=str(path), line=k + 1
-        ) from None
-
-
-def _scan_v2(lines, k, n_types, path, keep="G "):
-    """RINEX 2 body: records of ceil(n_types / 5) lines of 80 columns per satellite."""
-    per = (n_types + 4) // 5
-    body, n = _Body(), len(lines)
-    while k < n:
-        line = lines[k]
-        if not line.strip():
-            k += 1
-            continue
-        cal, flag, nsat = _epoch_v2(line, path, k)
-        extra = (nsat - 1) // 12 if flag < 2 else 0
-        if k + extra >= n:
-            raise _truncated(path, k + 1, "satellite list continues past the end of the file")
-        ids = line[32:68] + "".join(lines[k + 1 + j][32:68] for j in range(extra))
-        epoch_line = k + 1
-        k += 1 + extra
-        if flag > 1:  # event record: nsat special lines follow
-            k += nsat
-            continue
-        _check_satellite_list(ids, nsat, path, epoch_line)
-        if k + nsat * per > n:
-            raise _truncated(
-                path,
-                k + 1,
-                f"{nsat} satellites x {per} lines expected, {n - k} lines left in the file",
-            )
-        kept = 0
-        for i in range(nsat):
-            sid = ids[3 * i : 3 * i + 3]
-            if _V2_EPOCH.match(lines[k]):
-                raise InputError(
-                    f"the epoch line {epoch_line} counts {nsat} satellites but only {i} "
-                    "records follow before this epoch line",
-                    source=str(path),
-                    line=k + 1,
-                )
-            if sid[0] in keep:
-                body.prn.append(sid)
-                body.text.append("".join(lines[k + j].ljust(80)[:80] for j in range(per)))
-                body.line.append(k + 1)
-                kept += 1
-            k += per
-        body.cal.append(cal)
-        body.flag.append(flag)
-        body.count.append(kept)
-        body.epoch_line.append(epoch_line)
-    offsets = [(j // 5) * 80 + (j % 5) * 16 for j in range(n_types)]
-    return body, per * 80, offsets
-
-
-def _scan_v3(lines, k, n_types, path, keep="G"):
+def _scan_v3(reader, n_types, path, keep):
     """RINEX 3 body: '>' epoch lines, one line per satellite ('G01' + 16-column fields)."""
     width = 16 * n_types
-    body, n = _Body(), len(lines)
-    while k < n:
-        line = lines[k]
+    body = _Body(keep)
+    while (line := reader.next()) is not None:
         if not line.strip():
-            k += 1
             continue
         if line[0] != ">":
             after = (
-                f" (the epoch line {body.epoch_line[-1]} counts {body.count_all[-1]} "
-                "satellites: more records follow than it counts)"
+                f" (the epoch line {body.epoch_line[-1]} counts {body.count_all} satellites: "
+                "more records follow than it counts)"
                 if body.epoch_line
                 else ""
             )
             raise InputError(
                 f"expected an epoch line starting '>', found {line[:20]!r}{after}",
                 source=str(path),
-                line=k + 1,
+                line=reader.number,
             )
-        try:
-            cal = (
-                int(line[2:6]),
-                int(line[7:9]),
-                int(line[10:12]),
-                int(line[13:15]),
-                int(line[16:18]),
-                float(line[18:29]),
-            )
-            flag, nsat = int(line[31:32] or 0), int(line[32:35])
-        except ValueError:
-            raise InputError(
-                f"unreadable epoch line {line.rstrip()!r}", source=str(path), line=k + 1
-            ) from None
-        epoch_line = k + 1
-        k += 1
+        epoch_line = reader.number
+        cal, flag, nsat = _epoch_fields(line, path, epoch_line, v3=True)
         if flag > 1:
-            k += nsat
+            _take(reader, nsat, path, f"{nsat} event lines expected", epoch_line)
+            body.events[flag] = body.events.get(flag, 0) + 1
             continue
-        short = next((j for j in range(k, min(k + nsat, n)) if lines[j][:1] == ">"), None)
+        block = reader.take(nsat)
+        short = next((j for j, x in enumerate(block) if x[:1] == ">"), None)
         if short is not None:
             raise InputError(
-                f"the epoch line {epoch_line} counts {nsat} satellites but only "
-                f"{short - k} records follow before the next epoch line",
+                f"the epoch line {epoch_line} counts {nsat} satellites but only {short} "
+                "records follow before the next epoch line",
                 source=str(path),
-                line=short + 1,
+                line=epoch_line + 1 + short,
             )
-        if k + nsat > n:
-            raise _truncated(path, k, f"{nsat} satellite lines expected")
+        if len(block) < nsat:
+            raise InputError(
+                f"truncated epoch record: {nsat} satellite lines expected",
+                source=str(path),
+                line=epoch_line + 1,
+            )
         kept = 0
-        for j in range(k, k + nsat):
-            if lines[j][0] in keep:
-                body.prn.append(lines[j][:3])
-                body.text.append(lines[j][3:].ljust(width)[:width])
-                body.line.append(j + 1)
+        for j, rec in enumerate(block):
+            if rec[:1] in keep:
+                body.prn.append(rec[:3])
+                body.text.append(rec[3:].ljust(width)[:width])
+                body.line.append(epoch_line + 1 + j)
                 kept += 1
-        k += nsat
-        body.cal.append(cal)
-        body.flag.append(flag)
-        body.count.append(kept)
-        body.count_all.append(nsat)
-        body.epoch_line.append(epoch_line)
+            else:
+                body.skip(rec[:1])
+        body.count_all = nsat
+        body.epoch(cal, flag, kept, epoch_line)
     return body, width, [16 * j for j in range(n_types)]
 
 
@@ -320,18 +358,8 @@ def _numbers(body, width, offsets, path):
         raise
 
 
-def _satellites(body, path):
-    """System letters (S1 array) and numbers of the satellite records."""
-    ids = np.array(body.prn, dtype="S3").view("S1").reshape(-1, 3)
-    try:
-        number = np.ascontiguousarray(ids[:, 1:3]).view("S2").ravel().astype(np.int64)
-    except ValueError:
-        raise InputError("unreadable satellite number", source=str(path)) from None
-    return ids[:, 0], number
-
-
-def _check_epoch_order(t, epoch_line, path):
-    """Epochs must follow each other in time: a repeated or earlier epoch is refused."""
+def _check_epoch_times(t, epoch_line, path):
+    """Epochs follow each other in time, at most :data:`MAX_EPOCH_STEP_S` apart."""
     step = np.diff(t)
     back = np.flatnonzero(step <= 0.0)
     if back.size:
@@ -343,19 +371,28 @@ def _check_epoch_order(t, epoch_line, path):
             source=str(path),
             line=epoch_line[i],
         )
+    jump = np.flatnonzero(step > MAX_EPOCH_STEP_S)
+    if jump.size:
+        i = int(jump[0]) + 1
+        raise InputError(
+            f"this epoch is {step[i - 1] / 86400.0:.6g} days after the epoch at line "
+            f"{epoch_line[i - 1]}: a year, month or day field wrong (epochs of one file are "
+            f"at most {MAX_EPOCH_STEP_S / 86400.0:g} days apart)",
+            source=str(path),
+            line=epoch_line[i],
+        )
 
 
 def read_obs(path, systems="G"):
-    """Read a RINEX 2.11 or 3.x GPS observation file (GPS satellites only).
+    """Read the satellites of ``systems`` from a RINEX 2.11 or 3.0x observation file.
 
     Parameters
     ----------
     path : str or Path
         ``.YYo``, ``.rnx`` or either gzip-compressed.
     systems : str
-        RINEX letters of the systems to keep: ``"G"`` (the default) reads GPS as it
-        always did; ``"GREC"`` (any of G R E C J) reads a mixed file
-        (:func:`read_mixed_obs`).
+        RINEX letters of the systems to keep (any of G R E C J); ``"G"``, the default,
+        reads GPS under its RINEX 2 names (:func:`observable`).
 
     Returns
     -------
@@ -364,49 +401,91 @@ def read_obs(path, systems="G"):
     Raises
     ------
     InputError
-        Another version or file type, a file without GPS, a truncated epoch
-        record or an unreadable number (file and line named).
+        Another version or file type; a single-system file of a system not asked for;
+        no observation type of the systems asked; a truncated or unreadable record, an
+        impossible epoch or one a week after the last (file and line named).
     """
-    if systems != "G":
-        return read_mixed_obs(path, systems)
-    lines = read_lines(path)
-    header, k = split_header(lines, path)
-    version, ftype, system = version_line(header, path)
-    if ftype != "O" or not (2.0 <= version < 4.0) or system not in ("G", "M", " "):
-        raise InputError(
-            f"not a GPS observation file of RINEX 2 or 3 (version {version}, "
-            f"type {ftype!r}, system {system!r})",
-            source=str(path),
-            line=1,
-        )
-    types, marker, interval, pos = _header_info(header, version, path)
-    scan = _scan_v2 if version < 3 else _scan_v3
-    body, width, offsets = scan(lines, k, len(types), path)
+    unknown = set(systems) - set(READABLE)
+    if unknown or not systems:
+        raise InputError(f"unknown satellite systems {sorted(unknown)}", source=str(path))
+    with open_rinex(path) as reader:
+        header = read_header(reader)
+        version, ftype, system = version_line(header, path)
+        single = "G" if system == " " else system
+        if ftype != "O" or not (2.0 <= version < 4.0) or (single != "M" and single not in systems):
+            raise InputError(
+                f"not an observation file of RINEX 2 or 3 with the systems {systems!r} "
+                f"(version {version}, type {ftype!r}, system {system!r})",
+                source=str(path),
+                line=1,
+            )
+        per_system, marker, interval, pos, channels = _header_info(header, version, path, systems)
+        if version < 3:
+            keep = systems + (" " if "G" in systems else "")
+            types = per_system[next(iter(per_system))]
+            body, width, offsets = _scan_v2(reader, len(types), path, keep)
+            union, columns = tuple(types), None
+        else:
+            n_max = max(len(t) for t in per_system.values())
+            body, width, offsets = _scan_v3(reader, n_max, path, "".join(per_system))
+            union = tuple(dict.fromkeys(c for t in per_system.values() for c in t))
+            columns = {s: [union.index(c) for c in t] for s, t in per_system.items()}
+        end = reader.number
     if not body.cal:
         raise InputError(
             "no observation epoch after the header (a header-only file?)",
             source=str(path),
-            line=len(lines),
+            line=end,
         )
-    values = _numbers(body, width, offsets, path)
-    _, prn = _satellites(body, path)
+    return _build(path, version, marker, pos, interval, per_system, channels, body, width,
+                  offsets, union, columns)  # fmt: skip
+
+
+def _build(path, version, marker, pos, interval, per_system, channels, body, width, offsets,
+           union, columns):  # fmt: skip
+    """The :class:`ObservationFile` of a scanned body (the one builder of both versions)."""
+    parsed = _numbers(body, width, offsets, path)
+    ids = np.array(body.prn, dtype="S3").view("S1").reshape(-1, 3)
+    digits = np.isin(ids[:, 1:], [bytes([c]) for c in b" 0123456789"]).all(axis=1)
+    digits &= ids[:, 2] != b" "
+    if not digits.all():
+        i = int(np.flatnonzero(~digits)[0])
+        where = {"source": str(path), "line": body.line[i]}
+        raise InputError(f"unreadable satellite {body.prn[i]!r}", **where)
+    letters = np.where(ids[:, 0] == b" ", b"G", ids[:, 0])
+    number = np.char.replace(np.ascontiguousarray(ids[:, 1:3]).view("S2").ravel(), b" ", b"0")
+    number = number.astype(np.int64)
+    code = np.zeros(len(number), np.int64)
+    for i, letter in enumerate(LETTERS):
+        code[letters == letter.encode()] = i
+    if columns is None:
+        values = parsed
+    else:
+        values = np.full((len(number), len(union)), np.nan)
+        for s, cols in columns.items():
+            rows = np.flatnonzero(letters == s.encode())
+            values[np.ix_(rows, cols)] = parsed[rows][:, : len(cols)]
     cal = np.array(body.cal, dtype=float).reshape(-1, 6)
     week, sow = gps_week_sow(*cal[:, :5].astype(np.int64).T, cal[:, 5])
-    _check_epoch_order(np.asarray(week, float) * 604800.0 + sow, body.epoch_line, path)
+    _check_epoch_times(np.asarray(week, float) * 604800.0 + sow, body.epoch_line, path)
     return ObservationFile(
         path=str(path),
         version=version,
         marker=marker,
         approx_pos_e=pos,
         interval=interval,
-        types=types,
+        types=union,
+        system_types={s: tuple(t) for s, t in per_system.items()},
+        glonass_channels=channels,
         week=np.asarray(week, np.int64),
         time=np.asarray(sow, float),
         flag=np.array(body.flag, np.int8),
         start=np.concatenate([[0], np.cumsum(body.count, dtype=np.int64)]),
-        prn=prn,
+        prn=code * 100 + number % 100,
         values=values,
         line=np.array(body.line, np.int64),
+        skipped=dict(body.skipped),
+        events=dict(body.events),
     )
 
 
@@ -447,118 +526,10 @@ being the reference of the broadcast clock); where both are observed the
 ionosphere-free combination is formed (:func:`inins.gnss.measurements.code_pseudorange`)."""
 
 
-@dataclass(frozen=True)
-class MixedObservationFile:
-    """Observations of several systems read from a RINEX 2.11 or 3.0x file.
-
-    As :class:`ObservationFile`, with ``prn`` the satellite number of
-    :mod:`inins.core.satellites` (100 * system + number), ``types`` the union of the
-    systems' observation codes (a column is NaN on rows of a system without it),
-    ``system_types`` the codes of each system letter and ``glonass_channels`` the
-    header's GLONASS SLOT / FRQ # (slot -> channel; empty when absent).
-    """
-
-    path: str
-    version: float
-    marker: str
-    approx_pos_e: np.ndarray
-    interval: float
-    types: tuple
-    system_types: dict
-    glonass_channels: dict
-    week: np.ndarray
-    time: np.ndarray
-    flag: np.ndarray
-    start: np.ndarray
-    prn: np.ndarray
-    values: np.ndarray
-    line: np.ndarray
-
-
-def read_mixed_obs(path, systems="GREC"):
-    """Read the satellites of ``systems`` (RINEX letters) from a RINEX 2.11 or 3.0x file.
-
-    Raises
-    ------
-    InputError
-        Another version or type; a single-system file of a system not asked for; no
-        observation type of the systems asked; truncated or unreadable records.
-    """
-    from inins.core.satellites import LETTERS
-
-    unknown = set(systems) - set(LETTERS[:5])
-    if unknown:
-        raise InputError(f"unknown satellite systems {sorted(unknown)}", source=str(path))
-    lines = read_lines(path)
-    header, k = split_header(lines, path)
-    version, ftype, system = version_line(header, path)
-    single = "G" if system == " " else system
-    if ftype != "O" or not (2.0 <= version < 4.0) or (single != "M" and single not in systems):
-        raise InputError(
-            f"not an observation file of RINEX 2 or 3 with the systems {systems!r} "
-            f"(version {version}, type {ftype!r}, system {system!r})",
-            source=str(path),
-            line=1,
-        )
-    per_system, marker, interval, pos, channels = _header_info(header, version, path, systems)
-    keep = systems + (" " if "G" in systems else "")
-    if version < 3:
-        types = per_system[next(iter(per_system))]
-        body, width, offsets = _scan_v2(lines, k, len(types), path, keep)
-        union = tuple(types)
-        columns = None
-    else:
-        n_max = max(len(t) for t in per_system.values())
-        body, width, offsets = _scan_v3(lines, k, n_max, path, "".join(per_system))
-        union = tuple(dict.fromkeys(c for t in per_system.values() for c in t))
-        columns = {s: [union.index(c) for c in t] for s, t in per_system.items()}
-    if not body.cal:
-        raise InputError(
-            "no observation epoch after the header (a header-only file?)",
-            source=str(path),
-            line=len(lines),
-        )
-    parsed = _numbers(body, width, offsets, path)
-    letters, number = _satellites(body, path)
-    letters = np.where(letters == b" ", b"G", letters)
-    code = np.zeros(len(number), np.int64)
-    for i, letter in enumerate(LETTERS):
-        code[letters == letter.encode()] = i
-    if columns is None:
-        values = parsed
-    else:
-        values = np.full((len(number), len(union)), np.nan)
-        for s, cols in columns.items():
-            rows = np.flatnonzero(letters == s.encode())
-            values[np.ix_(rows, cols)] = parsed[rows][:, : len(cols)]
-    cal = np.array(body.cal, dtype=float).reshape(-1, 6)
-    week, sow = gps_week_sow(*cal[:, :5].astype(np.int64).T, cal[:, 5])
-    _check_epoch_order(np.asarray(week, float) * 604800.0 + sow, body.epoch_line, path)
-    return MixedObservationFile(
-        path=str(path),
-        version=version,
-        marker=marker,
-        approx_pos_e=pos,
-        interval=interval,
-        types=union,
-        system_types={s: tuple(t) for s, t in per_system.items()},
-        glonass_channels=channels,
-        week=np.asarray(week, np.int64),
-        time=np.asarray(sow, float),
-        flag=np.array(body.flag, np.int8),
-        start=np.concatenate([[0], np.cumsum(body.count, dtype=np.int64)]),
-        prn=code * 100 + number % 100,
-        values=values,
-        line=np.array(body.line, np.int64),
-    )
-
-
 def system_observable(obs, name):
     """Column of RINEX 2 observable ``name`` for every row of a mixed file, shape (m,):
     per system the first code of :data:`RINEX3_SYSTEM_NAMES` the system's header lists
     (RINEX 2: the name itself). NaN on rows of systems without it."""
-    from inins.core.satellites import LETTERS
-
     out = np.full(len(obs.prn), np.nan)
     system = obs.prn // 100
     for letter, types in obs.system_types.items():
@@ -585,8 +556,6 @@ def write_obs_v3(path, week, time, start, prn, columns, *, marker="INININS"):
         System letter -> (codes tuple, values (m, n_codes) array; rows of other systems
         ignored, NaN written blank).
     """
-    from inins.core.satellites import LETTERS
-
     header = [f"{'3.04':>9}{'':11}{'OBSERVATION DATA':20}{'M':20}RINEX VERSION / TYPE"]
     header.append(f"{marker:60}MARKER NAME")
     for letter, (codes, _) in columns.items():

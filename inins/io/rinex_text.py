@@ -1,43 +1,42 @@
-"""Shared helpers of the RINEX readers: text that may be gzip-compressed, header lines."""
-
-import gzip
-from pathlib import Path
+"""Shared helpers of the RINEX readers: files read a bounded line at a time (plain or
+gzip), header lines, calendar fields to GPS time."""
 
 import numpy as np
 
 from inins.exceptions import InputError
+from inins.io.textlines import LineReader, lines
+
+MAX_HEADER_LINES = 5000
+"""Most header lines read looking for END OF HEADER (a real header has tens)."""
 
 
-def read_lines(path):
-    """All lines of a text file, gzip-compressed or not (by its magic bytes).
+def open_rinex(path):
+    """A :class:`~inins.io.textlines.LineReader` of a RINEX file (plain or gzip), each
+    line bounded: a file is read a line at a time, never whole."""
+    return LineReader(path, what="a RINEX file")
+
+
+def read_header(reader):
+    """Header lines as (label, content, line number) up to END OF HEADER, read from a
+    :class:`~inins.io.textlines.LineReader` (which then stands at the first data line).
 
     Raises
     ------
     InputError
-        If the file cannot be read or is not text.
+        No END OF HEADER (end of file, or not within :data:`MAX_HEADER_LINES` lines).
     """
-    path = Path(path)
-    try:
-        raw = path.read_bytes()
-        if raw[:2] == b"\x1f\x8b":
-            raw = gzip.decompress(raw)
-    except (OSError, EOFError) as exc:
-        raise InputError(f"cannot read: {exc}", source=str(path)) from exc
-    return raw.decode("ascii", errors="replace").splitlines()
-
-
-def split_header(lines, path):
-    """(header lines as (label, content, line number), index of the first data line)."""
     header = []
-    for k, line in enumerate(lines):
+    while (line := reader.next()) is not None:
         label = line[60:].strip()
-        header.append((label, line[:60], k + 1))
+        header.append((label, line[:60], reader.number))
         if label == "END OF HEADER":
-            return header, k + 1
+            return header
+        if len(header) >= MAX_HEADER_LINES:
+            break
     raise InputError(
         "no END OF HEADER line: not a RINEX file or truncated header",
-        source=str(path),
-        line=len(lines),
+        source=reader.path,
+        line=max(reader.number, 1),
     )
 
 
@@ -55,18 +54,44 @@ def version_line(header, path):
     return version, content[20:21].upper(), content[40:41].upper() or "G"
 
 
+MAX_NUMBER = 1e12
+"""Largest magnitude of a number in a navigation record (the largest real ones, GLONASS
+positions in km and seconds of week, are below 1e6)."""
+
+
 def parse_float(text, path, line):
-    """A RINEX number (Fortran D exponent allowed; blank is 0.0)."""
+    """A RINEX number (Fortran D exponent allowed; blank is 0.0); NaN, infinity and
+    magnitudes from :data:`MAX_NUMBER` on are no RINEX numbers (bad input, line named)."""
     text = text.strip().replace("D", "E").replace("d", "E")
     if not text:
         return 0.0
     try:
-        return float(text)
+        value = float(text)
     except ValueError:
         raise InputError(f"not a number: {text!r}", source=str(path), line=line) from None
+    if not abs(value) < MAX_NUMBER:
+        raise InputError(f"not a RINEX number: {text!r}", source=str(path), line=line)
+    return value
 
 
 _GPS_EPOCH = np.datetime64("1980-01-06", "D")
+
+
+def calendar_problem(year, month, day, hour, minute, second):
+    """What is wrong with the calendar fields of an epoch line, or None (the day checked
+    against its month: 2015-02-30 is no date; 24:00:00, the end of the day some
+    navigation files write, is accepted)."""
+    import calendar
+
+    full = year + 2000 if year < 80 else year + 1900 if year < 100 else year
+    if not 1 <= month <= 12:
+        return f"month {month}"
+    if not 1 <= day <= calendar.monthrange(full, month)[1]:
+        return f"day {day} of month {month}"
+    midnight = hour == 24 and minute == 0 and second == 0.0
+    if not (0 <= hour <= 23 and 0 <= minute <= 59 and 0.0 <= second < 61.0) and not midnight:
+        return f"time {hour:02d}:{minute:02d}:{second:g}"
+    return None
 
 
 def gps_week_sow(year, month, day, hour, minute, second):
@@ -96,7 +121,7 @@ def read_track(path):
         Unreadable rows, fewer than two rows, or time not increasing (file and line named).
     """
     rows = []
-    for k, line in enumerate(read_lines(path)):
+    for n, line in lines(path, what="a reference trajectory file"):
         words = line.split()
         if not words or words[0].startswith("#"):
             continue
@@ -105,9 +130,9 @@ def read_track(path):
         try:
             rows.append([float(w) for w in words[:4]])
         except ValueError:
-            raise InputError("unreadable reference row", source=str(path), line=k + 1) from None
+            raise InputError("unreadable reference row", source=str(path), line=n) from None
         if len(rows[-1]) < 4:
-            raise InputError("a reference row needs time X Y Z", source=str(path), line=k + 1)
+            raise InputError("a reference row needs time X Y Z", source=str(path), line=n)
     data = np.array(rows).reshape(-1, 4)
     if len(data) < 2:
         raise InputError("fewer than two reference rows", source=str(path))

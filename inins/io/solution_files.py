@@ -1,10 +1,12 @@
 """GNSS solution files for the loosely coupled filter: RTKLIB ``.pos`` and a named-column CSV.
 
-Both readers return a :class:`SolutionFile` in SI units: time as GPS seconds since
-the GPS epoch (1980-01-06, no leap seconds), geodetic position (rad, rad, m), NED
-1-sigma (m), NED velocity (m/s) and its 1-sigma where the file has them, the
-quality flag. Every problem is an :class:`inins.exceptions.InputError` naming the
-file and the line (or column).
+Every reader (and the ``.mat`` one) returns a :class:`SolutionFile` in SI units: time as
+GPS seconds since the GPS epoch (1980-01-06, no leap seconds), geodetic position (rad,
+rad, m), NED 1-sigma (m), NED velocity (m/s) and its 1-sigma where the file has them,
+the quality flag. Every row meets the rules of :mod:`inins.io.solution_checks`; every
+problem is an :class:`inins.exceptions.InputError` naming the file and the line (or
+column). Text is read a line at a time, each line parsed as it comes
+(:mod:`inins.io.textlines`): junk is refused at its first line.
 
 RTKLIB ``.pos`` (``rnx2rtkp``/``rtkpost`` output): ``%`` comment lines, the last of
 which names the columns. Time is ``GPST`` as ``yyyy/mm/dd hh:mm:ss.sss`` or as
@@ -16,10 +18,9 @@ which names the columns. Time is ``GPST`` as ``yyyy/mm/dd hh:mm:ss.sss`` or as
 to NED keeping the diagonal; the cross terms (``sdne`` ...) are not used.
 """
 
+import array
 import csv
 import datetime
-import gzip
-import io
 import math
 from dataclasses import dataclass
 
@@ -27,6 +28,14 @@ import numpy as np
 
 from inins.core import earth
 from inins.exceptions import InputError
+from inins.io import matfile, solution_checks, textlines
+from inins.io.imu_files import (  # noqa: F401 (the IMU readers, re-exported)
+    G0,
+    ImuRates,
+    read_imu_increments_mat,
+    read_imu_rates_csv,
+)
+from inins.io.solution_checks import CSV_ROLES, RowNames, role_problem  # noqa: F401
 
 WEEK = 604800.0
 """Seconds in a GPS week."""
@@ -102,97 +111,117 @@ class SolutionFile:
         )
 
 
-def _open_text(path):
-    """A text stream of ``path`` (gzip when it ends in .gz)."""
-    if str(path).endswith(".gz"):
-        return io.TextIOWrapper(gzip.open(path, "rb"), encoding="utf-8", errors="replace")
-    return open(path, encoding="utf-8", errors="replace", newline="")
-
-
 def _ned_sigma(lla, sig_xyz):
     """Diagonal of ``M^T diag(s^2) M`` (``M`` = mat_en), (m, 3)."""
     m_en = earth.mat_en(lla[:, 0], lla[:, 1])
     return np.sqrt(np.einsum("kji,kj->ki", m_en**2, sig_xyz**2))
 
 
-def _check(path, time, sig, svel, vel, line):
-    bad = np.flatnonzero(np.diff(time) <= 0.0)
-    if bad.size:
-        i = bad[0] + 1
+TEXT_KEYS = {
+    "time": "time",
+    "position": "latitude/longitude/height",
+    "sigma": "sdn/sde/sdu",
+    "velocity": "vn/ve/vu",
+    "sigma_vel": "sdvn/sdve/sdvu",
+    "q": "Q",
+}
+"""What a message about a rule of :mod:`inins.io.solution_checks` names in a text file."""
+
+
+def checked(path, time, lla, sig, vel, svel, q, line, rows=None):
+    """A :class:`SolutionFile` of the arrays after the rules of
+    :mod:`inins.io.solution_checks` (``rows`` names a row; default: ``line`` of a text
+    file); a velocity without its 1-sigma is kept as absent (NaN)."""
+    rows = rows or RowNames(path, line=line, keys=TEXT_KEYS)
+    sol = SolutionFile(str(path), time, lla, sig, vel, svel, q, np.asarray(line, np.int64))
+    solution_checks.check_rows(sol, rows)
+    vel = np.where(np.isfinite(svel).all(1)[:, None], vel, np.nan)
+    return SolutionFile(
+        sol.path, time, lla, sig, vel, svel, np.asarray(q).astype(np.int64), sol.line
+    )
+
+
+def _pos_time(r, path, n):
+    """GPS seconds of a ``.pos`` row's time fields (calendar or week + seconds)."""
+    try:
+        if "/" in r[0]:
+            y, mo, d = (int(v) for v in r[0].split("/"))
+            hh, mm, ss = r[1].split(":")
+            hh, mm, ss = int(hh), int(mm), float(ss)
+            if not (0 <= hh < 24 and 0 <= mm < 60 and 0.0 <= ss < 60.0):
+                raise ValueError
+            days = (datetime.date(y, mo, d) - _GPS_EPOCH).days
+            return days * 86400.0 + hh * 3600.0 + mm * 60.0 + ss
+        week, sow = int(r[0]), float(r[1])
+        if not (0 <= week and 0.0 <= sow < WEEK):
+            raise ValueError
+        return week * WEEK + sow
+    except ValueError:
         raise InputError(
-            f"time {time[i]:.3f} s does not increase (previous {time[i - 1]:.3f} s)",
-            source=path,
-            line=int(line[i]),
-        )
-    bad = np.flatnonzero(~(sig > 0.0).all(1))
-    if bad.size:
-        raise InputError(
-            "position sigma must be > 0", source=path, line=int(line[bad[0]]), key="sdn/sde/sdu"
-        )
-    has = np.isfinite(vel).all(1) & np.isfinite(svel).all(1)
-    bad = np.flatnonzero(has & ~(svel > 0.0).all(1))
-    if bad.size:
-        raise InputError(
-            "velocity sigma must be > 0", source=path, line=int(line[bad[0]]), key="sdvn/sdve/sdvu"
-        )
+            f"bad time {r[0]} {r[1]} (yyyy/mm/dd hh:mm:ss.s or week seconds)", source=path, line=n
+        ) from None
+
+
+def _pos_header(path, n, names):
+    if names[0] != "GPST":
+        raise InputError(f"time system {names[0]!r}: only GPST is supported", source=path, line=n)
+    for c in names[1:]:
+        if c not in _KNOWN:
+            raise InputError(f"unknown column {c!r}", source=path, line=n, key=c)
+    return names[1:]
+
+
+def _floats(parts, path, n):
+    try:
+        return [float(v) for v in parts]
+    except ValueError:
+        bad = next(v for v in parts if not _is_float(v))
+        raise InputError(f"not a number: {bad[:40]!r}", source=path, line=n) from None
+
+
+def _is_float(v):
+    try:
+        float(v)
+    except ValueError:
+        return False
+    return True
+
+
+def _pos_rows(path):
+    """``(header line, columns, values (m, k), time (m,), lines (m,))`` of a .pos file,
+    each row parsed as it is read."""
+    header, cols, width, n = None, None, None, 0
+    values, times, lines = array.array("d"), array.array("d"), array.array("q")
+    for n, text in textlines.lines(path, what="an RTKLIB .pos file"):
+        s = text.strip()
+        if not s:
+            continue
+        if s.startswith("%"):
+            if header is None and ("GPST" in s or "UTC" in s or "JST" in s):
+                header = n
+                cols = _pos_header(path, n, s[1:].split())
+                width = 2 + len(cols)
+            continue
+        if header is None:
+            raise InputError("data before the column header line", source=path, line=n)
+        r = s.split()
+        if len(r) != width:
+            raise InputError(f"expected {width} fields, got {len(r)}", source=path, line=n)
+        times.append(_pos_time(r, path, n))
+        values.extend(_floats(r[2:], path, n))
+        lines.append(n)
+    if header is None:
+        raise InputError("no column header line (% GPST ...)", source=path, line=max(n, 1))
+    if not times:
+        raise InputError("no solution epochs", source=path, line=max(n, 1))
+    m = len(times)
+    return header, cols, np.frombuffer(values).reshape(m, -1), np.frombuffer(times), lines
 
 
 def read_rtklib_pos(path):
     """Read an RTKLIB ``.pos`` solution file (module docstring) -> :class:`SolutionFile`."""
     path = str(path)
-    header, rows, lines = None, [], []
-    try:
-        with _open_text(path) as f:
-            for n, text in enumerate(f, 1):
-                s = text.strip()
-                if not s:
-                    continue
-                if s.startswith("%"):
-                    if "GPST" in s or "UTC" in s or "JST" in s:
-                        header = (n, s[1:].split())
-                    continue
-                if header is None:
-                    raise InputError("data before the column header line", source=path, line=n)
-                rows.append(s.split())
-                lines.append(n)
-    except (OSError, EOFError) as exc:
-        raise InputError(f"cannot read: {exc}", source=path) from exc
-    if header is None:
-        raise InputError("no column header line (% GPST ...)", source=path)
-    hline, names = header
-    if names[0] != "GPST":
-        raise InputError(
-            f"time system {names[0]!r}: only GPST is supported", source=path, line=hline
-        )
-    cols = names[1:]
-    for c in cols:
-        if c not in _KNOWN:
-            raise InputError(f"unknown column {c!r}", source=path, line=hline, key=c)
-    if not rows:
-        raise InputError("no solution epochs", source=path)
-    calendar = "/" in rows[0][0]
-    nt = 2  # date + time, or week + seconds
-    width = nt + len(cols)
-    for r, n in zip(rows, lines, strict=True):
-        if len(r) != width:
-            raise InputError(f"expected {width} fields, got {len(r)}", source=path, line=n)
-    try:
-        values = np.array([[float(v) for v in r[nt:]] for r in rows])
-    except ValueError as exc:
-        bad = next(i for i, r in enumerate(rows) if not _floats(r[nt:]))
-        raise InputError(f"not a number: {exc}", source=path, line=lines[bad]) from exc
-    time = np.empty(len(rows))
-    for i, r in enumerate(rows):
-        try:
-            if calendar:
-                y, mo, d = (int(v) for v in r[0].split("/"))
-                hh, mm, ss = r[1].split(":")
-                days = (datetime.date(y, mo, d) - _GPS_EPOCH).days
-                time[i] = days * 86400.0 + int(hh) * 3600.0 + int(mm) * 60.0 + float(ss)
-            else:
-                time[i] = int(r[0]) * WEEK + float(r[1])
-        except ValueError as exc:
-            raise InputError(f"bad time {r[0]} {r[1]}", source=path, line=lines[i]) from exc
+    hline, cols, values, time, lines = _pos_rows(path)
     col = {c: values[:, i] for i, c in enumerate(cols)}
 
     def need(*names_):
@@ -206,7 +235,7 @@ def read_rtklib_pos(path):
         lla = np.column_stack([np.radians(llh[:, 0]), np.radians(llh[:, 1]), llh[:, 2]])
         sig = need("sdn(m)", "sde(m)", "sdu(m)")
     elif _XYZ[0] in col:
-        lla = earth.llh_from_ecef(need(*_XYZ))
+        lla = _llh_of_ecef(need(*_XYZ), path, lines)
         sig = _ned_sigma(lla, need("sdx(m)", "sdy(m)", "sdz(m)"))
     else:
         raise InputError(
@@ -225,42 +254,145 @@ def read_rtklib_pos(path):
         vel = np.einsum("kji,kj->ki", m_en, need("vx-ecef(m/s)", "vy-ecef(m/s)", "vz-ecef(m/s)"))
         if "sdvx" in col:
             svel = _ned_sigma(lla, need("sdvx", "sdvy", "sdvz"))
-    q = need("Q")[:, 0].astype(np.int64)
-    line = np.asarray(lines, np.int64)
-    _check(path, time, sig, svel, vel, line)
-    vel[~np.isfinite(svel).all(1)] = np.nan  # a velocity without its sigma is not used
-    return SolutionFile(path, time, lla, sig, vel, svel, q, line)
+    _other_fields(col, path, np.asarray(lines))
+    return checked(path, time, lla, sig, vel, svel, need("Q")[:, 0], np.asarray(lines))
 
 
-def _floats(values):
+_OTHER_FIELDS = {
+    "ns": (0.0, 999.0, True),
+    "age(s)": (0.0, 1e6, False),
+    "ratio": (0.0, 1000.0, False),
+}
+"""Bounds of the .pos fields the filter does not use: (low, high, integer)."""
+
+
+def _other_fields(col, path, lines):
+    """The .pos fields the filter does not use are still numbers of their kind: ``ns``
+    an integer 0-999, ``age`` 0-1e6 s, ``ratio`` 0-1000, cross terms (``sdne`` ...)
+    finite within ±:data:`~inins.io.solution_checks.SIGMA_M` (m or m/s)."""
+    for name, values in col.items():
+        if name in _OTHER_FIELDS:
+            lo, hi, integer = _OTHER_FIELDS[name]
+        elif name.startswith(("sdne", "sdeu", "sdun", "sdxy", "sdyz", "sdzx", "sdv")):
+            lo, hi, integer = -solution_checks.SIGMA_M, solution_checks.SIGMA_M, False
+        else:
+            continue
+        with np.errstate(invalid="ignore"):
+            bad = ~((values >= lo) & (values <= hi) & ((values % 1 == 0) | (not integer)))
+        if bad.any():
+            i = int(np.flatnonzero(bad)[0])
+            kind = "an integer " if integer else ""
+            raise InputError(
+                f"{name} {values[i]:.6g} is not {kind}within {lo:g}..{hi:g}",
+                source=path,
+                line=int(lines[i]),
+                key=name,
+            )
+
+
+def _llh_of_ecef(xyz, path, line, rows=None):
+    """Geodetic position of ECEF rows; a row that is no point near the Earth (non-finite,
+    or within 6,000 km of its centre) is bad input naming its line or row."""
+    with np.errstate(invalid="ignore"):
+        r = np.linalg.norm(xyz, axis=1)
+        bad = np.flatnonzero(~(np.isfinite(xyz).all(1) & (r > 6.0e6) & (r < 6.5e6)))
+    if bad.size:
+        i = int(bad[0])
+        rows = rows or RowNames(path, line=np.asarray(line))
+        raise rows.error(
+            i,
+            f"ECEF position {', '.join(f'{v:.6g}' for v in xyz[i])} m is {r[i] / 1e3:.6g} km "
+            "from the Earth's centre: no point between 6,000 and 6,500 km",
+            "position",
+        )
+    return earth.llh_from_ecef(xyz)
+
+
+def _roles(columns, need_sigma, key):
+    problem = role_problem(columns, need_sigma)
+    if problem is not None:
+        raise InputError(problem[1], key=f"{key}.{problem[0]}")
+
+
+def _solution(path, get, have, angle_unit, rows, line, sigma=None, sigma_vel=None):
+    """A checked :class:`SolutionFile` from role -> column arrays."""
+    n = line.size
+    if {"lat", "lon", "height"} <= have:
+        k = math.pi / 180.0 if angle_unit == "deg" else 1.0
+        lla = np.column_stack([get["lat"] * k, get["lon"] * k, get["height"]])
+    else:
+        xyz = np.column_stack([get["x"], get["y"], get["z"]])
+        lla = _llh_of_ecef(xyz, path, line, rows)
+    if "sigma_n" in have:
+        sig = np.column_stack([get["sigma_n"], get["sigma_e"], get["sigma_d"]])
+    else:
+        sig = np.full((n, 3), float(sigma))
+    vel = np.full((n, 3), np.nan)
+    svel = np.full((n, 3), np.nan)
+    if "vel_n" in have:
+        vd = -get["vel_u"] if "vel_u" in have else get["vel_d"]
+        vel = np.column_stack([get["vel_n"], get["vel_e"], vd])
+        if "sigma_vn" in have:
+            svel = np.column_stack([get["sigma_vn"], get["sigma_ve"], get["sigma_vd"]])
+        elif sigma_vel is not None:
+            svel = np.full((n, 3), float(sigma_vel))
+    q = get["q"] if "q" in have else np.ones(n)
+    return checked(path, get["time"], lla, sig, vel, svel, q, line, rows)
+
+
+def _csv_rows(path, head_index, roles):
+    """``(values (m, len(roles)), lines (m,))``: each row parsed as it is read."""
+    values, lines = array.array("d"), array.array("q")
+    stream = (text for _, text in textlines.lines(path, what="a CSV solution file"))
+    reader = csv.reader(stream)
+    width = None
     try:
-        [float(v) for v in values]
-    except ValueError:
-        return False
-    return True
+        for r in reader:
+            n = reader.line_num
+            if width is None:  # the header
+                width = len(r)
+                continue
+            if not r or not any(x.strip() for x in r):
+                continue
+            if len(r) != width:
+                raise InputError(f"expected {width} fields, got {len(r)}", source=path, line=n)
+            for j in head_index:
+                try:
+                    values.append(float(r[j]))
+                except ValueError:
+                    raise InputError(
+                        f"not a number {r[j][:40]!r} in column {roles[j]!r}", source=path, line=n
+                    ) from None
+            lines.append(n)
+    except csv.Error as exc:
+        raise InputError(f"not a CSV row: {exc}", source=path, line=reader.line_num) from None
+    m = len(lines)
+    return np.frombuffer(values).reshape(m, len(head_index)), np.asarray(lines, np.int64)
 
 
-CSV_ROLES = (
-    "vel_u",
-    "time",
-    "lat",
-    "lon",
-    "height",
-    "x",
-    "y",
-    "z",
-    "sigma_n",
-    "sigma_e",
-    "sigma_d",
-    "vel_n",
-    "vel_e",
-    "vel_d",
-    "sigma_vn",
-    "sigma_ve",
-    "sigma_vd",
-    "q",
-)
-"""Roles a CSV column can take (the scenario maps role -> column name)."""
+def _csv_header(path):
+    try:
+        for _, text in textlines.lines(path, what="a CSV solution file"):
+            return [h.strip() for h in next(csv.reader([text]))]
+    except csv.Error as exc:
+        raise InputError(f"unreadable header row: {exc}", source=path, line=1) from None
+    raise InputError("empty file: no header row", source=path, line=1)
+
+
+def _csv_keys(columns):
+    """Rule -> the CSV column names it reads (in messages)."""
+    roles = {
+        "time": ("time",),
+        "position": ("lat", "lon", "height", "x", "y", "z"),
+        "sigma": ("sigma_n", "sigma_e", "sigma_d"),
+        "velocity": ("vel_n", "vel_e", "vel_d", "vel_u"),
+        "sigma_vel": ("sigma_vn", "sigma_ve", "sigma_vd"),
+        "q": ("q",),
+    }
+    return {
+        rule: "/".join(str(columns[r]) for r in names if r in columns) or rule
+        for rule, names in roles.items()
+    }
 
 
 def read_solution_csv(path, columns, angle_unit="deg", time_scale=1.0, time_offset=0.0):
@@ -272,26 +404,16 @@ def read_solution_csv(path, columns, angle_unit="deg", time_scale=1.0, time_offs
     columns : dict
         Role (:data:`CSV_ROLES`) -> column name. Needs ``time``, either ``lat lon
         height`` or ``x y z`` (ECEF, m), ``sigma_n sigma_e sigma_d`` (m); velocity and
-        ``q`` optional (``q`` absent: every epoch 1).
+        ``q`` optional (``q`` absent: every epoch 1); :func:`role_problem`.
     angle_unit : "deg" or "rad"
     time_scale, time_offset : float
         GPS seconds since the GPS epoch = ``time_offset + time_scale * value``.
     """
     path = str(path)
-    for role in columns:
-        if role not in CSV_ROLES:
-            raise InputError(
-                f"unknown role {role!r} (known: {', '.join(CSV_ROLES)})", key=f"columns.{role}"
-            )
+    _roles(columns, True, "columns")
     if angle_unit not in ("deg", "rad"):
         raise InputError("angle unit must be deg or rad", key="angle_unit")
-    try:
-        with _open_text(path) as f:
-            reader = csv.reader(f)
-            head = [h.strip() for h in next(reader)]
-            rows = [(n, r) for n, r in enumerate(reader, 2) if r and any(x.strip() for x in r)]
-    except (OSError, EOFError, StopIteration) as exc:
-        raise InputError(f"cannot read a header row: {exc}", source=path) from exc
+    head = _csv_header(path)
     for role, name in columns.items():
         if name not in head:
             raise InputError(
@@ -300,213 +422,40 @@ def read_solution_csv(path, columns, angle_unit="deg", time_scale=1.0, time_offs
                 line=1,
                 key=f"columns.{role}",
             )
-    index = {role: head.index(name) for role, name in columns.items()}
-    data = np.full((len(rows), len(CSV_ROLES)), np.nan)
-    for i, (n, r) in enumerate(rows):
-        if len(r) != len(head):
-            raise InputError(f"expected {len(head)} fields, got {len(r)}", source=path, line=n)
-        for role, j in index.items():
-            try:
-                data[i, CSV_ROLES.index(role)] = float(r[j])
-            except ValueError as exc:
-                raise InputError(
-                    f"not a number {r[j]!r} in column {head[j]!r}", source=path, line=n
-                ) from exc
-    if not rows:
-        raise InputError("no data rows", source=path)
-    get = {role: data[:, CSV_ROLES.index(role)] for role in CSV_ROLES}
-    for role in ("time", "sigma_n", "sigma_e", "sigma_d"):
-        if role not in columns:
-            raise InputError(f"the {role} column is required", key=f"columns.{role}")
-    line = np.array([n for n, _ in rows], np.int64)
-    time = time_offset + time_scale * get["time"]
-    if all(r in columns for r in ("lat", "lon", "height")):
-        k = math.pi / 180.0 if angle_unit == "deg" else 1.0
-        lla = np.column_stack([get["lat"] * k, get["lon"] * k, get["height"]])
-    elif all(r in columns for r in ("x", "y", "z")):
-        lla = earth.llh_from_ecef(np.column_stack([get["x"], get["y"], get["z"]]))
-    else:
-        raise InputError("need lat, lon, height or x, y, z columns", key="columns")
-    sig = np.column_stack([get["sigma_n"], get["sigma_e"], get["sigma_d"]])
-    vel_d = -get["vel_u"] if "vel_u" in columns else get["vel_d"]
-    vel = np.column_stack([get["vel_n"], get["vel_e"], vel_d])
-    svel = np.column_stack([get["sigma_vn"], get["sigma_ve"], get["sigma_vd"]])
-    q = np.ones(time.size, np.int64) if "q" not in columns else get["q"].astype(np.int64)
-    _check(path, time, sig, svel, vel, line)
-    vel[~np.isfinite(svel).all(1)] = np.nan  # a velocity without its sigma is not used
-    return SolutionFile(path, time, lla, sig, vel, svel, q, line)
-
-
-@dataclass(frozen=True, eq=False)
-class ImuRates:
-    """An IMU log of rates: ``time`` (n,) s on the log's own axis, ``gyro`` (n, 3) rad/s,
-    ``accel`` (n, 3) m/s^2, in body axes (forward, right, down) after the axis map."""
-
-    path: str
-    time: np.ndarray
-    gyro: np.ndarray
-    accel: np.ndarray
-    odometer: np.ndarray | None = None
-
-
-_AXIS = {
-    "x": (0, 1.0),
-    "-x": (0, -1.0),
-    "y": (1, 1.0),
-    "-y": (1, -1.0),
-    "z": (2, 1.0),
-    "-z": (2, -1.0),
-}
-G0 = 9.80665
-
-
-def read_imu_rates_csv(
-    path,
-    accel_columns,
-    gyro_columns,
-    time_column,
-    time_scale,
-    accel_unit,
-    gyro_unit,
-    axes,
-    odometer_column=None,
-    odometer_scale=1.0,
-):
-    """Read a header-less numeric CSV of IMU rates (one sample a row).
-
-    ``axes``: for body x, y, z the IMU axis (``"-x"``: minus IMU x). Rows with the
-    wrong number of fields or non-numbers are bad input (line named); so is time not
-    increasing.
-    """
-    path = str(path)
-    rows, lines = [], []
-    width = None
-    try:
-        with _open_text(path) as f:
-            for n, text in enumerate(f, 1):
-                s = text.strip()
-                if not s:
-                    continue
-                parts = s.split(",")
-                width = width or len(parts)
-                if len(parts) != width:
-                    raise InputError(
-                        f"expected {width} fields, got {len(parts)}", source=path, line=n
-                    )
-                try:
-                    rows.append([float(v) for v in parts])
-                except ValueError as exc:
-                    raise InputError(f"not a number: {exc}", source=path, line=n) from exc
-                lines.append(n)
-    except (OSError, EOFError) as exc:
-        raise InputError(f"cannot read: {exc}", source=path) from exc
-    if len(rows) < 2:
-        raise InputError("fewer than 2 IMU rows", source=path)
-    a = np.asarray(rows)
-    for key, cols in (("accel_columns", accel_columns), ("gyro_columns", gyro_columns)):
-        if max(cols) >= a.shape[1]:
-            raise InputError(f"column {max(cols)} beyond the {a.shape[1]} fields", key=key)
-    if time_column >= a.shape[1]:
-        raise InputError(f"column {time_column} beyond the {a.shape[1]} fields", key="time_column")
-    time = a[:, time_column] * time_scale
-    bad = np.flatnonzero(np.diff(time) <= 0)
-    if bad.size:
-        i = bad[0] + 1
-        raise InputError(
-            f"time {time[i]:.6f} s does not increase (previous {time[i - 1]:.6f} s)",
-            source=path,
-            line=lines[i],
-        )
-    acc = a[:, list(accel_columns)] * (G0 if accel_unit == "g" else 1.0)
-    gyro = a[:, list(gyro_columns)] * (math.pi / 180.0 if gyro_unit == "dps" else 1.0)
-    index = [_AXIS[x][0] for x in axes]
-    sign = np.array([_AXIS[x][1] for x in axes])
-    if sorted(index) != [0, 1, 2]:
-        raise InputError(f"axes {list(axes)} do not name x, y and z once each", key="axes")
-    odo = None
-    if odometer_column is not None:
-        if odometer_column >= a.shape[1]:
-            raise InputError(
-                f"column {odometer_column} beyond the {a.shape[1]} fields", key="odometer_column"
-            )
-        odo = a[:, odometer_column] * odometer_scale
-    return ImuRates(path, time, gyro[:, index] * sign, acc[:, index] * sign, odo)
-
-
-def _mat_array(path, variable, key):
-    import scipy.io  # only for a .mat input
-
-    try:
-        mat = scipy.io.loadmat(path)
-    except (OSError, ValueError) as exc:
-        raise InputError(f"cannot read the .mat file: {exc}", source=str(path)) from exc
-    if variable not in mat:
-        names = sorted(k for k in mat if not k.startswith("__"))
-        raise InputError(f"no variable {variable!r} (has {names})", source=str(path), key=key)
-    a = np.asarray(mat[variable], float)
-    if a.ndim != 2:
-        raise InputError(f"{variable!r} is not a 2-D array", source=str(path), key=key)
-    return a
+    order = list(columns)
+    index = [head.index(columns[r]) for r in order]
+    values, line = _csv_rows(path, index, {head.index(columns[r]): columns[r] for r in order})
+    if line.size == 0:
+        raise InputError("no data rows", source=path, line=2)
+    get = {r: values[:, k] for k, r in enumerate(order)}
+    get["time"] = time_offset + time_scale * get["time"]
+    rows = RowNames(path, line=line, keys=_csv_keys(columns))
+    return _solution(path, get, set(order), angle_unit, rows, line)
 
 
 def read_solution_mat(path, variable, columns, angle_unit="rad", sigma=None, sigma_vel=None):
     """Solutions from a 2-D array in a .mat file: ``columns`` role -> 0-based column index
-    (roles as :data:`CSV_ROLES`); constant ``sigma`` (m) / ``sigma_vel`` (m/s) where the
-    array has no sigma columns. Rows are reported as lines (1-based)."""
+    (roles and their rule as :data:`CSV_ROLES`, :func:`role_problem`; ECEF ``x y z``
+    too); constant ``sigma`` (m) / ``sigma_vel`` (m/s) where the array has no sigma
+    columns. Rows are named 1-based (as MATLAB counts) with the variable."""
     path = str(path)
-    a = _mat_array(path, variable, "post.gnss.mat_variable")
-    for role, col in columns.items():
-        if role not in CSV_ROLES:
-            raise InputError(f"unknown role {role!r}", key=f"columns.{role}")
-        if not 0 <= int(col) < a.shape[1]:
-            raise InputError(f"column {col} beyond the {a.shape[1]} columns", key=f"columns.{role}")
-    get = {r: a[:, int(c)] for r, c in columns.items()}
-    n = a.shape[0]
-    line = np.arange(1, n + 1)
-    k = math.pi / 180.0 if angle_unit == "deg" else 1.0
-    lla = np.column_stack([get["lat"] * k, get["lon"] * k, get["height"]])
-    if "sigma_n" in get:
-        sig = np.column_stack([get["sigma_n"], get["sigma_e"], get["sigma_d"]])
-    elif sigma is not None:
-        sig = np.full((n, 3), float(sigma))
-    else:
-        raise InputError("no sigma columns and no constant sigma given", key="post.gnss.sigma_m")
-    vel = np.full((n, 3), np.nan)
-    svel = np.full((n, 3), np.nan)
-    if "vel_n" in get:
-        vd = -get["vel_u"] if "vel_u" in get else get["vel_d"]
-        vel = np.column_stack([get["vel_n"], get["vel_e"], vd])
-        if sigma_vel is not None:
-            svel = np.full((n, 3), float(sigma_vel))
-    time = get["time"]
-    q = np.ones(n, np.int64)
-    _check(path, time, sig, svel, vel, line)
-    vel[~np.isfinite(svel).all(1)] = np.nan
-    return SolutionFile(path, time, lla, sig, vel, svel, q, line)
+    _roles(columns, sigma is None, "post.gnss.columns")
+    a = matfile.mat_array(path, variable, "post.gnss.mat_variable", min_rows=2)
+    order = list(columns)
+    values = matfile.columns(a, [columns[r] for r in order], path, variable, "post.gnss.columns")
+    get = {r: values[:, k] for k, r in enumerate(order)}
+    line = np.arange(1, a.shape[0] + 1)
+    rows = RowNames(path, base=1, keys=dict.fromkeys(TEXT_KEYS, variable))
+    return _solution(path, get, set(order), angle_unit, rows, line, sigma, sigma_vel)
 
 
 def read_mat_columns(path, variable, cols, key):
-    """Columns ``cols`` (0-based) of a 2-D array in a .mat file, (n, len(cols))."""
-    a = _mat_array(str(path), variable, key)
-    if max(cols) >= a.shape[1]:
-        raise InputError(f"column {max(cols)} beyond the {a.shape[1]} columns", key=key)
-    return a[:, list(cols)]
-
-
-def read_imu_increments_mat(path, variable, gyro_columns, accel_columns, time_column, axes):
-    """IMU increments (rad, m/s over each interval ending at its time tag) from a .mat
-    array, as rates at the interval midpoints (:class:`ImuRates`)."""
-    path = str(path)
-    a = _mat_array(path, variable, "post.imu.mat_variable")
-    t = a[:, time_column]
-    if np.any(np.diff(t) <= 0):
-        i = int(np.flatnonzero(np.diff(t) <= 0)[0]) + 1
-        raise InputError(f"time {t[i]} s does not increase", source=path, line=i + 1)
-    dt = np.diff(t, prepend=t[0] - np.median(np.diff(t)))
-    index = [_AXIS[x][0] for x in axes]
-    sign = np.array([_AXIS[x][1] for x in axes])
-    if sorted(index) != [0, 1, 2]:
-        raise InputError(f"axes {list(axes)} do not name x, y and z once each", key="axes")
-    gyro = a[:, list(gyro_columns)] / dt[:, None]
-    acc = a[:, list(accel_columns)] / dt[:, None]
-    return ImuRates(path, t - 0.5 * dt, gyro[:, index] * sign, acc[:, index] * sign)
+    """Columns ``cols`` (0-based) of a 2-D array in a .mat file, (n, len(cols)): finite
+    on every row (a row named 1-based otherwise)."""
+    a = matfile.mat_array(str(path), variable, key, min_rows=2)
+    out = matfile.columns(a, cols, path, variable, key)
+    bad = np.flatnonzero(~np.isfinite(out).all(axis=1))
+    if bad.size:
+        i = int(bad[0])
+        raise InputError(f"row {i + 1}: {out[i].tolist()} not finite", source=str(path), key=key)
+    return out

@@ -22,7 +22,10 @@ import h5py
 import numpy as np
 
 from inins.exceptions import InputError
-from inins.io.solution_files import ImuRates, SolutionFile
+from inins.io import imu_checks
+from inins.io.imu_files import ImuRates
+from inins.io.solution_checks import RowNames
+from inins.io.solution_files import checked
 
 LAYOUT = "inins-recorded-solution"
 LAYOUT_VERSION = 1
@@ -89,51 +92,77 @@ def _open(path):
     return f
 
 
-def _get(f, key, path):
+def _get(f, key, path, ndim):
+    """A numeric dataset of ``ndim`` dimensions (3 columns when 2-D), read whole; values
+    are checked by the rules of the readers, which name the row."""
     if key not in f:
         raise InputError("dataset missing", source=str(path), key=key)
+    if not isinstance(f[key], h5py.Dataset):
+        raise InputError("not a dataset", source=str(path), key=key)
     value = np.asarray(f[key][()])
     if value.dtype.kind not in "fiu":
-        raise InputError("not numbers", source=str(path), key=key)
-    nan_ok = key in ("solution/vel_ned", "solution/sigma_vel")
-    if not nan_ok and not np.all(np.isfinite(value)):
-        raise InputError("not finite numbers", source=str(path), key=key)
-    return value
+        raise InputError(f"holds {value.dtype} values, not real numbers", source=str(path), key=key)
+    if value.ndim != ndim or (ndim == 2 and value.shape[1] != 3):
+        shape = "(n, 3)" if ndim == 2 else "(n,)"
+        raise InputError(f"has shape {value.shape}, expected {shape}", source=str(path), key=key)
+    return value.astype(float)
+
+
+_SOLUTION_NDIM = {"time": 1, "lla": 2, "sigma_ned": 2, "vel_ned": 2, "sigma_vel": 2, "q": 1}
 
 
 def read_recorded_solution(path):
-    """The :class:`SolutionFile` of a recorded-solution file (``path`` named as its source)."""
+    """The :class:`~inins.io.solution_files.SolutionFile` of a recorded-solution file:
+    every epoch meets the rules of :mod:`inins.io.solution_checks` (the dataset and its
+    0-based row named)."""
     with _open(path) as f:
-        v = {k: _get(f, f"solution/{k}", path) for k, _, _ in SOLUTION}
+        v = {k: _get(f, f"solution/{k}", path, _SOLUTION_NDIM.get(k, 1)) for k, _, _ in SOLUTION}
     m = v["time"].shape[0]
-    if any(v[k].shape != (m, 3) for k in ("lla", "sigma_ned", "vel_ned", "sigma_vel")):
-        raise InputError("solution datasets of different lengths", source=str(path), key="solution")
-    if m == 0 or np.any(np.diff(v["time"]) <= 0):
+    for k, value in v.items():
+        if value.shape[0] != m:
+            raise InputError(
+                f"has {value.shape[0]} rows, solution/time has {m}",
+                source=str(path),
+                key=f"solution/{k}",
+            )
+    keys = {
+        "time": "solution/time",
+        "position": "solution/lla",
+        "sigma": "solution/sigma_ned",
+        "velocity": "solution/vel_ned",
+        "sigma_vel": "solution/sigma_vel",
+        "q": "solution/q",
+    }
+    rows = RowNames(str(path), base=0, keys=keys)
+    line = v["line"]
+    with np.errstate(invalid="ignore"):
+        bad = np.flatnonzero(~((line >= 1) & (line < 2**31) & (line % 1 == 0)))
+    if bad.size:
         raise InputError(
-            "solution/time empty or not increasing", source=str(path), key="solution/time"
+            f"row {int(bad[0])}: {line[bad[0]]:.6g} is not a line number (an integer >= 1)",
+            source=str(path),
+            key="solution/line",
         )
-    if np.any(v["sigma_ned"] <= 0):
-        raise InputError("position sigma <= 0", source=str(path), key="solution/sigma_ned")
-    return SolutionFile(
-        str(path),
-        v["time"],
-        v["lla"],
-        v["sigma_ned"],
-        v["vel_ned"],
-        v["sigma_vel"],
-        v["q"].astype(int),
-        v["line"].astype(int),
-    )
+    return checked(
+        str(path), v["time"], v["lla"], v["sigma_ned"], v["vel_ned"], v["sigma_vel"], v["q"],
+        line.astype(np.int64), rows,
+    )  # fmt: skip
 
 
 def read_recorded_imu(path):
-    """The :class:`ImuRates` of a recorded-solution file."""
+    """The :class:`ImuRates` of a recorded-solution file: the rules of
+    :mod:`inins.io.imu_checks` (the dataset and its 0-based row named)."""
     with _open(path) as f:
-        v = {k: _get(f, f"imu/{k}", path) for k, _, _ in IMU}
-        odo = _get(f, "imu/odometer", path) if "imu/odometer" in f else None
+        v = {k: _get(f, f"imu/{k}", path, 1 if k == "time" else 2) for k, _, _ in IMU}
+        odo = _get(f, "imu/odometer", path, 1) if "imu/odometer" in f else None
     n = v["time"].shape[0]
-    if v["gyro"].shape != (n, 3) or v["accel"].shape != (n, 3):
-        raise InputError("imu datasets of different lengths", source=str(path), key="imu")
-    if n < 2 or np.any(np.diff(v["time"]) <= 0):
-        raise InputError("imu/time too short or not increasing", source=str(path), key="imu/time")
-    return ImuRates(str(path), v["time"], v["gyro"], v["accel"], odo)
+    for k, value in (*v.items(), ("odometer", odo)):
+        if value is not None and value.shape[0] != n:
+            raise InputError(
+                f"has {value.shape[0]} rows, imu/time has {n}", source=str(path), key=f"imu/{k}"
+            )
+    keys = {k: f"imu/{k}" for k in ("time", "gyro", "accel", "odometer")}
+    rows = RowNames(str(path), base=0, keys=keys)
+    imu = ImuRates(str(path), v["time"], v["gyro"], v["accel"], odo, rows)
+    imu_checks.check_rates(imu, rows)
+    return imu

@@ -6,7 +6,7 @@ the outage protocol scored against a reference (the RTK-fixed epochs of the
 solution file). Lab units at this edge (deg, deg/h, ug, ppm); SI inside.
 """
 
-from typing import Literal
+from typing import Annotated, Literal
 
 from pydantic import Field, model_validator
 
@@ -16,6 +16,25 @@ from inins.scenario.types import NonNegFloat, PositiveFloat
 from inins.scenario.validation import KeyPathError
 
 AxisName = Literal["x", "-x", "y", "-y", "z", "-z"]
+Column = Annotated[int, Field(ge=0)]
+"""A 0-based column index."""
+_AXIS_MATRIX = {"x": (0, 1), "-x": (0, -1), "y": (1, 1), "-y": (1, -1), "z": (2, 1), "-z": (2, -1)}
+
+
+def _axes_problem(axes):
+    """Why an axis map is no rotation of the IMU axes, or None."""
+    index = [_AXIS_MATRIX[a][0] for a in axes]
+    if sorted(index) != [0, 1, 2]:
+        return f"{list(axes)} do not name x, y and z once each"
+    sign = [_AXIS_MATRIX[a][1] for a in axes]
+    # the determinant of a signed permutation: the signs times the permutation's parity
+    parity = 1 if index in ([0, 1, 2], [1, 2, 0], [2, 0, 1]) else -1
+    if parity * sign[0] * sign[1] * sign[2] < 0:
+        return (
+            f"{list(axes)} is a mirror image (left-handed): body x, y, z must be a rotation "
+            "of the IMU axes (change the sign of one axis)"
+        )
+    return None
 
 
 class ImuLog(Section):
@@ -30,10 +49,10 @@ class ImuLog(Section):
         "file (import-flight format: solution; columns, units and axes already applied)",
     )
     mat_variable: str = Field("mimu", description="mat: the array's name")
-    accel_columns: tuple[int, int, int] = Field(
+    accel_columns: tuple[Column, Column, Column] = Field(
         (0, 1, 2), description="0-based columns of the accelerometer x, y, z"
     )
-    gyro_columns: tuple[int, int, int] = Field(
+    gyro_columns: tuple[Column, Column, Column] = Field(
         (3, 4, 5), description="0-based columns of the gyro x, y, z"
     )
     time_column: int = Field(6, ge=0, description="0-based column of the sample time")
@@ -57,6 +76,25 @@ class ImuLog(Section):
     odometer_scale_mps: PositiveFloat = Field(
         1.0, description="speed per unit of the odometer column (m/s)"
     )
+
+    @model_validator(mode="after")
+    def _columns(self):
+        problem = _axes_problem(self.axes)
+        if problem:
+            raise KeyPathError(("axes",), problem)
+        used = {}
+        named = [("accel_columns", c) for c in self.accel_columns]
+        named += [("gyro_columns", c) for c in self.gyro_columns]
+        named.append(("time_column", self.time_column))
+        if self.odometer_column is not None and self.format == "csv":
+            named.append(("odometer_column", self.odometer_column))
+        for key, column in named:
+            if column in used:
+                raise KeyPathError(
+                    (key,), f"column {column} is given twice (also in {used[column]})"
+                )
+            used[column] = key
+        return self
 
 
 class GnssFile(Section):
@@ -102,6 +140,38 @@ class GnssFile(Section):
     use_velocity: bool = Field(
         False, description="update with the file's velocities too (where it has them)"
     )
+
+    @model_validator(mode="after")
+    def _roles(self):
+        from inins.io.solution_checks import role_problem
+
+        if self.format in ("csv", "mat"):
+            problem = role_problem(self.columns, self.format == "csv" or self.sigma_m is None)
+            if problem:
+                raise KeyPathError(("columns", problem[0]), problem[1])
+        if self.format == "mat":
+            for role, column in self.columns.items():
+                if not isinstance(column, int) or column < 0:
+                    raise KeyPathError(("columns", role), "mat: a 0-based column index (>= 0)")
+            if not self.mat_variable:
+                raise KeyPathError(("mat_variable",), "mat: the name of the array is required")
+        elif self.format == "csv":
+            for role, column in self.columns.items():
+                if not isinstance(column, str):
+                    raise KeyPathError(("columns", role), "csv: a column name of the header")
+        elif self.columns:
+            raise KeyPathError(("columns",), f"format {self.format}: no columns to map")
+        if self.attitude_columns is not None:
+            if self.format != "mat":
+                raise KeyPathError(("attitude_columns",), "only a .mat array has them")
+            missing = {"roll", "pitch", "yaw"} - set(self.attitude_columns)
+            if missing:
+                raise KeyPathError(
+                    ("attitude_columns",), f"roll, pitch and yaw needed: {sorted(missing)} missing"
+                )
+            if min(self.attitude_columns.values()) < 0:
+                raise KeyPathError(("attitude_columns",), "0-based column indices (>= 0)")
+        return self
 
 
 class TimeMapping(Section):

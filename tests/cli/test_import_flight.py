@@ -104,3 +104,29 @@ def test_an_imu_log_joins_the_rinex_record(tmp_path):
     assert flight.imu_t0_sow == 345600.0 and flight.imu_t0_week == flight.gnss.week[0]
     result = run("-o", tmp_path / "bad", "--set", f"imu_log={log_scenario}")
     assert result.exit_code == 2 and "imu_t0_sow" in result.stderr
+
+
+def test_sky_plot_names_each_satellite_by_its_system(tmp_path, monkeypatch):
+    """GLONASS slot 1 (satellite number 101) is labelled R01, not G101; GPS 5 is G05."""
+    import matplotlib.axes
+
+    from inins.commands import figures
+    from inins.results import Series
+
+    labels = []
+    annotate = matplotlib.axes.Axes.annotate
+    monkeypatch.setattr(
+        matplotlib.axes.Axes,
+        "annotate",
+        lambda self, text, *a, **k: labels.append(text) or annotate(self, text, *a, **k),
+    )
+    prn = np.array([5, 5, 101, 101, 121, 212])
+    result = type("Result", (), {})()
+    result.datasets = {
+        "spp/row_elevation": Series(np.radians([30.0, 31, 40, 41, 50, 60]), "rad", "", ""),
+        "spp/row_azimuth": Series(np.radians([10.0, 11, 100, 101, 200, 300]), "rad", "", ""),
+        "spp/row_prn": Series(prn, "1", "", ""),
+    }
+    figures.import_flight_sky(result, tmp_path / "sky.png")
+    assert sorted(labels) == ["E12", "G05", "R01", "R21"]
+    assert (tmp_path / "sky.png").stat().st_size > 0

@@ -4,8 +4,10 @@ input of each, through the reader and through ``inins import-flight``."""
 
 import gzip
 import json
+import re
 from pathlib import Path
 
+import h5py
 import numpy as np
 import pytest
 from typer.testing import CliRunner
@@ -229,3 +231,110 @@ def test_iono_free_drops_the_single_frequency_rows_instead_of_refusing(tmp_path)
     r = json.loads((tmp_path / "summary.json").read_text())["results"]
     assert r["single_frequency_rows_dropped"] == 46 and r["epochs_fault_excluded"] == 0
     assert r["err_3d_rms_m"] == pytest.approx(3.944, abs=2e-3)
+
+
+# -- issue 31: systems asked and used, what is not read, impossible epochs, leap seconds --
+def _v3(rinex2, tmp_path, edit=None):
+    """The smartLoc file as RINEX 3.04 (30 epochs), its lines edited by ``edit``."""
+    k = 30
+    rows = slice(0, rinex2.start[k])
+    codes = {s: (("C1C", "L1C", "S1C", "D1C"), rinex2.values[rows]) for s in "GR"}
+    path = tmp_path / "o3.rnx"
+    write_obs_v3(path, rinex2.week[:k], rinex2.time[:k], rinex2.start[: k + 1],
+                 rinex2.prn[rows], codes)  # fmt: skip
+    lines = path.read_text().splitlines()
+    epochs = [i for i, line in enumerate(lines) if line.startswith(">")]
+    if edit:
+        edit(lines, epochs)
+    path.write_text("\n".join(lines) + "\n")
+    return path, epochs
+
+
+def test_events_and_systems_not_asked_are_counted(rinex2, tmp_path):
+    def edit(lines, epochs):
+        lines[epochs[5]] = lines[epochs[5]][:31] + "5" + lines[epochs[5]][32:]  # event
+        lines[epochs[7] + 1] = "X" + lines[epochs[7] + 1][1:]  # no RINEX system
+        lines[epochs[7] + 2] = "S" + lines[epochs[7] + 2][1:]  # SBAS, not read
+
+    path, _ = _v3(rinex2, tmp_path, edit)
+    obs = read_obs(path, "G")
+    n_glonass = int(np.count_nonzero(rinex2.prn[: rinex2.start[30]] // 100 == 1))
+    assert obs.events == {5: 1}
+    assert obs.skipped["unknown system 'X'"] == 1 and obs.skipped["S"] == 1
+    assert obs.skipped["R"] >= n_glonass - 2 - (rinex2.start[6] - rinex2.start[5])
+    assert len(obs.time) == 29
+
+
+@pytest.mark.parametrize(
+    ("edit", "match", "line"),
+    [
+        (lambda ln, ep: ln.__setitem__(ep[4], ln[ep[4]][:31] + "7" + ln[ep[4]][32:]),
+         "epoch flag 7 is not a RINEX flag", 4),
+        (lambda ln, ep: ln.__setitem__(ep[29], ln[ep[29]].replace("> 2016", "> 2026")),
+         "3652 days after the epoch", 29),
+        (lambda ln, ep: ln.__setitem__(ep[9], ln[ep[9]].replace(" 06 06 ", " 06 31 ")),
+         "impossible day 31 of month 6", 9),
+        (lambda ln, ep: ln.__setitem__(ep[3] + 1, "G" + "x1" + ln[ep[3] + 1][3:]),
+         "unreadable satellite 'Gx1'", None),
+    ],
+)  # fmt: skip
+def test_impossible_epochs_are_refused_at_their_line(rinex2, tmp_path, edit, match, line):
+    path, epochs = _v3(rinex2, tmp_path, edit)
+    with pytest.raises(InputError, match=match) as err:
+        read_obs(path, "GR")
+    if line is not None:
+        assert err.value.line == epochs[line] + 1
+    else:
+        assert err.value.line is not None
+
+
+def test_systems_g_on_a_mixed_file_with_glonass_navigation(tmp_path):
+    """Formerly an internal error (the GPS-only observation file had no GLONASS channels):
+    the smartLoc drive with GPS alone gives the figures the scenario's comment quotes for
+    it (1,366 scored fixes, median 16.4 m, 95 % 67.7 m), so its GPS + GLONASS checks fail
+    (exit 1)."""
+    result = _run(CONFIG / "smartloc-gps-glonass.yaml", "-o", tmp_path, "--set", "systems=G")
+    assert result.exit_code == 1, result.output
+    report = (tmp_path / "import-flight.txt").read_text()
+    assert "systems: asked G, used by the fixes G" in report
+    counted = r"satellite records not read \(systems asked: G\): 10019 of GLONASS \(R\)"
+    assert re.search(counted, report)
+    r = json.loads((tmp_path / "summary.json").read_text())["results"]
+    assert r["systems_used"] == 1 and r["epochs_scored"] == 1366
+    assert r["err_h_median_m"] == pytest.approx(16.4, abs=0.05)
+    assert r["err_h_p95_m"] == pytest.approx(67.7, abs=0.05)
+
+
+def test_systems_asked_that_the_file_does_not_have_are_said(tmp_path):
+    result = _run(
+        CONFIG / "smartloc-gps-glonass.yaml", "-o", tmp_path, "--set", f"nav_file={MIXED}",
+        "--set", "extra_nav_files=[]", "--set", "leap_seconds=17", "--set", "systems=GREC",
+    )  # fmt: skip
+    assert result.exit_code == 0, result.output
+    report = (tmp_path / "import-flight.txt").read_text()
+    assert "systems: asked GREC, used by the fixes GR" in report
+    assert "no Galileo (E), BeiDou (C) observation in the file, solved with GR" in report
+    assert "33 of SBAS (S)" in report  # S20, in the file, not read
+    assert report.count("no Galileo (E), BeiDou (C) observation") == 2  # a warning too
+    with h5py.File(tmp_path / "import-flight.h5") as f:
+        assert f["spp"].attrs["systems_asked"] == "GREC"
+        assert f["spp"].attrs["systems_used"] == "GR"
+
+
+def test_leap_seconds_wrong_for_the_date_are_refused(tmp_path):
+    lines = _rinex4(_lines(MIXED))
+    k = next(i for i, line in enumerate(lines) if "LEAP SECONDS" in line)
+    lines[k] = f"{'18':>6}{'':54}LEAP SECONDS"
+    path = tmp_path / "mixed4.rnx"
+    path.write_text("\n".join(lines) + "\n")
+    nav = f"nav_file={path}"
+    result = _run(CONFIG / "smartloc-gps-glonass.yaml", "-o", tmp_path / "a", "--set", nav,
+                  "--set", "extra_nav_files=[]")  # fmt: skip
+    assert result.exit_code == 2, result.output
+    assert f"mixed4.rnx:{k + 1}: the header's LEAP SECONDS is 18 s" in result.stderr
+    assert "GPS - UTC was 17 s on 2016-06-06" in result.stderr
+    given = ("--set", f"nav_file={MIXED}", "--set", "extra_nav_files=[]")
+    given += ("--set", "leap_seconds=18")
+    result = _run(CONFIG / "smartloc-gps-glonass.yaml", "-o", tmp_path / "b", *given)
+    assert result.exit_code == 2, result.output
+    assert "leap_seconds: leap_seconds is 18 s, but GPS - UTC was 17 s" in result.stderr

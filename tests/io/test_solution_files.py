@@ -79,7 +79,12 @@ def test_real_rtklib_file_reads():
     ("rows", "head", "match", "line"),
     [
         ([ROW.format(s=18.5, q=1), ROW.format(s=18.25, q=1)], HEAD, "does not increase", 4),
-        ([ROW.format(s=18.5, q=1).replace("0.0098995", "0.0", 1)], HEAD, "sigma", 3),
+        (
+            [ROW.format(s=18.5, q=1).replace("0.0098995", "0.0", 1), ROW.format(s=18.75, q=1)],
+            HEAD,
+            "sigma",
+            3,
+        ),
         ([ROW.format(s=18.5, q=1)], HEAD.replace("ratio", "colour"), "unknown column", 2),
         ([ROW.format(s=18.5, q=1)[:-10] + "\n"], HEAD, "fields", 3),
     ],
