@@ -72,7 +72,7 @@ def test_compensated_rerun_finds_what_is_left(default_run, tmp_path):
         if not key.startswith("discrete_") or "_sigma_" in key or "_u_" in key:
             continue
         name = key.removeprefix("discrete_")
-        if name.startswith(("mount", "chi2", "dof", "intervals", "holds", "spins")):
+        if name.startswith(("mount", "chi2", "dof", "intervals", "holds", "spins", "insep")):
             continue
         unit = name.rsplit("_", 1)[1]
         sigma = res[key.replace(f"_{unit}", f"_sigma_{unit}")]
@@ -157,7 +157,10 @@ def test_too_few_positions_are_refused(tmp_path):
     np.savetxt(acc, rows)
     np.savetxt(gyro, rows)
     scen = tmp_path / "s.yaml"
-    scen.write_text(f"methods: [table-free]\nlog: {{accel_file: {acc}, gyro_file: {gyro}}}\n")
+    scen.write_text(
+        f"methods: [table-free]\nlog: {{accel_file: {acc}, gyro_file: {gyro}}}\n"
+        "table_free: {lat_deg: 45.0}\n"
+    )
     result = run(scen, "-o", tmp_path / "o")
     assert result.exit_code == 2
     assert "static intervals usable" in result.output and "table_free.detector" in result.output
