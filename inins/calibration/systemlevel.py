@@ -47,7 +47,7 @@ import numpy as np
 
 from inins.calibration import alignment, imu_model, verdict
 from inins.calibration.verdict import Verdict
-from inins.core import earth, rotation, strapdown
+from inins.core import earth, jit, rotation, strapdown
 
 NAMES = imu_model.SENSOR_TERMS
 _PAIRS_A = [("xyz".index(n[-2]), "xyz".index(n[-1])) for n in NAMES if n.startswith("ma_")]
@@ -236,7 +236,6 @@ def _one_pass(dtheta, dv, dt, lla, mat0, step, a_mat, e_mat, qd, r, p0):
     p : ndarray, shape (30, 30)
     innov : ndarray, shape (k, 3)
     """
-    n = N_STATES
     k_steps = dtheta.shape[0] // step
     series = _navigate(dtheta, dv, dt, lla, mat0)
     vel_ol = np.concatenate([np.zeros((1, 3)), series.vel_n[step - 1 : k_steps * step : step]])
@@ -245,35 +244,56 @@ def _one_pass(dtheta, dv, dt, lla, mat0, step, a_mat, e_mat, qd, r, p0):
     mid = rotation.mat_from_quat(mid_q / np.linalg.norm(mid_q, axis=1, keepdims=True))
     gamma = _input_sums(mid, dtheta, dv, dt, step, a_mat)
     g_t = earth.gravity_n(lla[0], lla[2]) * step * dt
-    earth_turn = e_mat[3:6, 3:6]  # exp(-[w_ie x] T)
-    x, p = np.zeros(n), p0.copy()
+    q = np.zeros((N_STATES, N_STATES))
+    q[:6, :6] = qd
+    x, p = np.zeros(N_STATES), p0.copy()
+    innov = np.empty((k_steps, 3))
+    _filter(gamma, vel_ol, g_t, np.ascontiguousarray(e_mat), q, float(r), x, p, innov)
+    return x, p, innov
+
+
+@jit.njit(cache=True, nogil=True)
+def _filter(gamma, vel_ol, g_t, e_mat, q, r, x, p, innov):
+    """The loop of :func:`_one_pass` (its docstring): ``x`` (30,), ``p`` (30, 30) the
+    prior in, the estimate out; ``innov`` (k, 3) filled. Joseph-form update."""
+    n = x.shape[0]
+    k_steps = gamma.shape[0]
+    earth_turn = e_mat[3:6, 3:6].copy()  # exp(-[w_ie x] T)
     phi = np.eye(n)
     phi[:6, :6] = e_mat
-    q = np.zeros((n, n))
-    q[:6, :6] = qd
-    rr = np.eye(3) * r**2
-    innov = np.empty((k_steps, 3))
+    turn = np.eye(3)
+    vel = np.zeros(3)
+    rr = np.eye(3) * r * r
     eye = np.eye(n)
-    turn, vel = np.eye(3), np.zeros(3)
     for k in range(k_steps):
         vel = vel + turn @ (vel_ol[k + 1] - vel_ol[k] - g_t) + g_t
         phi[:3, 6:27] = turn @ gamma[k, :3]
         phi[3:6, 6:27] = turn @ gamma[k, 3:]
-        x = phi @ x
-        p = phi @ p @ phi.T + q
-        innov[k] = vel - x[:3]
+        x[:] = phi @ x
+        p[:, :] = phi @ p @ phi.T + q
+        nu = vel - x[:3]
+        innov[k] = nu
         gain = np.linalg.solve(p[:3, :3] + rr, p[:3, :]).T
-        x = x + gain @ innov[k]
+        x[:] = x + gain @ nu
         ikh = eye.copy()
         ikh[:, :3] -= gain
-        p = ikh @ p @ ikh.T + gain @ rr @ gain.T
-        p = 0.5 * (p + p.T)
+        p[:, :] = ikh @ p @ ikh.T + gain @ rr @ gain.T
+        p[:, :] = 0.5 * (p + p.T)
         # feedback: mat_nb = (I - [phi x]) true, so true = exp([phi x]) mat_nb
         vel = vel - x[:3]
         tilt = np.array([x[3], x[4], 0.0])
-        turn = earth_turn @ rotation.mat_from_rotvec(tilt) @ turn @ earth_turn.T
+        turn = earth_turn @ _rotation(tilt) @ turn @ earth_turn.T
         x[:5] = 0.0
-    return x, p, innov
+
+
+@jit.njit(cache=True, nogil=True)
+def _rotation(v):
+    """``exp([v x])`` (Rodrigues)."""
+    a = np.sqrt(v[0] * v[0] + v[1] * v[1] + v[2] * v[2])
+    k = np.array([[0.0, -v[2], v[1]], [v[2], 0.0, -v[0]], [-v[1], v[0], 0.0]])
+    if a < 1e-8:
+        return np.eye(3) + k + 0.5 * (k @ k)
+    return np.eye(3) + np.sin(a) / a * k + (1.0 - np.cos(a)) / (a * a) * (k @ k)
 
 
 def initial_attitude(dtheta, dv, dt, lla, holds, iterations=3):

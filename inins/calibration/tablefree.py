@@ -34,7 +34,7 @@ imu_tk's formulation the gyro bias carries the Earth-rate component of the initi
 position (up to 15 deg/h) and the rotations the Earth rate times the motion time.
 """
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -235,9 +235,15 @@ def _white_density(x, dts, ivs):
 
 
 def _inflation(chi2, dof, given):
-    """Covariance factor: the chi-square per degree of freedom where above 1 (not for the
-    planner, whose noise is given)."""
-    return 1.0 if given else max(1.0, chi2 / max(dof, 1))
+    """Covariance factor: the chi-square per degree of freedom where the chi-square says
+    the residuals exceed the white noise (above its 99 % point; with a few degrees of
+    freedom the ratio alone is mostly noise, and would inflate a consistent fit by a
+    third on average); 1 for the planner, whose noise is given."""
+    from inins.core.stats import chi2_ppf
+
+    if given or dof < 1 or chi2 <= float(chi2_ppf(0.99, dof)):
+        return 1.0
+    return chi2 / dof
 
 
 def _fit_accel(means, dur, gravity, vrw, given, equal=False):
@@ -286,8 +292,6 @@ def _inflated(v, factor):
     """The verdict with its covariance (and sigma) times ``factor``."""
     if factor == 1.0:
         return v
-    from dataclasses import replace
-
     return replace(v, covariance=v.covariance * factor, sigma=v.sigma * np.sqrt(factor))
 
 
@@ -321,7 +325,11 @@ def _fit_gyro_imu_tk(problem, bias, sig_b, sig_d, given):
     cov[:, ~ok] = np.nan
     sigma = np.where(ok, np.sqrt(np.abs(np.diag(np.nan_to_num(cov)))), np.inf)
     gv = verdict.Verdict(GYRO_NAMES + BIAS_NAMES, sigma, ok, v.combinations, info, cov, v.rank + 3)
-    return np.r_[sol.x, bias], gv, chi2, dof, None
+
+    def res_of(prob, x):
+        return prob.direction_residuals(x, bias) / sig_d
+
+    return np.r_[sol.x, bias], gv, chi2, dof, None, (res_of, sol.x, np.full(9, 1e-6), factor)
 
 
 def _fit_gyro_earth(problem, sig_s, sig_d, given):
@@ -353,7 +361,32 @@ def _fit_gyro_earth(problem, sig_s, sig_d, given):
     step = np.r_[np.full(9, 1e-6), np.full(3, 1e-8), 1e-6]
     v = _verdict(res, x0, sol.x, step, GYRO_NAMES + BIAS_NAMES, marginal)
     chi2, dof = float(sol.fun @ sol.fun), sol.fun.size - 13
-    return sol.x[:12], _inflated(v, _inflation(chi2, dof, given)), chi2, dof, float(sol.x[12])
+    factor = _inflation(chi2, dof, given)
+
+    def res_of(prob, x):
+        p, b, h = x[:9], x[9:12], x[12]
+        return np.r_[
+            prob.static_residuals(p, b, h) / sig_s, prob.direction_residuals(p, b, h) / sig_d
+        ]
+
+    propagation = (res_of, sol.x, step, factor)
+    return sol.x[:12], _inflated(v, factor), chi2, dof, float(sol.x[12]), propagation
+
+
+def _accel_into_gyro(problem, u_of, x_a, cov_a, propagation):
+    """Covariance the accelerometer fit's error adds to the gyro terms through the
+    gravity directions ``u`` the gyro fit takes as known: ``K cov_a K^T`` (and the cross
+    covariance ``-K cov_a``), ``K = (J^T J)^+ J^T J_a``, ``J``, ``J_a`` the whitened gyro
+    residuals' Jacobians in the fitted parameters and in the accelerometer terms. For a
+    navigation-grade unit this is most of the gyro misalignments' 1-sigma (the gravity
+    directions are the reference the rotations are measured against)."""
+    res_of, x_fit, step, factor = propagation
+    j = _jacobian(lambda x: res_of(problem, x), x_fit, step)
+    j_a = _jacobian(lambda xa: res_of(problem.with_u(u_of(xa)), x_fit), x_a, 1e-7)
+    k = np.zeros((12, x_a.size))  # the 9 matrix terms, then the bias (its own in imu_tk)
+    fitted = (np.linalg.pinv(j.T @ j) @ j.T @ j_a)[:12] * np.sqrt(factor)
+    k[: fitted.shape[0]] = fitted
+    return k @ cov_a @ k.T, -k @ cov_a
 
 
 def _reordered(v, names):
@@ -449,15 +482,32 @@ def calibrate(time, acc, gyro, gravity, detector=Detector(), use=None, lat=None,
         n_init = min(init.stop, init.start + round(detector.init / step))
         bias = gyro[init.start : n_init].mean(axis=0)
         sig_b = arw / np.sqrt((n_init - init.start) * step)
-        x_g, v_g, chi2_g, dof_g, heading = _fit_gyro_imu_tk(problem, bias, sig_b, sig_d, given)
+        x_g, v_g, chi2_g, dof_g, heading, propagation = _fit_gyro_imu_tk(
+            problem, bias, sig_b, sig_d, given
+        )
         before = problem.direction_residuals(np.zeros(9), bias)
     else:
         sig_s = (arw[None, :] / np.sqrt(dur)[:, None]).ravel()
-        x_g, v_g, chi2_g, dof_g, heading = _fit_gyro_earth(problem, sig_s, sig_d, given)
+        x_g, v_g, chi2_g, dof_g, heading, propagation = _fit_gyro_earth(
+            problem, sig_s, sig_d, given
+        )
         before = problem.direction_residuals(np.zeros(9), g_means[0])
     after = problem.direction_residuals(x_g[:9], x_g[9:12], 0.0 if heading is None else heading)
     names = ACCEL_NAMES + GYRO_NAMES + BIAS_NAMES
-    both = _reordered(verdict.merge(v_a, v_g), imu_model.SENSOR_TERMS)
+    both = verdict.merge(v_a, v_g)
+    if not both.inseparable:
+
+        def u_of(xa):
+            ba_, mat_ = _accel_params(xa)
+            f = np.linalg.solve(mat_, (means - ba_).T).T
+            return f / np.linalg.norm(f, axis=1, keepdims=True)
+
+        add, cross = _accel_into_gyro(problem, u_of, x_a, v_a.covariance, propagation)
+        cov = both.covariance.copy()
+        cov[9:, 9:] += add
+        cov[9:, :9], cov[:9, 9:] = cross, cross.T
+        both = replace(both, covariance=cov, sigma=np.sqrt(np.diag(cov)))
+    both = _reordered(both, imu_model.SENSOR_TERMS)
     values = dict(zip(names, np.r_[x_a, x_g], strict=True))
     return TableFreeFit(
         both.names,

@@ -142,6 +142,12 @@ class GyroProblem:
         self.w_ie_n = np.zeros(3) if self.lat is None else earth.rate_ie_n(self.lat)
         self.level0 = alignment.level(self.u[0])
 
+    def with_u(self, u):
+        """The same problem with other gravity directions (the kernel's buffers shared)."""
+        from dataclasses import replace
+
+        return replace(self, u=np.asarray(u, float))
+
     @property
     def earth(self):
         """True when the Earth rate is modelled."""

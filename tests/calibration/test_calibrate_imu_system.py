@@ -100,7 +100,7 @@ def test_monte_carlo_sigma_and_planner():
     errs, z = np.array(errs), np.array(z)
     assert np.mean(np.abs(z) < 3.0) >= 0.99
     assert 0.8 <= np.sqrt(np.mean(z**2)) <= 1.25
-    _, planned = plan_system_level(CalibrateImuScenario.model_validate(data))
+    planned = plan_system_level(CalibrateImuScenario.model_validate(data)).sigma
     ratio = np.sqrt(np.mean(errs**2, axis=0)) / planned
     print("MC system-level:", np.mean(np.abs(z) < 3.0), np.sqrt(np.mean(z**2)), ratio.round(2))
     assert np.all(np.abs(ratio - 1.0) < 0.3)  # per term, 50 seeds: +-10 % sampling (1 sigma)
