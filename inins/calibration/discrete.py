@@ -243,8 +243,9 @@ def predict(values, names, ivs):
 
 
 def _scales(names):
-    """Typical magnitude of each term, for finite differences and conditioning."""
-    return np.array([{"mount": 1e-3}.get(imu_model.GROUP_OF[n], 1e-3) for n in names])
+    """Typical magnitude of each term, for finite differences, conditioning and the
+    verdict (:func:`inins.calibration.verdict.typical_scale`)."""
+    return verdict.typical_scale(names)
 
 
 def jacobian(values, names, ivs):

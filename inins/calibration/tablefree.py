@@ -146,12 +146,13 @@ def _accel_params(p):
 
 
 MIN_INFORMATION = 0.01
-"""A term whose 1-sigma exceeds ten times :data:`SCALE` (1 %, 2000 arcsec, 1 mg, 2000 deg/h)
-is not determined (:func:`inins.calibration.verdict.from_information`)."""
+"""A term whose 1-sigma exceeds ten times its typical size (1000 ppm, 206 arcsec, 1 mg,
+20 deg/h: :data:`inins.calibration.verdict.TYPICAL`) is not determined
+(:func:`inins.calibration.verdict.from_information`)."""
 VRW_FLOOR, ARW_FLOOR = 1e-9, 1e-12
 """Smallest white-noise densities the weights take (m/s/sqrt(s), rad/sqrt(s))."""
 SCALE = 1e-3
-"""Typical size of every term (SI) for the eigen-analysis of the information."""
+"""Step size of the least-squares solver (``x_scale``) for the matrix terms."""
 
 
 @dataclass(frozen=True)
@@ -277,7 +278,7 @@ def _verdict(res, nominal, solution, step, names, marginal=None):
         info = jac.T @ jac
         return info if marginal is None else marginal(info)
 
-    scale = np.full(len(names), SCALE)
+    scale = verdict.typical_scale(names)
     first = verdict.from_information(
         information(nominal), names, scale, min_information=MIN_INFORMATION
     )

@@ -23,9 +23,29 @@ import numpy as np
 REL_TOL = 1e-10
 """Eigenvalue of the scaled information, relative to the largest, below which a
 direction is in the null space (a singular value 1e-5 of the largest)."""
-WEIGHT_TOL = 1e-10
+WEIGHT_TOL = 1e-8
 """A term whose squared weight on the unresolved directions (unit eigenvectors of the
 scaled information) exceeds this is not separable."""
+
+
+TYPICAL = {
+    "ba": 1e-3,  # m/s^2, 100 ug
+    "bg": 1e-5,  # rad/s, 2 deg/h
+    "sa": 1e-4,  # 100 ppm
+    "sg": 1e-4,
+    "ma": 1e-4,  # rad, 21 arcsec
+    "mg": 1e-4,
+    "gg": 1e-6,  # rad/s per m/s^2, 2 deg/h per g
+    "mo": 1e-3,  # mount, rad
+}
+"""Typical size of each kind of term (SI, by the first two letters of its name): the
+units the eigen-analysis is done in, so that a combination of a gyro bias and a heading
+(one Earth rate times the other) weighs what it means."""
+
+
+def typical_scale(names):
+    """:data:`TYPICAL` size of each term of ``names``, shape (p,)."""
+    return np.array([TYPICAL[n[:2]] for n in names])
 
 
 @dataclass(frozen=True)
