@@ -22,7 +22,7 @@ from helpers import CONFIGS
 from inins.calibration import discrete, imu_model, systemlevel, tablefree, verdict
 from inins.commands._table import memory_record
 from inins.commands.calibrate_imu_plan import plan_intervals
-from inins.core import earth, imu, rotation, strapdown
+from inins.core import earth, rotation, strapdown
 from inins.core.units import DEG_RTH, UG_RTHZ
 from inins.scenario.si.table import table_simulation
 from inins.scenario.simulate_table import TableSetup
