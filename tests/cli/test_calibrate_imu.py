@@ -269,3 +269,132 @@ def test_positions_not_found_are_bad_input(tmp_path):
     )
     assert result.exit_code == 2
     assert "table_free.use_positions" in result.output and "38 static intervals" in result.output
+
+
+def _scenario(tmp_path, config, motion=None, **top):
+    data = yaml.safe_load((CONFIGS / "calibrate-imu" / config).read_text())
+    data.pop("checks", None)
+    data["simulate"]["imu"]["sample_rate_hz"] = 20
+    if motion is not None:
+        data["simulate"]["motion"] = motion
+    data.update(top)
+    path = tmp_path / "s.yaml"
+    path.write_text(yaml.safe_dump(data))
+    return path
+
+
+ROLLS = [{"kind": "hold", "duration_s": 20, "label": "init"}] + [
+    step
+    for k in range(11)
+    for step in (
+        {"kind": "rotate", "axis": "roll", "angle_deg": 30 + 5 * (k % 3), "rate_dps": 60},
+        {"kind": "hold", "duration_s": 6},
+    )
+]
+
+
+@pytest.mark.parametrize("only", [True, False])
+def test_table_free_rolls_only_is_refused_naming_the_null_space(tmp_path, only):
+    # turns about body x alone: the x accelerometer never sees gravity (ba_x, sa_x, ma_yx,
+    # ma_zx free); the planner and the run say so alike, exit 2, nothing written
+    scen = _scenario(tmp_path, "table-free-mems.yaml", ROLLS)
+    result = run(scen, "-o", tmp_path / "o", "--set", f"plan.only={str(only).lower()}")
+    assert result.exit_code == 2, result.output
+    assert "table-free: the schedule cannot separate" in result.output
+    for name in ("ba_x", "sa_x", "ma_yx", "ma_zx"):
+        assert name in result.output
+    assert not (tmp_path / "o" / "calibrate-imu-compensation.yaml").exists()
+
+
+LEVEL = [{"kind": "hold", "duration_s": 30.0}, {"kind": "rotate", "axis": "yaw", "angle_deg": 90}]
+LEVEL += [{"kind": "hold", "duration_s": 10.0}]
+for _ in range(8):
+    LEVEL += [
+        {"kind": "rotate", "axis": "pitch", "angle_deg": 90},
+        {"kind": "hold", "duration_s": 10.0},
+    ]
+YAW = [{"kind": "hold", "duration_s": 30.0}]
+for _ in range(8):
+    YAW += [
+        {"kind": "rotate", "axis": "yaw", "angle_deg": 90},
+        {"kind": "hold", "duration_s": 10.0},
+    ]
+
+
+@pytest.mark.parametrize(
+    "motion, only, names",
+    [
+        (YAW, True, ("sa_x", "sa_y", "ma_zy")),
+        (LEVEL, True, ("sa_x", "ma_yx", "ma_zx")),
+        (LEVEL, False, ("sa_x", "ma_yx", "ma_zx")),
+    ],
+)
+def test_system_level_degenerate_sequences_are_refused(tmp_path, motion, only, names):
+    # yaw turns only, or the x axis level throughout: the filter's information leaves
+    # combinations free; refused with them named (no sigma at the prior, no compensation)
+    scen = _scenario(tmp_path, "system-level-19.yaml", motion)
+    result = run(scen, "-o", tmp_path / "o", "--set", f"plan.only={str(only).lower()}")
+    assert result.exit_code == 2, result.output
+    assert "system-level: the schedule cannot separate" in result.output
+    for name in names:
+        assert name in result.output
+    # told to estimate the combinations, the run reports those terms without a sigma
+    if not only:
+        result = run(scen, "-o", tmp_path / "c", "--set", "plan.allow_combinations=true")
+        assert result.exit_code == 0, result.output
+        res = json.loads((tmp_path / "c" / "summary.json").read_text())["results"]
+        assert res["system_sa_x_sigma_ppm"] is None and res["system_sa_x_ppm"] is None
+        assert res["system_sa_z_sigma_ppm"] > 0 and res["system_inseparable"] >= 3
+        comp = yaml.safe_load((tmp_path / "c" / "calibrate-imu-compensation.yaml").read_text())
+        assert "sa_x" in comp["not_determined"] and comp["imu"]["accel_scale_ppm"][0] == 0.0
+
+
+def test_max_sigma_is_one_rule_for_the_plan_and_the_run(tmp_path):
+    # the discrete schedule with 5-s holds at 20 Hz: scale-factor 1-sigma of a few ppm
+    for only in ("true", "false"):
+        result = run(
+            DEFAULT,
+            "-o",
+            tmp_path / only,
+            "--set",
+            "simulate.imu.sample_rate_hz=20",
+            "--set",
+            "checks=[]",
+            "--set",
+            "plan.max_sigma_ppm=0.001",
+            "--set",
+            f"plan.only={only}",
+        )
+        assert result.exit_code == 2, result.output
+        assert "plan.max_sigma_ppm" in result.output and "predicted 1-sigma above" in result.output
+
+
+@pytest.mark.parametrize(
+    "case, message",
+    [
+        ("constant", "accelerometer x, accelerometer y, accelerometer z give the same count"),
+        ("zero", "read their nominal zero"),
+        ("stuck", "accelerometer y give the same count at every sample"),
+    ],
+)
+def test_raw_counts_that_cannot_be_calibrated_are_bad_input(tmp_path, case, message):
+    n = 6000
+    rng = np.random.default_rng(0)
+    acc = np.column_stack([np.arange(n) * 0.01, np.full((n, 3), 32768.0)])
+    gyro = acc.copy()
+    gyro[:, 1:] += rng.normal(0, 2, (n, 3))
+    if case == "stuck":
+        acc[:, 1:] += rng.normal(0, 2, (n, 3))
+        acc[:, 2] = 33000.0
+    elif case == "zero":  # moving about the nominal zero, mean exactly zero
+        acc[:, 1:] += np.where(np.arange(n) % 2, 1.0, -1.0)[:, None]
+    np.savetxt(tmp_path / "acc.txt", acc)
+    np.savetxt(tmp_path / "gyro.txt", gyro)
+    scen = tmp_path / "s.yaml"
+    scen.write_text(
+        "methods: [table-free]\nlog: {accel_file: acc.txt, gyro_file: gyro.txt}\n"
+        "table_free: {earth_rate: imu_tk}\n"
+    )
+    result = run(scen, "-o", tmp_path / "o")
+    assert result.exit_code == 2, result.output
+    assert message in result.output and "acc.txt" in result.output
