@@ -55,13 +55,19 @@ def tau_grid(n, per_octave=1, offsets=0, min_clusters=2):
 _NO_ID = 99
 
 
-def _fill_alpha(alpha):
-    """Where no alpha was identified (too few averages), keep the last shorter tau's."""
+def _fill_alpha(alpha, monotone=False):
+    """Where no alpha was identified (too few averages), keep the last shorter tau's;
+    ``monotone``: never above the shorter tau's either (sensor noise goes from
+    quantization through white and flicker rate to random walk as tau grows; the lag-1
+    estimate from 30-60 averages at the longest tau mistakes a white rate for flicker
+    phase in a fifth of records, and the edf it then takes is 4x too large)."""
     out = alpha.copy()
     for a in range(out.shape[0]):
         for c in range(out.shape[1]):
             if out[a, c] == _NO_ID:
                 out[a, c] = out[a - 1, c] if a else 0
+            elif monotone and a:
+                out[a, c] = min(out[a, c], out[a - 1, c])
     return out
 
 

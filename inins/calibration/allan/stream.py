@@ -169,6 +169,9 @@ class AllanAccumulator:
     block_n : int
         Samples per block of :meth:`blocks` (block means and spreads, for the motion
         check), accumulated in the same pass.
+    monotone_alpha : bool
+        The noise identified at a tau never above the shorter tau's (sensor noise:
+        :func:`inins.calibration.allan.deviation._fill_alpha`).
     batch_rows : int
         Phase points a level gathers before the second differences run over them and
         its next level's points are taken: chunks of any size, kernel calls over runs
@@ -186,6 +189,7 @@ class AllanAccumulator:
         reference=None,
         block_n=1,
         batch_rows=1 << 16,
+        monotone_alpha=False,
     ):
         self.tau0 = float(tau0)
         self.k = int(n_channels)
@@ -214,8 +218,13 @@ class AllanAccumulator:
         self.n = 0
         self._buffers = {}
         self.batch_rows = max(int(batch_rows), 1)
+        self.monotone_alpha = bool(monotone_alpha)
         self._pending = [0] * self.levels
         """Phase points of each level written after its tail, not yet differenced."""
+        self._whole = [False] * self.levels
+        """The tail is the level's whole history, kept in place in its buffer (the fully
+        overlapping estimator, offsets=0: every point stays needed; copying it on every
+        batch made the pass quadratic in the record length)."""
 
     def add(self, increments, more=None):
         """Add a chunk of increments, shape (p, k) (rad or m/s), or its first columns
@@ -256,17 +265,22 @@ class AllanAccumulator:
         """Make room for ``rows`` more points of ``level`` after its tail and pending
         points; returns the row where they go."""
         tail = self._tail[level]
-        h, pending = tail.shape[0], self._pending[level]
+        h, pending, whole = tail.shape[0], self._pending[level], self._whole[level]
         start = h + pending
         have = self._buffers.get(level)
         if have is None or have.shape[0] < start + rows:
-            # while points gather (small chunks): room for a whole batch at once
+            # while points gather (small chunks): room for a whole batch at once; a whole
+            # history grows by doubling (its copies sum to O(N))
             size = start + rows if not pending else max(start + rows, h + self.batch_rows + rows)
+            if whole and have is not None:
+                size = max(size, 2 * have.shape[0], h + self.batch_rows + rows)
             grown = np.empty((size, self.k))
-            if pending:
+            if pending or (whole and have is not None):
                 grown[:start] = have[:start]
             have = self._buffers[level] = grown
-        if not pending:
+            if whole:
+                self._tail[level] = have[:h]
+        if not pending and not whole:
             have[:h] = tail
         return start
 
@@ -302,7 +316,8 @@ class AllanAccumulator:
                             self._idx[e].append(take.copy())
                             self._id_n[e] += take.shape[0]
             hold = max(self._hold[level], 2)
-            self._tail[level] = buf[-hold:].copy()
+            self._whole[level] = hold >= buf.shape[0]
+            self._tail[level] = buf if self._whole[level] else buf[-hold:].copy()
             self._count[level] = c + pending
             level += 1
             if level >= self.levels:
@@ -343,12 +358,13 @@ class AllanAccumulator:
                 alpha[a, c] = (
                     autocorr_alpha(y[c], "frequency") if y.shape[1] >= ID_MIN_POINTS else _NO_ID
                 )
-        alpha = _fill_alpha(alpha)
-        ms, var, alpha = self.ms[keep], var[keep], alpha[keep]
+        alpha = _fill_alpha(alpha, self.monotone_alpha)
+        ms, var, alpha, big = self.ms[keep], var[keep], alpha[keep], self._big[keep]
+        # a decimated tau has M starts per m, not m (Greenhall & Riley's S)
         edf = np.array(
             [
-                [edf_for("oadev", int(al), int(m), self.n + 1) for al in row]
-                for m, row in zip(ms, alpha, strict=True)
+                [edf_for("oadev", int(al), int(m), self.n + 1, int(s)) for al in row]
+                for m, s, row in zip(ms, big, alpha, strict=True)
             ]
         ).reshape(var.shape)
         return Deviation("oadev", ms * self.tau0, ms, np.sqrt(var), edf, alpha, self._terms[keep])
