@@ -185,6 +185,31 @@ def test_mdev_totdev_against_allantools():
         np.testing.assert_allclose(d[kind].dev[:, 0], ref, rtol=1e-9, err_msg=kind)
 
 
+FROZEN = Path(__file__).resolve().parents[1] / "data" / "allan_frozen.json"
+
+
+def test_deviations_match_the_frozen_allantools_table():
+    """The overlapping, non-overlapping, modified and total deviations of a 2048-sample
+    record against allantools' values for the same record, frozen in tests/data with the
+    script that made them (no optional package needed): every tau to 1e-9 relative, and
+    the number of terms each averages. The modified deviation's normalisation (m^2 tau0
+    in the denominator, SP 1065 eq. 15) and the total deviation's reflection at both
+    ends are what differ from the overlapping one here."""
+    import json
+
+    table = json.loads(FROZEN.read_text())
+    y = np.array(table["y"])[:, None]
+    ms = np.array(table["m"])
+    kinds = ("oadev", "adev", "mdev", "totdev")
+    dev = allan.deviations(y, 1.0, ms=ms, kinds=kinds)
+    for kind in kinds:
+        np.testing.assert_allclose(dev[kind].dev[:, 0], table[kind], rtol=1e-9, err_msg=kind)
+        if kind != "totdev":  # allantools counts the totdev terms differently
+            np.testing.assert_array_equal(dev[kind].terms, table[f"{kind}_n"], err_msg=kind)
+    # and they are different statistics of this record, not one number four times
+    assert abs(dev["mdev"].dev[4, 0] / dev["oadev"].dev[4, 0] - 1) > 0.1
+
+
 def test_streaming_equals_in_memory_and_decimation_loses_little():
     """The accumulator fed in uneven chunks equals the in-memory overlapping deviation
     exactly with offsets=0; with 16 offsets per tau it differs from it by under 0.3 of
