@@ -174,17 +174,15 @@ def test_unknown_key_and_two_sources_are_bad_input(tmp_path):
 
 
 CHROMIUM = shutil.which("chromium") or shutil.which("chromium-browser")
+SKIP_CHROMIUM = pytest.mark.skipif(
+    CHROMIUM is None,
+    reason="certificate rendering: no chromium on this machine (Debian's chromium package; "
+    ".ci/run installs it)",
+)
 
 
-def test_certificate_renders_in_headless_chromium(default_run, tmp_path):
-    if CHROMIUM is None:
-        pytest.skip(
-            "certificate rendering skipped: no chromium on this machine (install "
-            "Debian's chromium package; .ci/run does)"
-        )
-    shot = tmp_path / "certificate.png"
-    page = default_run / "calibrate-imu-certificate.html"
-    out = subprocess.run(
+def _chromium(*args):
+    return subprocess.run(
         [
             CHROMIUM,
             "--headless",
@@ -196,17 +194,70 @@ def test_certificate_renders_in_headless_chromium(default_run, tmp_path):
             "--no-first-run",
             "--enable-logging=stderr",
             "--v=0",
-            f"--screenshot={shot}",
-            "--window-size=1000,1400",
-            page.as_uri(),
+            *args,
         ],
         capture_output=True,
         text=True,
         timeout=120,
     )
+
+
+def test_certificate_says_what_a_lab_signs(default_run):
+    page = (default_run / "calibrate-imu-certificate.html").read_text()
+    assert "<title>Calibration certificate</title>" in page
+    # lab units, not result-name suffixes
+    assert "µg" in page and "°/h" in page and "arcsec" in page and "ppm" in page
+    assert ">ug<" not in page and ">dph<" not in page
+    # value and U to U's two significant digits: "x.xx</td><td>0.0y" style rows
+    summary = json.loads((default_run / "summary.json").read_text())["results"]
+    from inins.commands.calibrate_imu_certificate import value_with_uncertainty
+
+    v, u = value_with_uncertainty(summary["discrete_ba_x_ug"], summary["discrete_ba_x_u_ug"])
+    assert f"<td class='n'>ba_x</td><td>{v}</td><td>{u}</td>" in page
+    assert len(u.replace("0.", "").lstrip("0").replace(".", "")) == 2  # two digits of U
+    for text in ("Legend", "misalignment of gyro i toward axis j", "calibration date (UTC)"):
+        assert text in page
+    assert "the gyro bias is the sensor&#x27;s alone" in page and "all 24 terms separable" in page
+
+
+def test_certificate_escapes_and_wraps_the_serial(tmp_path):
+    serial = "<script>alert(1)</script>&" + "X" * 120
+    result = run(
+        DEFAULT,
+        "-o",
+        tmp_path,
+        "--plot",
+        "--set",
+        f"simulate.imu.sample_rate_hz={RATE}",
+        "--set",
+        "checks=[]",
+        "--set",
+        f"unit.serial={serial}",
+    )
+    assert result.exit_code == 0, result.output
+    page = (tmp_path / "calibrate-imu-certificate.html").read_text()
+    assert "<script>" not in page and "&lt;script&gt;alert(1)&lt;/script&gt;&amp;" in page
+    assert "word-break:break-all" in page
+
+
+@SKIP_CHROMIUM
+def test_certificate_renders_in_headless_chromium_and_prints_on_a4(default_run, tmp_path):
+    page = default_run / "calibrate-imu-certificate.html"
+    shot = tmp_path / "certificate.png"
+    out = _chromium(f"--screenshot={shot}", "--window-size=800,1130", page.as_uri())
     assert shot.is_file() and shot.stat().st_size > 5000, out.stderr[-2000:]
     console = [line for line in out.stderr.splitlines() if "CONSOLE" in line]
     assert console == [], console
+    pdf = tmp_path / "certificate.pdf"
+    out = _chromium(f"--print-to-pdf={pdf}", "--no-pdf-header-footer", page.as_uri())
+    data = pdf.read_bytes()
+    assert data.startswith(b"%PDF"), out.stderr[-2000:]
+    # every page A4 (595 x 842 pt), and the certificate on a few of them
+    import re
+
+    boxes = re.findall(rb"/MediaBox\s*\[\s*0\s+0\s+([\d.]+)\s+([\d.]+)\s*\]", data)
+    assert boxes and all(abs(float(w) - 595.3) < 1 and abs(float(h) - 841.9) < 1 for w, h in boxes)
+    assert len(boxes) <= 4
 
 
 def test_static_log_planner_says_what_it_can_and_cannot_give(tmp_path):
@@ -214,7 +265,9 @@ def test_static_log_planner_says_what_it_can_and_cannot_give(tmp_path):
     scen = CONFIGS / "calibrate-imu" / "rlg-static-plan.yaml"
     result = run(scen, "-o", tmp_path, "--plot")
     assert result.exit_code == 0, result.output
-    assert "Calibration plan" in (tmp_path / "calibrate-imu-certificate.html").read_text()
+    plan = (tmp_path / "calibrate-imu-certificate.html").read_text()
+    assert "<title>Calibration plan</title>" in plan and "Calibration certificate" not in plan
+    assert "Nothing was measured" in plan
     assert "nothing estimated" in (tmp_path / "calibrate-imu-compensation.yaml").read_text()
     res = json.loads((tmp_path / "summary.json").read_text())["results"]
     assert res["plan_ba_z_sigma_ug"] > 0  # the vertical accelerometer bias: separable
