@@ -175,8 +175,15 @@ class Pass:
 
 def _pass(source, dt, ms, cfg, start, stop, keep):
     block_n = max(1, round(cfg.static.block_s / dt))
+    expected = (source.n if stop is None else stop) - start if source.n is not None else 0
     acc = allan.AllanAccumulator(
-        dt, 6, ms, cfg.deviation.offsets, block_n=block_n, monotone_alpha=True
+        dt,
+        6,
+        ms,
+        cfg.deviation.offsets,
+        block_n=block_n,
+        monotone_alpha=True,
+        expected_rows=expected,
     )
     kept = []
     sat = _saturation_limits(cfg, dt)

@@ -93,37 +93,28 @@ def _difference_sums(buf, first, ms, sums, terms):
     Each channel's sum is continued in the order of j, one term at a time, as one
     channel alone and the whole record in one call would give it (bit for bit,
     whatever k and however the record is cut into calls). The rows go by in runs of
-    :data:`DIFFERENCE_ROWS`, every stride over a run before the next; six channels
-    (3 gyros, 3 accelerometers) have their sums in six scalars (the compiler keeps
-    them in registers and packs the six differences of a point into vector
-    instructions: 2.2x the generic loop).
+    :data:`DIFFERENCE_ROWS`, every stride over a run (from its first whole window on)
+    before the next; six channels (3 gyros, 3 accelerometers) have their sums in six
+    scalars (the compiler keeps them in registers and packs the six differences of a
+    point into vector instructions: 2.2x the generic loop).
     """
     n, k = buf.shape
     q = ms.shape[0]
-    if q == 0:
-        return
-    top = 0
     for e in range(q):
         j0 = max(first, 2 * ms[e])
         if j0 < n:
             terms[e] += n - j0
-        top = max(top, 2 * ms[e])
-    # the points where some stride still lacks a whole window: one stride at a time
-    for e in range(q):
-        mm = ms[e]
-        for j in range(max(first, 2 * mm), min(n, max(first, top))):
-            for c in range(k):
-                d = buf[j, c] - 2.0 * buf[j - mm, c] + buf[j - 2 * mm, c]
-                sums[e, c] += d * d
-    # then every stride over each run of rows
-    for r0 in range(max(first, top), n, DIFFERENCE_ROWS):
+    for r0 in range(first, n, DIFFERENCE_ROWS):
         r1 = min(n, r0 + DIFFERENCE_ROWS)
         for e in range(q):
             mm = ms[e]
+            j0 = max(r0, 2 * mm)
+            if j0 >= r1:
+                continue
             if k == 6:
                 t0, t1, t2 = sums[e, 0], sums[e, 1], sums[e, 2]
                 t3, t4, t5 = sums[e, 3], sums[e, 4], sums[e, 5]
-                for j in range(r0, r1):
+                for j in range(j0, r1):
                     d0 = buf[j, 0] - 2.0 * buf[j - mm, 0] + buf[j - 2 * mm, 0]
                     d1 = buf[j, 1] - 2.0 * buf[j - mm, 1] + buf[j - 2 * mm, 1]
                     d2 = buf[j, 2] - 2.0 * buf[j - mm, 2] + buf[j - 2 * mm, 2]
@@ -139,7 +130,7 @@ def _difference_sums(buf, first, ms, sums, terms):
                 sums[e, 0], sums[e, 1], sums[e, 2] = t0, t1, t2
                 sums[e, 3], sums[e, 4], sums[e, 5] = t3, t4, t5
             else:
-                for j in range(r0, r1):
+                for j in range(j0, r1):
                     for c in range(k):
                         d = buf[j, c] - 2.0 * buf[j - mm, c] + buf[j - 2 * mm, c]
                         sums[e, c] += d * d
@@ -172,6 +163,10 @@ class AllanAccumulator:
     monotone_alpha : bool
         The noise identified at a tau never above the shorter tau's (sensor noise:
         :func:`inins.calibration.allan.deviation._fill_alpha`).
+    expected_rows : int
+        The record's length when known: with ``offsets=0`` (the whole phase kept) its
+        buffer is taken at once instead of grown by doubling (copies and first touches
+        of up to twice the record).
     batch_rows : int
         Phase points a level gathers before the second differences run over them and
         its next level's points are taken: chunks of any size, kernel calls over runs
@@ -190,6 +185,7 @@ class AllanAccumulator:
         block_n=1,
         batch_rows=1 << 16,
         monotone_alpha=False,
+        expected_rows=0,
     ):
         self.tau0 = float(tau0)
         self.k = int(n_channels)
@@ -219,6 +215,7 @@ class AllanAccumulator:
         self._buffers = {}
         self.batch_rows = max(int(batch_rows), 1)
         self.monotone_alpha = bool(monotone_alpha)
+        self.expected_rows = int(expected_rows)
         self._pending = [0] * self.levels
         """Phase points of each level written after its tail, not yet differenced."""
         self._whole = [False] * self.levels
@@ -274,6 +271,8 @@ class AllanAccumulator:
             size = start + rows if not pending else max(start + rows, h + self.batch_rows + rows)
             if whole and have is not None:
                 size = max(size, 2 * have.shape[0], h + self.batch_rows + rows)
+            if self.offsets == 0 and level == 0:
+                size = max(size, self.expected_rows + 2)
             grown = np.empty((size, self.k))
             if pending or (whole and have is not None):
                 grown[:start] = have[:start]
@@ -316,7 +315,7 @@ class AllanAccumulator:
                             self._idx[e].append(take.copy())
                             self._id_n[e] += take.shape[0]
             hold = max(self._hold[level], 2)
-            self._whole[level] = hold >= buf.shape[0]
+            self._whole[level] = hold >= buf.shape[0] or self.offsets == 0
             self._tail[level] = buf if self._whole[level] else buf[-hold:].copy()
             self._count[level] = c + pending
             level += 1
