@@ -100,11 +100,12 @@ def like_for_like(quick=False):
             log = tmp / "log.h5"
             write_log(log, hours)
             tag = f"{size:.0e}".replace("+0", "").replace("+", "")
-            ours = _estimator(log, "inins")
+            repeats = 3 if size <= 1e7 else 1  # the least CPU of three: a shared machine
+            ours = _estimator(log, "inins", repeats)
             out[f"full_overlap_{tag}_wall_s"] = ours["wall_s"]
             out[f"full_overlap_{tag}_cpu_s"] = ours["cpu_s"]
             out[f"full_overlap_{tag}_peak_rss_mb"] = ours["peak_rss_mb"]
-            theirs = _estimator(log, "allantools")
+            theirs = _estimator(log, "allantools", repeats)
             if theirs is not None:
                 out[f"allantools_oadev_{tag}_wall_s"] = theirs["wall_s"]
                 out[f"allantools_oadev_{tag}_cpu_s"] = theirs["cpu_s"]
@@ -134,7 +135,7 @@ def _max_rel_diff(ours, theirs):
 ESTIMATOR = """
 import json, resource, sys, time
 import h5py, numpy as np
-which, path, rate = sys.argv[1], sys.argv[2], float(sys.argv[3])
+which, path, rate, repeats = sys.argv[1], sys.argv[2], float(sys.argv[3]), int(sys.argv[4])
 if which == "inins":
     from inins.calibration import allan
     acc = allan.AllanAccumulator(1 / rate, 6, np.array([1, 2]), 0)  # compile / load
@@ -142,45 +143,54 @@ if which == "inins":
     acc.finish()
 else:
     import allantools
-t, c = time.perf_counter(), time.process_time()
-with h5py.File(path, "r") as f:
-    n = f["gyro"].shape[0]
-    if which == "inins":
-        ms = allan.tau_grid(n, 1, 0)
-        ms = ms[4 * ms <= n]
-        acc = allan.AllanAccumulator(1 / rate, 6, ms, 0, block_n=round(rate), expected_rows=n)
-        step = 1 << 20
-        for k in range(0, n, step):
-            g = f["gyro"][k : k + step].astype(np.float64) / rate
-            acc.add(g, f["accel"][k : k + step].astype(np.float64) / rate)
-        dev = acc.finish().dev[:, 5].tolist()
-    else:
+
+
+def once():
+    with h5py.File(path, "r") as f:
+        n = f["gyro"].shape[0]
+        if which == "inins":
+            ms = allan.tau_grid(n, 1, 0)
+            ms = ms[4 * ms <= n]
+            acc = allan.AllanAccumulator(1 / rate, 6, ms, 0, block_n=round(rate), expected_rows=n)
+            step = 1 << 20
+            for k in range(0, n, step):
+                g = f["gyro"][k : k + step].astype(np.float64) / rate
+                acc.add(g, f["accel"][k : k + step].astype(np.float64) / rate)
+            return acc.finish().dev[:, 5].tolist()
         for name in ("gyro", "accel"):
             data = f[name][()].astype(np.float64)
             for ch in range(3):
                 _, d, _, _ = allantools.oadev(
                     data[:, ch], rate=rate, data_type="freq", taus="octave"
                 )
-        dev = d.tolist()
-wall, cpu = time.perf_counter() - t, time.process_time() - c
+        return d.tolist()
+
+
+best = None
+for _ in range(repeats):
+    t, c = time.perf_counter(), time.process_time()
+    dev = once()
+    wall, cpu = time.perf_counter() - t, time.process_time() - c
+    if best is None or cpu < best[1]:
+        best = (wall, cpu)
 peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
 try:
     peak = int(open("/proc/self/status").read().split("VmHWM:")[1].split()[0])
 except (OSError, IndexError, ValueError):
     pass
-print(json.dumps({"wall_s": wall, "cpu_s": cpu, "peak_rss_mb": peak / 1024, "dev": dev}))
+print(json.dumps({"wall_s": best[0], "cpu_s": best[1], "peak_rss_mb": peak / 1024, "dev": dev}))
 """
 """One estimator over a log, timed from the first read to the deviations."""
 
 
-def _estimator(path, which):
+def _estimator(path, which, repeats):
     if which == "allantools":
         try:
             import allantools  # noqa: F401
         except ImportError:
             return None
     out = subprocess.run(
-        [sys.executable, "-c", ESTIMATOR, which, str(path), str(RATE_HZ)],
+        [sys.executable, "-c", ESTIMATOR, which, str(path), str(RATE_HZ), str(repeats)],
         capture_output=True,
         text=True,
         check=True,
