@@ -165,11 +165,15 @@ class SystemLevel(ScenarioSection):
     """System-level calibration: a Kalman filter on the navigation errors of the rotation
     sequence, known position and zero velocity."""
 
-    step_s: PositiveFloat = Field(1.0, description="filter step (s)")
+    step_s: PositiveFloat = Field(
+        1.0, le=60.0, description="filter step (s), at most 60 (the linear model per step)"
+    )
     velocity_noise_mps: PositiveFloat = Field(
         1e-4,
+        ge=1e-7,
+        le=1.0,
         description="1-sigma of the zero-velocity measurement (m/s): table vibration and "
-        "velocity quantization",
+        "velocity quantization; 1e-7 (a tenth of a micrometre per second) to 1",
     )
 
 
