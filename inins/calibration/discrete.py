@@ -263,6 +263,33 @@ def jacobian(values, names, ivs):
     return np.stack(cols, axis=-1)
 
 
+def noise_from_holds(record, spans):
+    """Angle and velocity random walk (rad/sqrt(s), m/s/sqrt(s), each (3,)) from the
+    scatter of 1-s block means within the holds ``spans`` (samples [start, stop)) of a
+    record: ``N = sd(block means) sqrt(T_block)`` (white noise; a hold shorter than four
+    blocks is left out).
+
+    Raises
+    ------
+    ValueError
+        No hold of four blocks.
+    """
+    block = max(1, round(1.0 / record.dt))
+    parts = ([], [])
+    for start, stop in spans:
+        if stop - start < 4 * block:
+            continue
+        dtheta, dv = record.imu(start, stop)
+        m = (dtheta.shape[0] // block) * block
+        for k, x in enumerate((dtheta, dv)):
+            means = x[:m].reshape(-1, block, 3).sum(axis=1) / (block * record.dt)
+            parts[k].append(means - means.mean(axis=0))
+    if not parts[0]:
+        raise ValueError("no hold long enough (4 s) to estimate the noise")
+    t_block = block * record.dt
+    return tuple(np.sqrt(np.mean(np.vstack(p) ** 2, axis=0) * t_block) for p in parts)
+
+
 @dataclass(frozen=True)
 class Noise:
     """White-noise figures per axis (SI): ARW (rad/sqrt(s)), VRW (m/s/sqrt(s)), pulse

@@ -47,28 +47,17 @@ def noise_figures(scenario, sensor, record=None, ivs=None):
 
 
 def _estimate_noise(record, ivs):
-    """ARW and VRW from the scatter of 1-s block means within the holds (rad/sqrt(s),
-    m/s/sqrt(s))."""
+    """ARW and VRW from the scatter within the holds (:func:`discrete.noise_from_holds`)."""
     if record is None:
         raise InputError("no noise figures given and no data to estimate them", key="noise")
     if ivs is None:  # the holds of the schedule
         spans = [(s.start_index, s.stop_index) for s in record.steps if str(s.kind) == "hold"]
     else:
         spans = [(iv.start, iv.stop) for iv in ivs if iv.kind == "hold"]
-    block = max(1, round(1.0 / record.dt))
-    parts = ([], [])
-    for start, stop in spans:
-        if stop - start < 4 * block:
-            continue
-        dtheta, dv = record.imu(start, stop)
-        m = (dtheta.shape[0] // block) * block
-        for k, x in enumerate((dtheta, dv)):
-            means = x[:m].reshape(-1, block, 3).sum(axis=1) / (block * record.dt)
-            parts[k].append(means - means.mean(axis=0))
-    if not parts[0]:
-        raise InputError("no hold long enough (4 s) to estimate the noise", key="noise")
-    t_block = block * record.dt
-    return tuple(np.sqrt(np.mean(np.vstack(p) ** 2, axis=0) * t_block) for p in parts)
+    try:
+        return discrete.noise_from_holds(record, spans)
+    except ValueError as exc:
+        raise InputError(str(exc), key="noise") from None
 
 
 def encoder_sigma(scenario):
