@@ -165,7 +165,7 @@ def run(scenario, seed, *, sink=None, progress=None):
         time, acc, gyro, gravity = _raw_log(scenario)
         if comp is not None:
             acc, gyro = _compensated_rates(time, acc, gyro, comp)
-        lat = calibrate_imu_methods.latitude(scenario)
+        lat = calibrate_imu_plan.latitude(scenario)
         methods["table-free"], flags = calibrate_imu_methods.run_table_free(
             time, acc, gyro, gravity, lat, scenario
         )
@@ -187,7 +187,7 @@ def run(scenario, seed, *, sink=None, progress=None):
             gravity = scenario.table_free.gravity_mps2 or float(
                 earth.gravity(record.lla[0], record.lla[2])
             )
-            lat = calibrate_imu_methods.latitude(scenario, record.lla[0])
+            lat = calibrate_imu_plan.latitude(scenario, record.lla[0])
             methods["table-free"], flags = calibrate_imu_methods.run_table_free(
                 time, dv / record.dt, dtheta / record.dt, gravity, lat, scenario
             )

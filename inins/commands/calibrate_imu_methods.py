@@ -6,7 +6,6 @@ import numpy as np
 
 from inins.calibration import discrete, systemlevel, tablefree
 from inins.commands import calibrate_imu_plan
-from inins.core.units import DEG
 from inins.exceptions import InputError
 from inins.results import Series
 from inins.scenario.si.calibrate_imu import tablefree_detector
@@ -183,22 +182,6 @@ def from_discrete(fit, ivs, geometry):
 
 
 # ----------------------------------------------------------------------------- table-free
-
-
-def latitude(scenario, record_lat=None):
-    """Latitude (rad) for the table-free Earth-rate model, None for imu_tk's formulation."""
-    tf = scenario.table_free
-    if tf.earth_rate == "imu_tk":
-        return None
-    if tf.lat_deg is not None:
-        return tf.lat_deg * DEG
-    if record_lat is not None:
-        return float(record_lat)
-    raise InputError(
-        "the Earth-rate model needs the lab's latitude: give table_free.lat_deg, or set "
-        "table_free.earth_rate: imu_tk (the gyro bias then includes the Earth rate)",
-        key="table_free.lat_deg",
-    )
 
 
 def run_table_free(time, acc, gyro, gravity, lat, scenario):

@@ -8,7 +8,7 @@ from inins.calibration import discrete, systemlevel, tablefree
 from inins.commands._calibrate_imu_units import lab
 from inins.commands.calibrate_imu_report import certificate_info
 from inins.core import earth
-from inins.core.units import ARCSEC, DEG_RTH, PPM, UG_RTHZ, UG_S
+from inins.core.units import ARCSEC, DEG, DEG_RTH, PPM, UG_RTHZ, UG_S
 from inins.exceptions import InputError
 from inins.results import CommandResult, Series, format_table
 from inins.scenario.si.calibrate_imu import tablefree_detector
@@ -204,13 +204,28 @@ def plan_only(scenario, names):
     )
 
 
+def latitude(scenario, record_lat=None):
+    """Latitude (rad) for the table-free Earth-rate model, None for imu_tk's formulation."""
+    tf = scenario.table_free
+    if tf.earth_rate == "imu_tk":
+        return None
+    if tf.lat_deg is not None:
+        return tf.lat_deg * DEG
+    if record_lat is not None:
+        return float(record_lat)
+    raise InputError(
+        "the Earth-rate model needs the lab's latitude: give table_free.lat_deg, or set "
+        "table_free.earth_rate: imu_tk (the gyro bias then includes the Earth rate)",
+        key="table_free.lat_deg",
+    )
+
+
 def plan_table_free(scenario):
     """What the table-free method separates and the predicted 1-sigma, from the motion
     program alone."""
     from dataclasses import replace
 
     from inins.commands._table import memory_record
-    from inins.commands.calibrate_imu_methods import latitude
     from inins.core import imu
     from inins.table import simulate
 
