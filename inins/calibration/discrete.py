@@ -29,7 +29,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from inins.calibration import imu_model
+from inins.calibration import imu_model, verdict
 from inins.core import earth, rotation
 from inins.table import kinematics
 
@@ -243,8 +243,9 @@ def predict(values, names, ivs):
 
 
 def _scales(names):
-    """Typical magnitude of each term, for finite differences and conditioning."""
-    return np.array([{"mount": 1e-3}.get(imu_model.GROUP_OF[n], 1e-3) for n in names])
+    """Typical magnitude of each term, for finite differences, conditioning and the
+    verdict (:func:`inins.calibration.verdict.typical_scale`)."""
+    return verdict.typical_scale(names)
 
 
 def jacobian(values, names, ivs):
@@ -260,6 +261,33 @@ def jacobian(values, names, ivs):
             (predict(values + e, names, ivs) - predict(values - e, names, ivs)) / (2 * h[k])
         )
     return np.stack(cols, axis=-1)
+
+
+def noise_from_holds(record, spans):
+    """Angle and velocity random walk (rad/sqrt(s), m/s/sqrt(s), each (3,)) from the
+    scatter of 1-s block means within the holds ``spans`` (samples [start, stop)) of a
+    record: ``N = sd(block means) sqrt(T_block)`` (white noise; a hold shorter than four
+    blocks is left out).
+
+    Raises
+    ------
+    ValueError
+        No hold of four blocks.
+    """
+    block = max(1, round(1.0 / record.dt))
+    parts = ([], [])
+    for start, stop in spans:
+        if stop - start < 4 * block:
+            continue
+        dtheta, dv = record.imu(start, stop)
+        m = (dtheta.shape[0] // block) * block
+        for k, x in enumerate((dtheta, dv)):
+            means = x[:m].reshape(-1, block, 3).sum(axis=1) / (block * record.dt)
+            parts[k].append(means - means.mean(axis=0))
+    if not parts[0]:
+        raise ValueError("no hold long enough (4 s) to estimate the noise")
+    t_block = block * record.dt
+    return tuple(np.sqrt(np.mean(np.vstack(p) ** 2, axis=0) * t_block) for p in parts)
 
 
 @dataclass(frozen=True)
@@ -293,36 +321,8 @@ def sigmas(ivs, noise, names=None, values=None):
     return out
 
 
-@dataclass(frozen=True)
-class Plan:
-    """What a schedule can give, from its design alone.
-
-    Attributes
-    ----------
-    names : tuple of str
-        The terms asked for.
-    sigma : ndarray, shape (p,)
-        Predicted 1-sigma (SI); ``inf`` for a term the schedule cannot separate.
-    separable : ndarray of bool, shape (p,)
-    combinations : list of dict
-        Each inseparable direction as ``{term: coefficient}`` (SI, largest coefficient
-        1): the data fix nothing along it.
-    information : ndarray, shape (p, p)
-    covariance : ndarray, shape (p, p)
-        Pseudo-inverse of the information (NaN rows and columns for the terms that
-        are not separable).
-    """
-
-    names: tuple
-    sigma: np.ndarray
-    separable: np.ndarray
-    combinations: list
-    information: np.ndarray
-    covariance: np.ndarray
-
-    @property
-    def inseparable(self):
-        return tuple(n for n, ok in zip(self.names, self.separable, strict=True) if not ok)
+Plan = verdict.Verdict
+"""What a schedule can give, from its design alone (:class:`inins.calibration.verdict.Verdict`)."""
 
 
 def plan(ivs, names, noise, values=None):
@@ -331,7 +331,7 @@ def plan(ivs, names, noise, values=None):
     Information ``J^T W J`` with ``J`` the model Jacobian at ``values`` (default zero:
     the nominal unit); a direction of eigenvalue below 1e-10 of the largest (after
     scaling each term to its typical size) is inseparable, and a term with any weight on
-    such a direction is not separable.
+    such a direction is not separable (:func:`inins.calibration.verdict.from_information`).
     """
     names = tuple(names)
     values = np.zeros(len(names)) if values is None else np.asarray(values, float)
@@ -339,27 +339,7 @@ def plan(ivs, names, noise, values=None):
     sig = sigmas(ivs, noise, names, values)
     use = np.isfinite(sig)
     rows = jac[use] / sig[use][:, None]
-    info = rows.T @ rows
-    scale = _scales(names)
-    scaled = info * np.outer(scale, scale)
-    evals, evecs = np.linalg.eigh(0.5 * (scaled + scaled.T))
-    null = evals <= 1e-10 * max(evals.max(), 1e-300)
-    basis = evecs[:, null]
-    weight = np.sqrt((basis**2).sum(axis=1)) if basis.size else np.zeros(len(names))
-    separable = weight < 1e-6
-    cov_scaled = (evecs[:, ~null] / evals[~null]) @ evecs[:, ~null].T
-    cov = cov_scaled * np.outer(scale, scale)
-    cov[~separable, :] = np.nan
-    cov[:, ~separable] = np.nan
-    sigma = np.sqrt(np.clip(np.diag(cov_scaled), 0.0, None)) * scale
-    sigma[~separable] = np.inf
-    combos = []
-    for v in basis.T:
-        v = v * scale / np.linalg.norm(v * scale)  # back to SI directions
-        v = v / np.abs(v).max()
-        keep = np.abs(v) > 1e-12
-        combos.append({n: float(c) for n, c, k in zip(names, v, keep, strict=True) if k})
-    return Plan(names, sigma, separable, combos, info, cov)
+    return verdict.from_information(rows.T @ rows, names, _scales(names))
 
 
 @dataclass(frozen=True)
@@ -450,3 +430,20 @@ def calibrate(ivs, measured, names, noise, *, max_iter=10):
         found,
         iterations,
     )
+
+
+MAX_MOUNT = np.radians(1.0)
+"""Largest mounting rotation from the nominal IMU axes the small-angle model takes (rad)."""
+
+
+def check_mounting(fit):
+    """Raise ValueError when the fit did not converge to a small mounting rotation (the
+    nominal IMU axes on the table are wrong: gravity and rates do not fit them)."""
+    terms = dict(zip(fit.names, fit.values, strict=True))
+    mount = np.array([terms.get(n, 0.0) for n in imu_model.MOUNT_TERMS])
+    if not np.all(np.isfinite(fit.values)) or np.linalg.norm(mount) > MAX_MOUNT:
+        raise ValueError(
+            "the measured gravity and rates do not fit the nominal IMU axes on the table "
+            f"(mounting rotation {np.degrees(np.linalg.norm(mount)):.3g} deg, chi-square "
+            f"{fit.chi2:.3g} on {fit.dof} degrees of freedom)"
+        )

@@ -1,6 +1,6 @@
 """Table-free multi-position calibration (D. Tedaldi, A. Pretto, E. Menegatti, "A Robust
 and Easy to Implement Method for IMU Calibration without External Equipments",
-ICRA 2014; the method as imu_tk implements it).
+ICRA 2014; the method as imu_tk implements it, and with the Earth rate modelled).
 
 1. **Static detector** (Tedaldi §IV-A): the variance of each accelerometer axis over a
    centred sliding window of ``window`` s; its norm ``||(var_x, var_y, var_z)||`` is
@@ -12,105 +12,44 @@ ICRA 2014; the method as imu_tk implements it).
    and dropped.
 2. **Accelerometers from the gravity norm** (Tedaldi eq. 10): the 9 terms of
    ``f_meas = M_a f + b_a`` (``M_a`` lower triangular, as in :mod:`inins.core.imu`)
-   minimise ``sum_k (||M_a^-1 (a_k - b_a)|| - g)^2`` over the interval means ``a_k``.
+   minimise ``sum_k (||M_a^-1 (a_k - b_a)|| - g)^2 / s_k^2`` over the interval means
+   ``a_k`` (``s_k = VRW / sqrt(T_k)``; in imu_tk's formulation all alike, as imu_tk).
    Gravity fixes no rotation: the body frame is the accelerometer triad.
-3. **Gyros from the rotations between static intervals** (Tedaldi eq. 15): gyro bias is
-   the mean over the initial interval (imu_tk), then the 9 terms of ``M_g`` minimise
-   ``sum_k ||u_{k+1} - R_k^T u_k||^2``, ``u_k`` the calibrated gravity direction of
-   interval ``k`` and ``R_k`` the rotation integrated from the calibrated rates
-   ``M_g^-1 (w_meas - b_g)`` over the motion between them (sample by sample, exact
-   rotation vector per sample).
+3. **Gyros from the rotations between static intervals** (Tedaldi eq. 15), in one of the
+   two formulations of :mod:`inins.calibration.tablefree_gyro`: imu_tk's (the bias the
+   initial interval's mean, the Earth rate left in the data) or, with the latitude
+   given, the Earth rate modelled (the heading of the first position estimated with
+   the bias and the 9 terms of ``M_g``).
 
-Both fits are ``scipy.optimize.least_squares`` (trust region), 1-sigma from the
-Jacobian at the solution scaled by the residual variance (``s^2 (J^T J)^-1``).
+The fits are ``scipy.optimize.least_squares`` (trust region) on residuals whitened by
+the sensor white noise found within the static intervals (or given, for the planner).
+Each block's information ``J^T J`` at the solution decides what the positions separate
+(:func:`inins.calibration.verdict.from_information`: a rolls-only schedule leaves
+``ba_x, sa_x, ma_yx, ma_zx`` free, named, never shown with a sigma); the 1-sigma of the
+separable terms is its inverse, inflated by the residual chi-square per degree of
+freedom where that exceeds 1.
 
-Model limits: the Earth rate is not modelled (no heading is known), so the gyro bias
-carries the Earth-rate component of the initial position (up to 15 deg/h) and the
-rotations carry Earth rate times the motion time; g-sensitivity and mounting are not
-estimable without a reference.
+Model limits: g-sensitivity and mounting are not estimable without a reference; in
+imu_tk's formulation the gyro bias carries the Earth-rate component of the initial
+position (up to 15 deg/h) and the rotations the Earth rate times the motion time.
 """
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
-from inins.calibration import imu_model
-from inins.core import jit
+from inins.calibration import imu_model, verdict
+from inins.calibration.static_detector import (  # noqa: F401 - the method's names
+    GYRO_STILL,
+    Detector,
+    StaticInterval,
+    detect_static,
+)
+from inins.calibration.tablefree_gyro import BIAS_NAMES, GYRO_NAMES, GyroProblem
 
+DEFAULT = Detector()
+"""The detector's defaults (imu_tk's)."""
 ACCEL_NAMES = ("ba_x", "ba_y", "ba_z", "sa_x", "sa_y", "sa_z", "ma_yx", "ma_zx", "ma_zy")
-GYRO_NAMES = ("sg_x", "sg_y", "sg_z", "mg_xy", "mg_xz", "mg_yx", "mg_yz", "mg_zx", "mg_zy")
-BIAS_NAMES = ("bg_x", "bg_y", "bg_z")
-
-
-@dataclass(frozen=True)
-class Detector:
-    """Static-detector settings (SI); see the module docstring."""
-
-    window: float = 1.0
-    init: float = 30.0
-    threshold_factor: float = 6.0
-    min_interval: float = 2.0
-    max_tilt: float = np.radians(0.2)
-
-
-@dataclass(frozen=True)
-class StaticInterval:
-    """Samples [start, stop) at rest; ``flag`` says why it was dropped ("" = kept)."""
-
-    start: int
-    stop: int
-    flag: str = ""
-
-
-def _moving_variance_norm(acc, w):
-    """Norm of the per-axis variance over a centred window of ``w`` samples, shape (n,)."""
-    n = acc.shape[0]
-    c1 = np.vstack([np.zeros((1, 3)), np.cumsum(acc, axis=0)])
-    c2 = np.vstack([np.zeros((1, 3)), np.cumsum(acc * acc, axis=0)])
-    half = w // 2
-    lo = np.clip(np.arange(n) - half, 0, n)
-    hi = np.clip(np.arange(n) + half + 1, 0, n)
-    cnt = (hi - lo)[:, None]
-    mean = (c1[hi] - c1[lo]) / cnt
-    var = np.clip((c2[hi] - c2[lo]) / cnt - mean * mean, 0.0, None)
-    return np.linalg.norm(var, axis=1)
-
-
-def detect_static(time, acc, detector):
-    """Static intervals of a record (module docstring, step 1).
-
-    Returns
-    -------
-    intervals : list of StaticInterval
-        All candidate runs, the flagged ones with their reason.
-    threshold : float
-        The variance-norm threshold ((m/s^2)^2).
-    """
-    dt = float(np.median(np.diff(time)))
-    w = max(3, round(detector.window / dt) | 1)
-    vnorm = _moving_variance_norm(acc, w)
-    n_init = round(detector.init / dt)
-    init_var = np.var(acc[:n_init], axis=0)
-    # floor (1e-5 m/s^2)^2: noise-free data would otherwise have a zero threshold
-    threshold = max(detector.threshold_factor * float(np.linalg.norm(init_var)), 1e-10)
-    static = vnorm < threshold
-    edges = np.flatnonzero(np.diff(np.concatenate([[0], static.astype(int), [0]])))
-    out = []
-    min_n = round(detector.min_interval / dt)
-    for a, b in zip(edges[::2], edges[1::2], strict=True):
-        flag = ""
-        if b - a < min_n:
-            flag = f"shorter than {detector.min_interval:g} s"
-        else:
-            fifth = max(1, (b - a) // 5)
-            u0 = acc[a : a + fifth].mean(axis=0)
-            u1 = acc[b - fifth : b].mean(axis=0)
-            cosang = u0 @ u1 / (np.linalg.norm(u0) * np.linalg.norm(u1))
-            turn = float(np.arccos(np.clip(cosang, -1.0, 1.0)))
-            if turn > detector.max_tilt:
-                flag = f"moving: gravity direction turns {np.degrees(turn):.3f} deg"
-        out.append(StaticInterval(int(a), int(b), flag))
-    return out, threshold
 
 
 def _accel_params(p):
@@ -119,50 +58,14 @@ def _accel_params(p):
     return ba, mat
 
 
-def _gyro_matrix(p):
-    return np.array([[1 + p[0], p[3], p[4]], [p[5], 1 + p[1], p[6]], [p[7], p[8], 1 + p[2]]])
-
-
-@jit.njit(cache=True, nogil=True, error_model="numpy")
-def _integrate(rates, dts, inv, starts, stops, out):
-    """Rotation matrices body(stop) -> body(start) of each gap, rates calibrated by ``inv``.
-
-    Quaternion product of the exact per-sample rotations ``exp(inv @ rate * dt)``;
-    ``out`` (k, 3, 3) is filled in place.
-    """
-    for g in range(starts.shape[0]):
-        q0, q1, q2, q3 = 1.0, 0.0, 0.0, 0.0
-        for k in range(starts[g], stops[g]):
-            wx = (
-                inv[0, 0] * rates[k, 0] + inv[0, 1] * rates[k, 1] + inv[0, 2] * rates[k, 2]
-            ) * dts[k]
-            wy = (
-                inv[1, 0] * rates[k, 0] + inv[1, 1] * rates[k, 1] + inv[1, 2] * rates[k, 2]
-            ) * dts[k]
-            wz = (
-                inv[2, 0] * rates[k, 0] + inv[2, 1] * rates[k, 1] + inv[2, 2] * rates[k, 2]
-            ) * dts[k]
-            ang = np.sqrt(wx * wx + wy * wy + wz * wz)
-            if ang > 1e-12:
-                s = np.sin(0.5 * ang) / ang
-            else:
-                s = 0.5 - ang * ang / 48.0
-            c = np.cos(0.5 * ang)
-            rx, ry, rz = s * wx, s * wy, s * wz
-            n0 = q0 * c - q1 * rx - q2 * ry - q3 * rz
-            n1 = q0 * rx + q1 * c + q2 * rz - q3 * ry
-            n2 = q0 * ry - q1 * rz + q2 * c + q3 * rx
-            n3 = q0 * rz + q1 * ry - q2 * rx + q3 * c
-            q0, q1, q2, q3 = n0, n1, n2, n3
-        out[g, 0, 0] = 1 - 2 * (q2 * q2 + q3 * q3)
-        out[g, 0, 1] = 2 * (q1 * q2 - q0 * q3)
-        out[g, 0, 2] = 2 * (q1 * q3 + q0 * q2)
-        out[g, 1, 0] = 2 * (q1 * q2 + q0 * q3)
-        out[g, 1, 1] = 1 - 2 * (q1 * q1 + q3 * q3)
-        out[g, 1, 2] = 2 * (q2 * q3 - q0 * q1)
-        out[g, 2, 0] = 2 * (q1 * q3 - q0 * q2)
-        out[g, 2, 1] = 2 * (q2 * q3 + q0 * q1)
-        out[g, 2, 2] = 1 - 2 * (q1 * q1 + q2 * q2)
+MIN_INFORMATION = 0.01
+"""A term whose 1-sigma exceeds ten times its typical size (1000 ppm, 206 arcsec, 1 mg,
+20 deg/h: :data:`inins.calibration.verdict.TYPICAL`) is not determined
+(:func:`inins.calibration.verdict.from_information`)."""
+VRW_FLOOR, ARW_FLOOR = 1e-9, 1e-12
+"""Smallest white-noise densities the weights take (m/s/sqrt(s), rad/sqrt(s))."""
+SCALE = 1e-3
+"""Step size of the least-squares solver (``x_scale``) for the matrix terms."""
 
 
 @dataclass(frozen=True)
@@ -172,10 +75,13 @@ class TableFreeFit:
     Attributes
     ----------
     names : tuple of str
-        The 21 sensor terms (accelerometer 9, gyro bias 3, gyro matrix 9).
+        The 21 sensor terms (:data:`inins.calibration.imu_model.SENSOR_TERMS` order).
     values, sigma : ndarray, shape (21,)
+        ``sigma`` is ``inf`` for a term the positions do not separate.
     covariance : ndarray, shape (21, 21)
-        Block diagonal: accelerometer, gyro bias, gyro matrix.
+        Accelerometer and gyro blocks (NaN rows and columns: not separable).
+    verdict : inins.calibration.verdict.Verdict
+        What the positions separate (the information of each block).
     intervals : list of StaticInterval
         Every candidate interval (flagged ones not used).
     used : tuple of int
@@ -186,12 +92,21 @@ class TableFreeFit:
         Gravity-direction residuals ``u_{k+1} - R_k^T u_k`` before (nominal gyros) and
         after.
     threshold : float
+    earth_rate : bool
+        The Earth rate modelled (latitude given); else the gyro bias carries it.
+    heading : float or None
+        Heading of the first position (rad) with the Earth rate modelled.
+    lat : float or None
+        The latitude of the Earth-rate model (rad).
+    chi2 : dict
+        Residual chi-square and degrees of freedom of each block (``accel``, ``gyro``).
     """
 
     names: tuple
     values: np.ndarray
     sigma: np.ndarray
     covariance: np.ndarray
+    verdict: verdict.Verdict
     intervals: list
     used: tuple
     norm_before: np.ndarray
@@ -199,47 +114,25 @@ class TableFreeFit:
     gravity_residual_before: np.ndarray
     gravity_residual_after: np.ndarray
     threshold: float
+    earth_rate: bool = False
+    heading: float | None = None
+    chi2: dict | None = None
+    lat: float | None = None
 
     @property
     def terms(self):
         return imu_model.ImuTerms(dict(zip(self.names, self.values, strict=True)))
 
 
-def _jacobian(fun, x, h=1e-6):
-    """Central differences of ``fun`` at ``x``, shape (m, n)."""
+def _jacobian(fun, x, h):
+    """Central differences of ``fun`` at ``x`` (steps ``h``), shape (m, n)."""
+    h = np.broadcast_to(np.asarray(h, float), x.shape)
     cols = []
     for k in range(x.size):
         e = np.zeros(x.size)
-        e[k] = h
-        cols.append((fun(x + e) - fun(x - e)) / (2 * h))
+        e[k] = h[k]
+        cols.append((fun(x + e) - fun(x - e)) / (2 * h[k]))
     return np.stack(cols, axis=-1)
-
-
-def _noise_cov(acc_res, gyro_res, x_a, x_g, sig_a, sig_g, sig_b):
-    """Covariances of the accelerometer terms, the gyro matrix terms and the gyro bias
-    from the sensor noise (module docstring of :func:`plan`).
-
-    ``gyro_res(p, db)`` is the gyro residual with the rates offset by ``db``: the bias
-    taken from the initial interval (1-sigma ``sig_b`` per axis) is held in the fit, so
-    its error passes into the matrix terms, ``cov_p = N^-1 + K S_b K^T`` with
-    ``K = N^-1 J_p^T J_b``.
-
-    Returns
-    -------
-    cov_a (9, 9), cov_g (9, 9), cross (9, 3) gyro matrix - bias, chi2_a, chi2_g (the
-    whitened residual sums) and their degrees of freedom.
-    """
-    ja = _jacobian(acc_res, x_a) / sig_a[:, None]
-    cov_a = np.linalg.pinv(ja.T @ ja)
-    jp = _jacobian(lambda p: gyro_res(p, np.zeros(3)), x_g) / sig_g[:, None]
-    jb = _jacobian(lambda b: gyro_res(x_g, b), np.zeros(3)) / sig_g[:, None]
-    n_inv = np.linalg.pinv(jp.T @ jp)
-    k = n_inv @ jp.T @ jb
-    s_b = np.diag(sig_b**2)
-    cov_g = n_inv + k @ s_b @ k.T
-    chi2_a = float(np.sum((acc_res(x_a) / sig_a) ** 2))
-    chi2_g = float(np.sum((gyro_res(x_g, np.zeros(3)) / sig_g) ** 2))
-    return cov_a, cov_g, -k @ s_b, chi2_a, chi2_g
 
 
 def _white_density(x, dts, ivs):
@@ -255,38 +148,179 @@ def _white_density(x, dts, ivs):
     return np.median(np.array(per), axis=0)
 
 
-def _sigmas(means, dur, gap, gravity, vrw, arw):
-    """1-sigma of the gravity-norm and gravity-direction residuals from white noise."""
-    sig_a = np.mean(vrw) / np.sqrt(dur)
-    ends = np.mean(vrw) / gravity * np.sqrt(1.0 / dur[:-1] + 1.0 / dur[1:])
-    sig_g = np.repeat(np.hypot(ends, np.mean(arw) * np.sqrt(gap)), 3)
-    return sig_a, sig_g
+def _inflation(chi2, dof, given):
+    """Covariance factor: the chi-square per degree of freedom where the chi-square says
+    the residuals exceed the white noise (above its 99 % point; with a few degrees of
+    freedom the ratio alone is mostly noise, and would inflate a consistent fit by a
+    third on average); 1 for the planner, whose noise is given."""
+    from inins.core.stats import chi2_ppf
+
+    if given or dof < 1 or chi2 <= float(chi2_ppf(0.99, dof)):
+        return 1.0
+    return chi2 / dof
 
 
-def calibrate(time, acc, gyro, gravity, detector=Detector(), use=None):
-    """Table-free calibration of both triads (module docstring).
-
-    Parameters
-    ----------
-    time : ndarray, shape (n,)
-        Sample times (s), increasing.
-    acc, gyro : ndarray, shape (n, 3)
-        Specific force (m/s^2) and angular rate (rad/s) with the nominal scale.
-    gravity : float
-        Local gravity (m/s^2).
-    detector : Detector
-    use : sequence of int, optional
-        Which of the kept static intervals to use (indices among the kept ones).
-
-    Raises
-    ------
-    ValueError
-        Fewer than 9 usable static intervals (not enough to fix the 9 accelerometer
-        terms), or no initial static interval.
-    """
+def _fit_accel(means, dur, gravity, vrw, given, equal=False):
+    """Accelerometer terms from the gravity norm: values, verdict, chi2, dof; ``equal``:
+    every position weighted alike (imu_tk), by its mean length."""
     from scipy.optimize import least_squares
 
-    found, threshold = detect_static(time, acc, detector)
+    sig = np.mean(vrw) / np.sqrt(np.full_like(dur, dur.mean()) if equal else dur)
+
+    def res(p):
+        ba, mat = _accel_params(p)
+        f = np.linalg.solve(mat, (means - ba).T).T
+        return (np.linalg.norm(f, axis=1) - gravity) / sig
+
+    sol = least_squares(res, np.zeros(9), x_scale=np.full(9, SCALE), method="trf")
+    chi2 = float(sol.fun @ sol.fun)
+    dof = means.shape[0] - 9
+    v = _verdict(res, np.zeros(9), sol.x, 1e-6, ACCEL_NAMES)
+    v = _inflated(v, _inflation(chi2, dof, given))
+    return sol.x, v, chi2, dof, sol.fun * sig
+
+
+def _verdict(res, nominal, solution, step, names, marginal=None):
+    """What the positions separate: decided at the nominal unit (where a schedule's null
+    space is exact: a fit wandering along it would find another), the covariance at the
+    solution when everything is separable. ``marginal`` reduces an information to the
+    terms (eliminating nuisance parameters)."""
+
+    def information(x):
+        jac = _jacobian(res, x, step)
+        info = jac.T @ jac
+        return info if marginal is None else marginal(info)
+
+    scale = verdict.typical_scale(names)
+    first = verdict.from_information(
+        information(nominal), names, scale, min_information=MIN_INFORMATION
+    )
+    if first.inseparable:
+        return first
+    return verdict.from_information(
+        information(solution), names, scale, min_information=MIN_INFORMATION
+    )
+
+
+def _inflated(v, factor):
+    """The verdict with its covariance (and sigma) times ``factor``."""
+    if factor == 1.0:
+        return v
+    return replace(v, covariance=v.covariance * factor, sigma=v.sigma * np.sqrt(factor))
+
+
+def _fit_gyro_imu_tk(problem, bias, sig_b, sig_d, given):
+    """imu_tk: the bias of the initial interval held, the 9 matrix terms fitted; the
+    bias error passes into them (``cov_p + K S_b K^T``, ``K = cov_p J_p^T J_b``)."""
+    from scipy.optimize import least_squares
+
+    def res(p):
+        return problem.direction_residuals(p, bias) / sig_d
+
+    sol = least_squares(res, np.zeros(9), x_scale=np.full(9, SCALE), method="trf")
+    jp = _jacobian(res, sol.x, 1e-6)
+    jb = _jacobian(lambda b: problem.direction_residuals(sol.x, b) / sig_d, bias, 1e-8)
+    v = _verdict(res, np.zeros(9), sol.x, 1e-6, GYRO_NAMES)
+    cov_p = np.nan_to_num(v.covariance)
+    k = cov_p @ jp.T @ jb
+    s_b = np.diag(sig_b**2)
+    chi2, dof = float(sol.fun @ sol.fun), sol.fun.size - 9
+    factor = _inflation(chi2, dof, given)
+    cov = np.zeros((12, 12))
+    cov[:9, :9] = (cov_p + k @ s_b @ k.T) * factor
+    cov[:9, 9:] = -k @ s_b * np.sqrt(factor)
+    cov[9:, :9] = cov[:9, 9:].T
+    cov[9:, 9:] = s_b
+    info = np.zeros((12, 12))
+    info[:9, :9] = v.information
+    info[9:, 9:] = np.diag(1.0 / sig_b**2)
+    ok = np.r_[v.separable, np.ones(3, bool)]
+    cov[~ok, :] = np.nan
+    cov[:, ~ok] = np.nan
+    sigma = np.where(ok, np.sqrt(np.abs(np.diag(np.nan_to_num(cov)))), np.inf)
+    gv = verdict.Verdict(GYRO_NAMES + BIAS_NAMES, sigma, ok, v.combinations, info, cov, v.rank + 3)
+
+    def res_of(prob, x):
+        return prob.direction_residuals(x, bias) / sig_d
+
+    return np.r_[sol.x, bias], gv, chi2, dof, None, (res_of, sol.x, np.full(9, 1e-6), factor)
+
+
+def _fit_gyro_earth(problem, sig_s, sig_d, given):
+    """Earth rate modelled: the 9 matrix terms, the bias and the first heading jointly;
+    the terms' information is the marginal over the heading (Schur complement)."""
+    from scipy.optimize import least_squares
+
+    bias = problem.means[0]
+    for _ in range(2):
+        bias, heading = problem.initial_heading(bias)
+
+    def res(x):
+        p, b, h = x[:9], x[9:12], x[12]
+        return np.r_[
+            problem.static_residuals(p, b, h) / sig_s, problem.direction_residuals(p, b, h) / sig_d
+        ]
+
+    x0 = np.r_[np.zeros(9), bias, heading]
+    scale = np.r_[np.full(9, SCALE), np.full(3, 1e-5), 1e-2]
+    sol = least_squares(res, x0, x_scale=scale, method="trf")
+
+    def marginal(info):  # the heading eliminated (Schur complement)
+        i_hh = info[12, 12]
+        out = info[:12, :12]
+        if i_hh > 1e-12 * np.max(np.abs(np.diag(info))):
+            out = out - np.outer(info[:12, 12], info[:12, 12]) / i_hh
+        return out
+
+    step = np.r_[np.full(9, 1e-6), np.full(3, 1e-8), 1e-6]
+    v = _verdict(res, x0, sol.x, step, GYRO_NAMES + BIAS_NAMES, marginal)
+    chi2, dof = float(sol.fun @ sol.fun), sol.fun.size - 13
+    factor = _inflation(chi2, dof, given)
+
+    def res_of(prob, x):
+        p, b, h = x[:9], x[9:12], x[12]
+        return np.r_[
+            prob.static_residuals(p, b, h) / sig_s, prob.direction_residuals(p, b, h) / sig_d
+        ]
+
+    propagation = (res_of, sol.x, step, factor)
+    return sol.x[:12], _inflated(v, factor), chi2, dof, float(sol.x[12]), propagation
+
+
+def _accel_into_gyro(problem, u_of, x_a, cov_a, propagation):
+    """Covariance the accelerometer fit's error adds to the gyro terms through the
+    gravity directions ``u`` the gyro fit takes as known: ``K cov_a K^T`` (and the cross
+    covariance ``-K cov_a``), ``K = (J^T J)^+ J^T J_a``, ``J``, ``J_a`` the whitened gyro
+    residuals' Jacobians in the fitted parameters and in the accelerometer terms. For a
+    navigation-grade unit this is most of the gyro misalignments' 1-sigma (the gravity
+    directions are the reference the rotations are measured against)."""
+    res_of, x_fit, step, factor = propagation
+    j = _jacobian(lambda x: res_of(problem, x), x_fit, step)
+    j_a = _jacobian(lambda xa: res_of(problem.with_u(u_of(xa)), x_fit), x_a, 1e-7)
+    k = np.zeros((12, x_a.size))  # the 9 matrix terms, then the bias (its own in imu_tk)
+    fitted = (np.linalg.pinv(j.T @ j) @ j.T @ j_a)[:12] * np.sqrt(factor)
+    k[: fitted.shape[0]] = fitted
+    return k @ cov_a @ k.T, -k @ cov_a
+
+
+def _reordered(v, names):
+    """A verdict's terms in the order ``names``."""
+    idx = [v.names.index(n) for n in names]
+    ix = np.ix_(idx, idx)
+    return verdict.Verdict(
+        tuple(names),
+        v.sigma[idx],
+        v.separable[idx],
+        v.combinations,
+        v.information[ix],
+        v.covariance[ix],
+        v.rank,
+    )
+
+
+def _positions(time, acc, detector, use, gyro=None):
+    """The static intervals found and the ones used (indices among the kept ones)."""
+    found, threshold = detect_static(time, acc, detector, gyro)
     kept = [i for i, iv in enumerate(found) if not iv.flag]
     if use is not None:
         bad = [i for i in use if not 0 <= i < len(kept)]
@@ -301,86 +335,111 @@ def calibrate(time, acc, gyro, gravity, detector=Detector(), use=None):
             f"{len(kept)} static intervals usable; the 9 accelerometer terms need >= 9 "
             "positions (Tedaldi recommend 36-50)"
         )
+    return found, kept, threshold
+
+
+def calibrate(time, acc, gyro, gravity, detector=DEFAULT, use=None, lat=None, noise=None):
+    """Table-free calibration of both triads (module docstring).
+
+    Parameters
+    ----------
+    time : ndarray, shape (n,)
+        Sample times (s), increasing.
+    acc, gyro : ndarray, shape (n, 3)
+        Specific force (m/s^2) and angular rate (rad/s) with the nominal scale.
+    gravity : float
+        Local gravity (m/s^2).
+    detector : Detector
+    use : sequence of int, optional
+        Which of the kept static intervals to use (indices among the kept ones).
+    lat : float, optional
+        Latitude (rad): the Earth rate is modelled; None: imu_tk's formulation.
+    noise : tuple of ndarray, optional
+        ``(vrw, arw)`` (m/s/sqrt(s), rad/sqrt(s)) per axis for the weights (the
+        planner); default: found within the static intervals, and the covariance
+        inflated by the misfit.
+
+    Raises
+    ------
+    ValueError
+        Fewer than 9 usable static intervals (not enough to fix the 9 accelerometer
+        terms), or no initial static interval.
+    """
+    found, kept, threshold = _positions(time, acc, detector, use, None if lat is None else gyro)
     ivs = [found[i] for i in kept]
-    means = np.array([acc[iv.start : iv.stop].mean(axis=0) for iv in ivs])
-
-    def acc_res(p):
-        ba, mat = _accel_params(p)
-        f = np.linalg.solve(mat, (means - ba).T).T
-        return np.linalg.norm(f, axis=1) - gravity
-
-    sol_a = least_squares(acc_res, np.zeros(9), x_scale=np.full(9, 1e-3), method="trf")
-    ba, mat_a = _accel_params(sol_a.x)
-
     init = found[0]
     if init.flag or time[init.start] - time[0] > detector.window:
         raise ValueError("the record does not start at rest: no initial static interval")
-    n_init = min(init.stop, init.start + round(detector.init / np.median(np.diff(time))))
-    bg = gyro[init.start : n_init].mean(axis=0)
-
+    dts = np.empty(time.size)
+    dts[1:] = np.diff(time)
+    dts[0] = dts[1]
+    step = float(np.median(dts))
+    means = np.array([acc[iv.start : iv.stop].mean(axis=0) for iv in ivs])
+    dur = np.array([(iv.stop - iv.start) * step for iv in ivs])
+    given = noise is not None
+    vrw, arw = noise if given else (_white_density(acc, dts, ivs), _white_density(gyro, dts, ivs))
+    # floors for noise-free data (1e-9 m/s/sqrt(s), 2e-7 deg/sqrt(h)): the weights stay finite
+    vrw = np.maximum(np.broadcast_to(np.asarray(vrw, float), (3,)), VRW_FLOOR)
+    arw = np.maximum(np.broadcast_to(np.asarray(arw, float), (3,)), ARW_FLOOR)
+    x_a, v_a, chi2_a, dof_a, norm_after = _fit_accel(means, dur, gravity, vrw, given, lat is None)
+    ba, mat_a = _accel_params(x_a)
     f_cal = np.linalg.solve(mat_a, (means - ba).T).T
     u = f_cal / np.linalg.norm(f_cal, axis=1, keepdims=True)
     starts = np.array([ivs[k].stop for k in range(len(ivs) - 1)], dtype=np.int64)
     stops = np.array([ivs[k + 1].start for k in range(len(ivs) - 1)], dtype=np.int64)
-    dts = np.empty(time.size)
-    dts[1:] = np.diff(time)
-    dts[0] = dts[1]
-    rates = np.ascontiguousarray(gyro - bg)
-    rot = np.empty((starts.size, 3, 3))
-
-    def gyro_res_b(p, db):
-        inv = np.linalg.inv(_gyro_matrix(p))
-        _integrate(
-            np.ascontiguousarray(rates - db), dts, np.ascontiguousarray(inv), starts, stops, rot
+    gap = (stops - starts) * step
+    ends = np.mean(vrw) / gravity * np.sqrt(1.0 / dur[:-1] + 1.0 / dur[1:])
+    sig_d = np.repeat(np.hypot(ends, np.mean(arw) * np.sqrt(gap)), 3)
+    g_means = np.array([gyro[iv.start : iv.stop].mean(axis=0) for iv in ivs])
+    problem = GyroProblem(gyro, dts, starts, stops, u, g_means, dur, lat)
+    if lat is None:
+        n_init = min(init.stop, init.start + round(detector.init / step))
+        bias = gyro[init.start : n_init].mean(axis=0)
+        sig_b = arw / np.sqrt((n_init - init.start) * step)
+        x_g, v_g, chi2_g, dof_g, heading, propagation = _fit_gyro_imu_tk(
+            problem, bias, sig_b, sig_d, given
         )
-        pred = np.einsum("kji,kj->ki", rot, u[:-1])
-        return (u[1:] - pred).ravel()
+        before = problem.direction_residuals(np.zeros(9), bias)
+    else:
+        sig_s = (arw[None, :] / np.sqrt(dur)[:, None]).ravel()
+        x_g, v_g, chi2_g, dof_g, heading, propagation = _fit_gyro_earth(
+            problem, sig_s, sig_d, given
+        )
+        before = problem.direction_residuals(np.zeros(9), g_means[0])
+    after = problem.direction_residuals(x_g[:9], x_g[9:12], 0.0 if heading is None else heading)
+    names = ACCEL_NAMES + GYRO_NAMES + BIAS_NAMES
+    both = verdict.merge(v_a, v_g)
+    if not both.inseparable:
 
-    def gyro_res(p):
-        inv = np.linalg.inv(_gyro_matrix(p))
-        _integrate(rates, dts, np.ascontiguousarray(inv), starts, stops, rot)
-        pred = np.einsum("kji,kj->ki", rot, u[:-1])
-        return (u[1:] - pred).ravel()
+        def u_of(xa):
+            ba_, mat_ = _accel_params(xa)
+            f = np.linalg.solve(mat_, (means - ba_).T).T
+            return f / np.linalg.norm(f, axis=1, keepdims=True)
 
-    before = gyro_res(np.zeros(9)).reshape(-1, 3)
-    sol_g = least_squares(gyro_res, np.zeros(9), x_scale=np.full(9, 1e-3), method="trf")
-
-    # 1-sigma from the white noise found within the static intervals, inflated by the
-    # misfit where the residuals exceed it (sqrt of chi-square per degree of freedom)
-    vrw = _white_density(acc, dts, ivs)
-    arw = _white_density(gyro, dts, ivs)
-    dur = np.array([(iv.stop - iv.start) * np.median(dts) for iv in ivs])
-    gap = (stops - starts) * np.median(dts)
-    sig_a, sig_g = _sigmas(means, dur, gap, gravity, vrw, arw)
-    sig_b = arw / np.sqrt((n_init - init.start) * np.median(dts))
-    cov_a, cov_g, cross, chi2_a, chi2_g = _noise_cov(
-        acc_res, gyro_res_b, sol_a.x, sol_g.x, sig_a, sig_g, sig_b
-    )
-    cov_a *= max(1.0, chi2_a / max(sig_a.size - 9, 1))
-    inflate_g = max(1.0, chi2_g / max(sig_g.size - 9, 1))
-    cov_g *= inflate_g
-    cross *= np.sqrt(inflate_g)
-
-    names = ACCEL_NAMES + BIAS_NAMES + GYRO_NAMES
-    values = np.concatenate([sol_a.x, bg, sol_g.x])
-    cov = np.zeros((21, 21))
-    cov[:9, :9], cov[9:12, 9:12], cov[12:, 12:] = cov_a, np.diag(sig_b**2), cov_g
-    cov[12:, 9:12], cov[9:12, 12:] = cross, cross.T
-    order = [names.index(n) for n in imu_model.SENSOR_TERMS]
-    names = tuple(names[i] for i in order)
-    values, cov = values[order], cov[np.ix_(order, order)]
+        add, cross = _accel_into_gyro(problem, u_of, x_a, v_a.covariance, propagation)
+        cov = both.covariance.copy()
+        cov[9:, 9:] += add
+        cov[9:, :9], cov[:9, 9:] = cross, cross.T
+        both = replace(both, covariance=cov, sigma=np.sqrt(np.diag(cov)))
+    both = _reordered(both, imu_model.SENSOR_TERMS)
+    values = dict(zip(names, np.r_[x_a, x_g], strict=True))
     return TableFreeFit(
-        names,
-        values,
-        np.sqrt(np.diag(cov)),
-        cov,
+        both.names,
+        np.array([values[n] for n in both.names]),
+        both.sigma,
+        both.covariance,
+        both,
         found,
         tuple(kept),
         np.linalg.norm(means, axis=1) - gravity,
-        acc_res(sol_a.x),
-        before,
-        sol_g.fun.reshape(-1, 3),
+        norm_after,
+        before.reshape(-1, 3),
+        after.reshape(-1, 3),
         threshold,
+        lat is not None,
+        heading,
+        {"accel": (chi2_a, dof_a), "gyro": (chi2_g, dof_g)},
+        lat,
     )
 
 
@@ -391,67 +450,36 @@ class TableFreePlan:
     Attributes
     ----------
     names : tuple of str
-        The 9 accelerometer terms and the 9 gyro-matrix terms.
-    sigma : ndarray, shape (18,)
+        The 21 sensor terms.
+    sigma : ndarray, shape (21,)
         ``inf`` where not separable.
     separable : ndarray of bool
     positions : int
         Static intervals the detector finds.
+    verdict : inins.calibration.verdict.Verdict
+    earth_rate : bool
     """
 
     names: tuple
     sigma: np.ndarray
     separable: np.ndarray
     positions: int
+    verdict: verdict.Verdict
+    earth_rate: bool
+
+    @property
+    def inseparable(self):
+        return self.verdict.inseparable
+
+    @property
+    def combinations(self):
+        return self.verdict.combinations
 
 
-def plan(time, acc, gyro, gravity, vrw, arw, detector=Detector()):
-    """Table-free planner: the terms' 1-sigma from the sensor white noise along a motion
-    (the increments of an ideal unit on the motion program), before any data.
-
-    The accelerometer residuals ``||a_k|| - g`` have the noise ``vrw / sqrt(T_k)``; the
-    gravity-direction residuals that of both ends (``vrw / (g sqrt(T))``) and of the
-    angle random walk over the motion between them (``arw sqrt(T_gap)``); the gyro bias
-    of the initial interval, held in the fit, adds its own error to the gyro terms.
-    Jacobians at the nominal unit (central differences of the method's residuals).
-    """
-    found, _ = detect_static(time, acc, detector)
-    ivs = [iv for iv in found if not iv.flag]
-    dts = np.empty(time.size)
-    dts[1:] = np.diff(time)
-    dts[0] = dts[1]
-    means = np.array([acc[iv.start : iv.stop].mean(axis=0) for iv in ivs])
-    dur = np.array([(iv.stop - iv.start) * np.median(dts) for iv in ivs])
-
-    def acc_res(p):
-        ba, mat = _accel_params(p)
-        return np.linalg.norm(np.linalg.solve(mat, (means - ba).T).T, axis=1) - gravity
-
-    u = means / np.linalg.norm(means, axis=1, keepdims=True)
-    starts = np.array([ivs[k].stop for k in range(len(ivs) - 1)], dtype=np.int64)
-    stops = np.array([ivs[k + 1].start for k in range(len(ivs) - 1)], dtype=np.int64)
-    rot = np.empty((starts.size, 3, 3))
-
-    def gyro_res_b(p, db):
-        inv = np.ascontiguousarray(np.linalg.inv(_gyro_matrix(p)))
-        _integrate(np.ascontiguousarray(gyro - db), dts, inv, starts, stops, rot)
-        return (u[1:] - np.einsum("kji,kj->ki", rot, u[:-1])).ravel()
-
-    gap = (stops - starts) * np.median(dts)
-    sig_a, sig_g = _sigmas(means, dur, gap, gravity, vrw, arw)
-    n_init = min(ivs[0].stop - ivs[0].start, round(detector.init / np.median(dts)))
-    sig_b = np.broadcast_to(np.mean(arw) / np.sqrt(n_init * np.median(dts)), (3,))
-    cov_a, cov_g, _, _, _ = _noise_cov(
-        acc_res, gyro_res_b, np.zeros(9), np.zeros(9), sig_a, sig_g, sig_b
-    )
-    s_a, ok_a = _separable_sigma_cov(cov_a, ivs, 9)
-    s_g, ok_g = _separable_sigma_cov(cov_g, ivs, 9)
-    return TableFreePlan(ACCEL_NAMES + GYRO_NAMES, np.r_[s_a, s_g], np.r_[ok_a, ok_g], len(ivs))
-
-
-def _separable_sigma_cov(cov, ivs, n_par):
-    """1-sigma from a covariance; all inf with fewer positions than terms."""
-    if len(ivs) < n_par:
-        return np.full(n_par, np.inf), np.zeros(n_par, bool)
-    sigma = np.sqrt(np.clip(np.diag(cov), 0.0, None))
-    return sigma, np.isfinite(sigma)
+def plan(time, acc, gyro, gravity, vrw, arw, detector=DEFAULT, lat=None):
+    """Table-free planner: the terms' 1-sigma and what the positions separate, from the
+    increments of an ideal unit on the motion program and the given white noise (the
+    method's own residuals and information, :func:`calibrate` with ``noise`` given)."""
+    fit = calibrate(time, acc, gyro, gravity, detector, None, lat, (vrw, arw))
+    v = fit.verdict
+    return TableFreePlan(v.names, v.sigma, v.separable, len(fit.used), v, fit.earth_rate)

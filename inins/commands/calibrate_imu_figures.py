@@ -1,23 +1,15 @@
 """calibrate-imu figures, the compensation file and the HTML calibration certificate.
 
 Each function takes the run's :class:`inins.results.CommandResult` and a path. The
-certificate is one self-contained HTML page (figures embedded as base64 PNG, no
-script, no external resource), laid out for printing to PDF.
+certificate's page is :mod:`inins.commands.calibrate_imu_certificate`'s.
 """
 
 import base64
-import html
 import io
 
 import numpy as np
 
 from inins.core.units import DPH, UG
-
-TITLES = {
-    "discrete": "Discrete rate-table method",
-    "table_free": "Table-free multi-position",
-    "system": "System-level calibration (Kalman filter on navigation errors)",
-}
 
 
 def _pyplot():
@@ -41,7 +33,7 @@ def _panels(result):
                     f"{pre}: gravity-norm residual per interval",
                     ds[f"{pre}/gravity_norm_before"].data / UG,
                     ds[f"{pre}/gravity_norm_after"].data / UG,
-                    "|f| - g (ug)",
+                    "|f| - g (µg)",
                 )
             )
         for key, title in (
@@ -54,7 +46,7 @@ def _panels(result):
                         f"{pre}: {title}",
                         np.linalg.norm(ds[f"{pre}/{key}_before"].data, axis=1) / DPH,
                         np.linalg.norm(ds[f"{pre}/{key}_after"].data, axis=1) / DPH,
-                        "|residual| (deg/h)",
+                        "|residual| (°/h)",
                     )
                 )
         if f"{pre}/velocity_before" in ds:
@@ -149,88 +141,9 @@ def certificate(result, path, data=None):
 
 
 def certificate_html(result, provenance=None):
-    """HTML text of the certificate."""
-    from inins.commands._calibrate_imu_units import PREFIX, lab
+    """HTML text of the certificate (:mod:`inins.commands.calibrate_imu_certificate`)."""
+    from inins.commands.calibrate_imu_certificate import certificate_html as page
 
     buf = io.BytesIO()
     _draw(result, buf)
-    png = base64.b64encode(buf.getvalue()).decode("ascii")
-    info = result.attrs[""].get("certificate", {})
-    e = html.escape
-    parts = [
-        "<!DOCTYPE html><html lang='en'><head><meta charset='utf-8'>",
-        "<title>Calibration certificate</title><style>",
-        "body{font-family:sans-serif;font-size:11pt;margin:2em;color:#111}",
-        "table{border-collapse:collapse;margin:0.5em 0 1.5em 0}",
-        "td,th{border:1px solid #999;padding:2px 6px;text-align:right}",
-        "th{background:#eee}td.n{text-align:left}",
-        "h1{font-size:18pt}h2{font-size:13pt;margin-top:1.5em}",
-        "img{max-width:100%}@media print{body{margin:1cm}h2{page-break-after:avoid}}",
-        "</style></head><body>",
-        "<h1>Calibration certificate</h1>",
-        "<table>",
-        *(
-            f"<tr><th>{k}</th><td class='n'>{e(str(v))}</td></tr>"
-            for k, v in (
-                ("unit", result.attrs[""].get("unit_name", "")),
-                ("serial", info.get("unit_serial", "")),
-                ("description", info.get("unit_description", "")),
-                ("laboratory", info.get("laboratory", "")),
-                ("operator", info.get("operator", "")),
-                ("procedure", info.get("procedure", "")),
-            )
-        ),
-        "</table>",
-    ]
-    for method in result.attrs[""].get("methods", []):
-        pre = PREFIX[method]
-        a = result.attrs[pre]
-        parts.append(f"<h2>{e(TITLES.get(pre, method))}</h2>")
-        if "labels" in a:
-            sched = ", ".join(
-                f"{k}:{lbl}" for k, lbl in zip(a.get("kinds", []), a["labels"], strict=False)
-            )
-            parts.append(f"<p><b>schedule</b> ({len(a['labels'])} intervals): {e(sched)}</p>")
-        parts.append(
-            "<table><tr><th>term</th><th>estimate</th><th>1&sigma;</th>"
-            "<th>U (k=2)</th><th>unit</th></tr>"
-        )
-        for n in a["names"]:
-            unit, _ = lab(n)
-            v = result.results.get(f"{pre}_{n}_{unit}")
-            s = result.results.get(f"{pre}_{n}_sigma_{unit}")
-            u = result.results.get(f"{pre}_{n}_u_{unit}")
-
-            def f(x):
-                return "n/a" if x is None else f"{x:.6g}"
-
-            parts.append(
-                f"<tr><td class='n'>{e(n)}</td><td>{f(v)}</td><td>{f(s)}</td><td>{f(u)}</td>"
-                f"<td class='n'>{e(unit)}</td></tr>"
-            )
-        parts.append("</table>")
-        if a.get("combinations"):
-            parts.append("<p>Inseparable combinations: " + e("; ".join(a["combinations"])) + "</p>")
-    if result.attrs[""].get("plan_only"):
-        parts.append("<h2>Calibration plan (nothing measured)</h2><table>")
-        parts.append("<tr><th>term</th><th>predicted 1&sigma;</th></tr>")
-        for k, v in result.results.items():
-            if k.startswith("plan_") and "_sigma_" in k:
-                shown = "not separable" if v is None else f"{v:.4g}"
-                parts.append(f"<tr><td class='n'>{e(k)}</td><td>{shown}</td></tr>")
-        parts.append("</table>")
-    parts += [
-        "<h2>Residuals before and after calibration</h2>"
-        if not result.attrs[""].get("plan_only")
-        else "<h2>Planned uncertainty</h2>",
-        f"<img alt='residual figures' src='data:image/png;base64,{png}'>",
-        "<h2>Provenance</h2><table>",
-    ]
-    for k, v in sorted((provenance or {}).items()):
-        parts.append(f"<tr><th>{e(str(k))}</th><td class='n'>{e(str(v))}</td></tr>")
-    parts.append(
-        "<tr><th>uncertainty</th><td class='n'>1&sigma; from the sensor white noise "
-        "propagated through the least squares; U = 2&sigma; (k = 2, about 95 %)</td></tr>"
-    )
-    parts.append("</table></body></html>")
-    return "\n".join(parts)
+    return page(result, base64.b64encode(buf.getvalue()).decode("ascii"), provenance)

@@ -8,7 +8,7 @@ from inins.calibration import discrete, systemlevel, tablefree
 from inins.commands._calibrate_imu_units import lab
 from inins.commands.calibrate_imu_report import certificate_info
 from inins.core import earth
-from inins.core.units import ARCSEC, DEG_RTH, PPM, UG_RTHZ, UG_S
+from inins.core.units import ARCSEC, DEG, DEG_RTH, PPM, UG_RTHZ, UG_S
 from inins.exceptions import InputError
 from inins.results import CommandResult, Series, format_table
 from inins.scenario.si.calibrate_imu import tablefree_detector
@@ -47,28 +47,17 @@ def noise_figures(scenario, sensor, record=None, ivs=None):
 
 
 def _estimate_noise(record, ivs):
-    """ARW and VRW from the scatter of 1-s block means within the holds (rad/sqrt(s),
-    m/s/sqrt(s))."""
+    """ARW and VRW from the scatter within the holds (:func:`discrete.noise_from_holds`)."""
     if record is None:
         raise InputError("no noise figures given and no data to estimate them", key="noise")
     if ivs is None:  # the holds of the schedule
         spans = [(s.start_index, s.stop_index) for s in record.steps if str(s.kind) == "hold"]
     else:
         spans = [(iv.start, iv.stop) for iv in ivs if iv.kind == "hold"]
-    block = max(1, round(1.0 / record.dt))
-    parts = ([], [])
-    for start, stop in spans:
-        if stop - start < 4 * block:
-            continue
-        dtheta, dv = record.imu(start, stop)
-        m = (dtheta.shape[0] // block) * block
-        for k, x in enumerate((dtheta, dv)):
-            means = x[:m].reshape(-1, block, 3).sum(axis=1) / (block * record.dt)
-            parts[k].append(means - means.mean(axis=0))
-    if not parts[0]:
-        raise InputError("no hold long enough (4 s) to estimate the noise", key="noise")
-    t_block = block * record.dt
-    return tuple(np.sqrt(np.mean(np.vstack(p) ** 2, axis=0) * t_block) for p in parts)
+    try:
+        return discrete.noise_from_holds(record, spans)
+    except ValueError as exc:
+        raise InputError(str(exc), key="noise") from None
 
 
 def encoder_sigma(scenario):
@@ -89,28 +78,34 @@ def combination_text(combo):
     )
 
 
-def refuse(planned, scenario):
-    """Bad input when the schedule cannot separate a requested term (or gives a scale
-    factor worse than ``plan.max_sigma_ppm``), unless combinations are allowed."""
+def refuse(planned, scenario, method="discrete"):
+    """Bad input when a method's information does not separate a requested term (unless
+    ``plan.allow_combinations``), or gives a scale factor worse than
+    ``plan.max_sigma_ppm``: one rule for the planner and every run, every method.
+
+    ``planned`` is a :class:`inins.calibration.verdict.Verdict` (names, sigma,
+    separable, combinations)."""
     bad = planned.inseparable
     if bad and not scenario.plan.allow_combinations:
         combos = "; ".join(combination_text(c) for c in planned.combinations[:4])
+        more = len(planned.combinations) - 4
         raise InputError(
-            f"the schedule cannot separate {', '.join(bad)} (inseparable: {combos}); "
-            "add positions or rate tests, drop the group from estimate, or set "
+            f"{method}: the schedule cannot separate {', '.join(bad)} (not observable, "
+            f"inseparable: {combos}{f'; {more} more' if more > 0 else ''}); add positions "
+            "or rate tests, drop the group from estimate, or set "
             "plan.allow_combinations: true",
             key="estimate",
         )
     limit = scenario.plan.max_sigma_ppm
     if limit is not None:
         worse = [
-            n
+            f"{n} {s / PPM:.3g} ppm"
             for n, s in zip(planned.names, planned.sigma, strict=True)
             if n[:2] in ("sa", "sg") and np.isfinite(s) and s / PPM > limit
         ]
         if worse:
             raise InputError(
-                f"predicted 1-sigma above {limit:g} ppm for {', '.join(worse)}",
+                f"{method}: predicted 1-sigma above {limit:g} ppm for {', '.join(worse)}",
                 key="plan.max_sigma_ppm",
             )
 
@@ -132,64 +127,72 @@ def plan_intervals(setup, settle, encoder_sigma=0.0):
     return ivs, sim
 
 
+def _plan_rows(planned, prefix, results):
+    """Results and report rows of a method's planned verdict."""
+    rows = []
+    for n, s_, ok in zip(planned.names, planned.sigma, planned.separable, strict=True):
+        unit, scale = lab(n)
+        results[f"{prefix}{n}_sigma_{unit}"] = float(s_ / scale) if ok else None
+        rows.append([n, "yes" if ok else "NO", (s_ / scale) if ok else float("nan"), unit])
+    results[f"{prefix}inseparable"] = len(planned.inseparable)
+    text = [format_table(rows, ["term", "separable", "predicted 1-sigma", "unit"], fmt=".4g")]
+    if planned.combinations:
+        text.append("inseparable combinations (the data fix nothing along them):")
+        text += ["  " + combination_text(combo) for combo in planned.combinations]
+    return text
+
+
 def plan_only(scenario, names):
+    """The plan of every method of the scenario from its motion program: what each
+    separates and the predicted 1-sigma; refused (exit 2) as a run would be."""
     if scenario.simulate is None:
         raise InputError("plan.only needs the motion program: a simulate: section", key="plan")
     results, text, datasets, attrs = {}, [], {}, {}
+    verdicts = []
     if "discrete" in scenario.methods:
         ivs, sim = plan_intervals(scenario.simulate, scenario.settle_s, encoder_sigma(scenario))
         noise = noise_figures(scenario, sim.sensor)
         planned = discrete.plan(ivs, names, noise)
-        for n, s, ok in zip(planned.names, planned.sigma, planned.separable, strict=True):
-            unit, scale = lab(n)
-            results[f"plan_{n}_sigma_{unit}"] = float(s / scale) if ok else None
-        results["plan_inseparable"] = len(planned.inseparable)
-        rows = [
-            [n, "yes" if ok else "NO", (s / lab(n)[1]) if ok else float("nan"), lab(n)[0]]
-            for n, s, ok in zip(planned.names, planned.sigma, planned.separable, strict=True)
-        ]
-        text += [
+        text.append(
             f"planner, discrete: {len(ivs)} intervals "
             f"({sum(iv.kind == 'hold' for iv in ivs)} holds, "
-            f"{sum(iv.kind == 'spin' for iv in ivs)} spins) from the motion program alone",
-            format_table(rows, ["term", "separable", "predicted 1-sigma", "unit"], fmt=".4g"),
-        ]
-        if planned.combinations:
-            text.append("inseparable combinations (the data fix nothing along them):")
-            text += ["  " + combination_text(combo) for combo in planned.combinations]
-        if planned.inseparable and not scenario.plan.allow_combinations:
-            refuse(planned, scenario)
+            f"{sum(iv.kind == 'spin' for iv in ivs)} spins) from the motion program alone"
+        )
+        text += _plan_rows(planned, "plan_", results)
         datasets["plan/sigma"] = Series(planned.sigma, "SI", "b", "predicted 1-sigma per term")
         datasets["plan/information"] = Series(planned.information, "SI", "", "information")
         attrs["plan"] = {"names": list(planned.names), "inseparable": list(planned.inseparable)}
+        verdicts.append((planned, "discrete"))
     if "system-level" in scenario.methods:
-        names_s, sigma = plan_system_level(scenario)
-        rows = []
-        for n, s in zip(names_s, sigma, strict=True):
-            unit, scale = lab(n)
-            results[f"plan_system_{n}_sigma_{unit}"] = float(s / scale)
-            rows.append([n, s / scale, unit])
-        text += [
-            "planner, system-level: the filter's covariance along the motion program "
-            "(an ideal unit's increments, the scenario's noise)",
-            format_table(rows, ["term", "predicted 1-sigma", "unit"], fmt=".4g"),
-        ]
-        datasets["plan_system/sigma"] = Series(sigma, "SI", "b", "predicted 1-sigma per term")
+        planned = plan_system_level(scenario)
+        text.append(
+            "planner, system-level: the filter's information along the motion program "
+            "(an ideal unit's increments, the scenario's noise)"
+        )
+        text += _plan_rows(planned, "plan_system_", results)
+        datasets["plan_system/sigma"] = Series(
+            planned.sigma, "SI", "b", "predicted 1-sigma per term"
+        )
+        verdicts.append((planned, "system-level"))
     if "table-free" in scenario.methods:
         planned_tf = plan_table_free(scenario)
-        rows = []
-        for n, s_, ok in zip(planned_tf.names, planned_tf.sigma, planned_tf.separable, strict=True):
-            unit, scale = lab(n)
-            results[f"plan_table_free_{n}_sigma_{unit}"] = float(s_ / scale) if ok else None
-            rows.append([n, s_ / scale if ok else float("nan"), unit])
-        text += [
+        text.append(
             f"planner, table-free: {planned_tf.positions} static positions found in the "
-            "motion program (an ideal unit's increments, the scenario's noise; the gyro "
-            "bias is the initial interval's mean, the Earth rate is outside the model)",
-            format_table(rows, ["term", "predicted 1-sigma", "unit"], fmt=".4g"),
-        ]
+            "motion program (an ideal unit's increments, the scenario's noise; "
+            + (
+                "the Earth rate modelled"
+                if planned_tf.earth_rate
+                else "imu_tk's formulation: the gyro bias is the initial interval's mean, "
+                "the Earth rate is outside the model"
+            )
+            + ")"
+        )
+        text += _plan_rows(planned_tf.verdict, "plan_table_free_", results)
+        verdicts.append((planned_tf.verdict, "table-free"))
     if not text:
         raise InputError("the planner needs a method to plan", key="plan")
+    for planned, method in verdicts:
+        refuse(planned, scenario, method)
     attrs[""] = {
         "unit_name": scenario.unit.name,
         "methods": [],
@@ -201,8 +204,25 @@ def plan_only(scenario, names):
     )
 
 
+def latitude(scenario, record_lat=None):
+    """Latitude (rad) for the table-free Earth-rate model, None for imu_tk's formulation."""
+    tf = scenario.table_free
+    if tf.earth_rate == "imu_tk":
+        return None
+    if tf.lat_deg is not None:
+        return tf.lat_deg * DEG
+    if record_lat is not None:
+        return float(record_lat)
+    raise InputError(
+        "the Earth-rate model needs the lab's latitude: give table_free.lat_deg, or set "
+        "table_free.earth_rate: imu_tk (the gyro bias then includes the Earth rate)",
+        key="table_free.lat_deg",
+    )
+
+
 def plan_table_free(scenario):
-    """Predicted 1-sigma of the table-free terms from the motion program alone."""
+    """What the table-free method separates and the predicted 1-sigma, from the motion
+    program alone."""
     from dataclasses import replace
 
     from inins.commands._table import memory_record
@@ -216,14 +236,24 @@ def plan_table_free(scenario):
     time = rec.t0 + rec.dt * (np.arange(rec.n_samples) + 1)
     gravity = scenario.table_free.gravity_mps2 or float(earth.gravity(rec.lla[0], rec.lla[2]))
     det = tablefree_detector(scenario)
-    return tablefree.plan(
-        time, rec.dv / rec.dt, rec.dtheta / rec.dt, gravity, noise.vrw, noise.arw, det
-    )
+    try:
+        return tablefree.plan(
+            time,
+            rec.dv / rec.dt,
+            rec.dtheta / rec.dt,
+            gravity,
+            noise.vrw,
+            noise.arw,
+            det,
+            latitude(scenario, rec.lla[0]),
+        )
+    except ValueError as exc:
+        raise InputError(str(exc), key="table_free.detector") from None
 
 
 def plan_system_level(scenario):
-    """Predicted 1-sigma of the system-level terms from the motion program alone: the
-    filter's covariance over the increments of an ideal unit on the same program (the
+    """What the system-level filter resolves and its predicted 1-sigma from the motion
+    program alone: one pass over the increments of an ideal unit on the same program (the
     covariance of a linear filter depends on the trajectory, not on the errors)."""
     from dataclasses import replace
 
@@ -249,4 +279,4 @@ def plan_system_level(scenario):
         scenario.system_level.velocity_noise_mps,
         passes=1,
     )
-    return fit.names, fit.sigma
+    return fit.verdict

@@ -55,7 +55,7 @@ def declared_results(scenario):
             unit = noise_report.LAB[sensor][term][0]
             base = f"{ch}_{noise_report.SHORT[sensor][term]}_{unit}"
             names += [base, f"{base}_lo", f"{base}_hi"]
-        names += [f"{ch}_reproduces"]
+        names += [f"{ch}_reproduces", f"{ch}_model_p"]
     return tuple(names), ()
 
 
@@ -66,12 +66,18 @@ def declared_results(scenario):
 class Source:
     """Chunks of increments (rad, m/s) of the record: ``chunks(start, stop)`` yields
     (k0, dtheta, dv) for samples [start, stop); ``n`` and ``dt`` are known after the
-    first full pass (a log) or at once (a record)."""
+    first full pass (a log) or at once (a record). ``lat`` (rad) where the site is
+    known; ``pulse`` the declared pulse weights (gyro rad, accel m/s; body axes) of a
+    counting sensor, else None; ``keys`` the scenario keys of the gyro and accelerometer
+    units (named by a unit check)."""
 
     name: str
     n: int | None
     dt: float | None
     chunks: object
+    lat: float | None = None
+    pulse: tuple | None = None
+    keys: tuple = ("gyro.unit", "accel.unit")
 
 
 def open_source(scenario, seed, progress=None):
@@ -86,7 +92,8 @@ def open_source(scenario, seed, progress=None):
         yield from record.imu_chunks(start, stop)
 
     name = str(scenario.data) if scenario.data is not None else "simulate"
-    return Source(name, record.n_samples, record.dt, chunks)
+    key = "data" if scenario.data is not None else "simulate"
+    return Source(name, record.n_samples, record.dt, chunks, float(record.lla[0]), None, (key, key))
 
 
 def _log_source(scenario, progress):
@@ -120,6 +127,9 @@ def _log_source(scenario, progress):
     if reader.dt is None:  # from the time column: read the first chunk
         next(iter(reader.chunks()), None)
     source.dt = reader.dt
+    if site.lat_deg is not None or scenario.log.format == "psins":
+        source.lat = float(reader.resolved.lla[0])
+    source.pulse = _declared_pulses(reader.resolved, scenario.body_axes)
 
     def chunks(start=0, stop=None):
         reader = LogReader(cfg)
@@ -135,6 +145,17 @@ def _log_source(scenario, progress):
 
     source.chunks = chunks
     return source
+
+
+def _declared_pulses(resolved, body_axes):
+    """Pulse weights (gyro rad, accel m/s) of a counting log in body axes, or None."""
+    pulses = []
+    for pw in (resolved.gyro_pw, resolved.accel_pw):
+        if pw is None:
+            return None
+        pw = np.broadcast_to(np.asarray(pw, float), (3,))
+        pulses.append(np.array([pw["xyz".index(a[-1])] for a in body_axes]))
+    return tuple(pulses)
 
 
 # --------------------------------------------------------------------------- run
@@ -154,7 +175,16 @@ class Pass:
 
 def _pass(source, dt, ms, cfg, start, stop, keep):
     block_n = max(1, round(cfg.static.block_s / dt))
-    acc = allan.AllanAccumulator(dt, 6, ms, cfg.deviation.offsets, block_n=block_n)
+    expected = (source.n if stop is None else stop) - start if source.n is not None else 0
+    acc = allan.AllanAccumulator(
+        dt,
+        6,
+        ms,
+        cfg.deviation.offsets,
+        block_n=block_n,
+        monotone_alpha=True,
+        expected_rows=expected,
+    )
     kept = []
     sat = _saturation_limits(cfg, dt)
     n = 0
@@ -243,6 +273,7 @@ def run(scenario, seed, *, sink=None, progress=None):
             f"the static record has {n} samples; noise needs at least {MIN_SAMPLES}",
             source=source.name,
         )
+    _units(run_pass, dt, source)
     dev = _trim(run_pass.deviation, n, cfg)
     if cfg.deviation.max_tau_s is not None and dev.tau[-1] < cfg.deviation.max_tau_s * (1 - 1e-9):
         raise InputError(
@@ -259,9 +290,43 @@ def run(scenario, seed, *, sink=None, progress=None):
             run_pass.record, dt, kinds=kinds, per_octave=cfg.deviation.per_octave
         )
     fits = [_fit(dev, c, cfg) for c in range(6)]
+    rejected = [ch for ch, f in zip(CHANNELS, fits, strict=True) if not f.reproduces]
+    if rejected:
+        warnings.append(
+            f"the five-term model does not reproduce the curve of {', '.join(rejected)} "
+            "(chi-square p < 0.01): noise-imu.yaml says so; read its terms as a fit the "
+            "curve rejects"
+        )
     return noise_report.build(
-        cfg, dev, extra, fits, dt, n, n_total, (start * dt, (start + n) * dt), warnings
+        cfg,
+        dev,
+        extra,
+        fits,
+        dt,
+        n,
+        n_total,
+        (start * dt, (start + n) * dt),
+        warnings,
+        source.pulse,
     )
+
+
+def _units(p, dt, source):
+    """Bad input when the record at rest cannot be what its units say: the mean specific
+    force is not gravity, or the mean rate is not what a gyro of its noise reads at rest
+    (:mod:`inins.calibration.static_check`), naming the likely unit mistake."""
+    from inins.calibration import static_check
+
+    if p.blocks.shape[0] == 0:
+        return
+    mean = np.median(p.blocks, axis=0)
+    arw = float(np.max(np.median(p.spread[:, :3], axis=0))) * math.sqrt(dt)
+    for problem, key in (
+        (static_check.gravity_problem(mean[3:], source.lat), source.keys[1]),
+        (static_check.rate_problem(mean[:3], arw, source.lat), source.keys[0]),
+    ):
+        if problem:
+            raise InputError(problem, source=source.name, key=key)
 
 
 def _window(cfg, n, dt):
@@ -324,7 +389,7 @@ def _fit(dev, c, cfg):
         allan.Term(t, 0.0, 0.0, 0.0, None) for t in allan.TERMS if t not in names
     ]
     terms.sort(key=lambda t: allan.TERMS.index(t.name))
-    return allan.Fit(tuple(terms), model, inside, fit.chi2_per_dof)
+    return allan.Fit(tuple(terms), model, inside, fit.chi2_per_dof, fit.dof, fit.p_value)
 
 
 def _motion(p, cfg, dt):
@@ -356,6 +421,14 @@ def _flat(p, dt, start, name, cfg):
     if dead.any():
         raise InputError(
             f"{CHANNELS[int(np.argmax(dead))]} gives no output (every increment is zero)",
+            source=name,
+        )
+    still = np.all(p.spread == 0, axis=0) & np.all(p.blocks == p.blocks[0], axis=0)
+    if still.any():
+        stuck = ", ".join(c for c, s in zip(CHANNELS, still, strict=True) if s)
+        raise InputError(
+            f"{stuck} give the same value at every sample (stuck or not connected): no "
+            "noise to characterise",
             source=name,
         )
     typical = np.median(p.spread, axis=0)

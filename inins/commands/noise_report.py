@@ -151,14 +151,40 @@ def _axis_values(fits, name):
     return [f.term(name) for f in fits]
 
 
-def scenario_block(fits_g, fits_a, dt, tau_min, corr_time):
-    """The ``imu:`` block (simulate-table) and ``filter.noise:`` block (run-ekf), YAML."""
+def _pulses(fits, declared, unit, name):
+    """Pulse weights for simulate-table (SI, 3) and the comment lines that say where they
+    come from: the log's declared pulse weights when it has them (the fitted
+    quantization compared with the sqrt(12) law they give), else the equivalent pulse
+    ``sqrt(12) Q`` of a resolved quantization term (0 unless every axis has one)."""
+    q = [t.value if t.resolved else 0.0 for t in _axis_values(fits, "quantization")]
+    equivalent = [math.sqrt(12.0) * v for v in q]
+    if declared is not None:
+        ratio = ", ".join(f"{v / p:.3g}" for v, p in zip(q, declared, strict=True))
+        own = ", ".join(f"{p / unit:.6g}" for p in declared)
+        return list(declared), [
+            f"# {name} pulse weight: the log's own ({own}); the fitted quantization Q is",
+            f"# {ratio} pulses (the quantizer alone gives 1/sqrt(12) = 0.289): the rest is",
+            f"# white {name} angle noise beyond the quantizer, which simulate-table's model",
+            "# does not carry",
+        ]
+    if any(v == 0 for v in equivalent):
+        return [0.0] * 3, []
+    return equivalent, [
+        f"# {name} pulse weight: the equivalent sqrt(12) Q of the fitted quantization "
+        "(a quantizer with that pulse gives the same white angle noise)"
+    ]
+
+
+def scenario_block(fits_g, fits_a, dt, tau_min, corr_time, pulse=None, rejected=()):
+    """The ``imu:`` block (simulate-table) and ``filter.noise:`` block (run-ekf), YAML.
+
+    ``pulse``: the log's declared pulse weights (gyro rad, accel m/s), if any;
+    ``rejected``: channels whose curve the five-term model does not reproduce (said at the
+    head of the file)."""
 
     def vec(values, factor):
         return "[" + ", ".join(f"{v / factor:.6g}" for v in values) + "]"
 
-    qg = [t.value if t.resolved else 0.0 for t in _axis_values(fits_g, "quantization")]
-    qa = [t.value if t.resolved else 0.0 for t in _axis_values(fits_a, "quantization")]
     ng = [t.value for t in _axis_values(fits_g, "random_walk")]
     na = [t.value for t in _axis_values(fits_a, "random_walk")]
     bg = [t.value for t in _axis_values(fits_g, "bias_instability")]
@@ -167,18 +193,24 @@ def scenario_block(fits_g, fits_a, dt, tau_min, corr_time):
     ka = [t.value for t in _axis_values(fits_a, "rate_random_walk")]
     gm_g = [gauss_markov(b, tau_min[0], corr_time) for b in bg]
     gm_a = [gauss_markov(b, tau_min[1], corr_time) for b in ba]
-    q_g = [math.sqrt(12.0) * q for q in qg]
-    q_a = [math.sqrt(12.0) * q for q in qa]
-    if any(q == 0 for q in q_g):
-        q_g = [0.0] * 3
-    if any(q == 0 for q in q_a):
-        q_a = [0.0] * 3
-    return (
-        "# Sensor error model fitted by inins noise (IEEE 952 terms; see its report).\n"
-        "# simulate-table / calibrate-bias: the imu: block. Bias instability B is written\n"
-        "# as the Gauss-Markov bias whose Allan deviation peaks at 0.664 B at the tau of\n"
-        "# the curve's minimum; rate random walk and rate ramp have no key there.\n"
-        "imu:\n"
+    q_g, note_g = _pulses(fits_g, None if pulse is None else pulse[0], ARCSEC, "gyro")
+    q_a, note_a = _pulses(fits_a, None if pulse is None else pulse[1], UG_S, "accelerometer")
+    head = [
+        "# Sensor error model fitted by inins noise (IEEE 952 terms; see its report).",
+        "# simulate-table / calibrate-bias: the imu: block. Bias instability B is written",
+        "# as the Gauss-Markov bias whose Allan deviation peaks at 0.664 B at the tau of",
+        "# the curve's minimum; rate random walk and rate ramp have no key there.",
+    ]
+    if rejected:
+        head += [
+            "# WARNING: the five-term model does NOT reproduce the Allan deviation of",
+            f"# {', '.join(rejected)} (the fit's chi-square, p < 0.01): for those",
+            "# sensors the values below are the closest five-term model, which the curve",
+            "# rejects; read the report before using them.",
+        ]
+    head += note_g + note_a
+    return "\n".join(head) + (
+        "\nimu:\n"
         f"  sample_rate_hz: {1.0 / dt:.9g}\n"
         "  gyro:\n"
         f"    arw_deg_rth: {vec(ng, DEG_RTH)}\n"
@@ -232,12 +264,13 @@ def _tau_of_min(dev, fits, cols):
     return float(np.median(out))
 
 
-def build(cfg, dev, extra, fits, dt, n, n_total, span, warnings):
-    """The :class:`CommandResult` of a run."""
+def build(cfg, dev, extra, fits, dt, n, n_total, span, warnings, pulse=None):
+    """The :class:`CommandResult` of a run (``pulse``: the log's declared pulse weights)."""
     fits_g, fits_a = fits[:3], fits[3:]
     tau_min = (_tau_of_min(dev, fits, range(3)), _tau_of_min(dev, fits, range(3, 6)))
     corr = cfg.output.bias_corr_time_s
-    block = scenario_block(fits_g, fits_a, dt, tau_min, corr)
+    rejected = [ch for ch, f in zip(CHANNELS, fits, strict=True) if not f.reproduces]
+    block = scenario_block(fits_g, fits_a, dt, tau_min, corr, pulse, rejected)
     kalibr = kalibr_yaml(fits_g, fits_a, dt, cfg.output.kalibr_topic)
     results = {
         "samples": n,
@@ -255,6 +288,7 @@ def build(cfg, dev, extra, fits, dt, n, n_total, span, warnings):
             results[f"{base}_lo"] = t.lo / factor
             results[f"{base}_hi"] = t.hi / factor
         results[f"{ch}_reproduces"] = int(fits[c].reproduces)
+        results[f"{ch}_model_p"] = fits[c].p_value
     datasets = {"adev/tau": Series(dev.tau, "s", "", "averaging time")}
     conf = cfg.deviation.band_confidence
     for name, d in {"adev": dev, **extra}.items():
@@ -373,10 +407,13 @@ def report(cfg, dev, extra, fits, dt, n, n_total, span, block, kalibr):
         "fitted by non-negative weighted least squares in the Allan variance (weights "
         "edf / (2 s2^2)); bias instability B = flat deviation / 0.664 "
         "(0.664 = sqrt(2 ln2 / pi)).",
-        f"Interval: {cfg.fit.confidence:g} confidence from the fit covariance "
-        f"(widened x{allan.CORRELATION_INFLATION:g} in variance for the correlation of "
-        "neighbouring tau); a term dominating where the curve holds fewer than "
-        f"{allan.MIN_DOMINANT_EDF:g} degrees of freedom, or left out, gets [0, bound].",
+        "Each coefficient is bounded by what the curve allows: its variance alone within "
+        f"the curve's upper {cfg.fit.confidence:g} limit at every tau.",
+        f"Interval: {cfg.fit.confidence:g} confidence from the covariance of the fit with "
+        "the estimates correlated across tau for the fitted noises (0.9 between octaves "
+        "for a random-walk rate, 0.5 for a white rate); a term dominating where the "
+        f"curve holds fewer than {allan.MIN_DOMINANT_EDF:g} degrees of freedom, or left "
+        "out, gets [0, bound].",
         "tau range: where the term carries at least half the model variance "
         "('-': nowhere, the value is a bound).",
         "",
@@ -392,14 +429,16 @@ def report(cfg, dev, extra, fits, dt, n, n_total, span, block, kalibr):
         "= N sqrt(fs); rate-random-walk bias step sd = K sqrt(dt); quantization pulse "
         "= sqrt(12) Q (uniform angle error of sd Q); rate ramp R dt per sample.",
         "",
-        "Model check (model within the curve's 0.95 interval, edf capped at "
-        f"{allan.EDF_CAP:g} as in the fit, at every fitted tau but a tenth):",
+        "Model check: the chi-square of the residuals with the covariance of the "
+        "estimates (correlated across tau), rejected below p = "
+        f"{allan.MODEL_P:g}; the tau inside the curve's 0.95 band are shown for reading:",
     ]
     for c, ch in enumerate(CHANNELS):
         f = fits[c]
         lines.append(
-            f"  {ch}: {int(f.inside.sum())}/{int(np.isfinite(f.model).sum())} tau inside, "
-            f"chi2/dof {f.chi2_per_dof:.3g} -> {'reproduces' if f.reproduces else 'DOES NOT'}"
+            f"  {ch}: chi2/dof {f.chi2_per_dof:.3g} on {f.dof} dof, p = {f.p_value:.3g} "
+            f"({int(f.inside.sum())}/{int(np.isfinite(f.model).sum())} tau inside) -> "
+            f"{'reproduces' if f.reproduces else 'DOES NOT reproduce'}"
         )
     lines += [
         "",

@@ -139,6 +139,21 @@ class TableFree(ScenarioSection):
         description="local gravity (m/s^2); default: normal gravity at the table's site, "
         "9.80665 for a raw log",
     )
+    earth_rate: Literal["model", "imu_tk"] = Field(
+        "model",
+        description="model: the Earth rate at the latitude is in the model (the heading of "
+        "the first position estimated with the gyro terms; every static interval a "
+        "gyrocompass), so the gyro bias is the sensor's alone; imu_tk: as imu_tk, the "
+        "Earth rate left in the data (the gyro bias carries the Earth rate of the first "
+        "position, up to 15 deg/h, and the gyro terms the Earth rate times the motion time)",
+    )
+    lat_deg: float | None = Field(
+        None,
+        ge=-90.0,
+        le=90.0,
+        description="latitude of the lab (deg) for a raw log with earth_rate: model "
+        "(a table record or simulation gives its site's)",
+    )
     detector: StaticDetector = Field(default_factory=StaticDetector)
     use_positions: list[int] | None = Field(
         None,
@@ -150,11 +165,15 @@ class SystemLevel(ScenarioSection):
     """System-level calibration: a Kalman filter on the navigation errors of the rotation
     sequence, known position and zero velocity."""
 
-    step_s: PositiveFloat = Field(1.0, description="filter step (s)")
+    step_s: PositiveFloat = Field(
+        1.0, le=60.0, description="filter step (s), at most 60 (the linear model per step)"
+    )
     velocity_noise_mps: PositiveFloat = Field(
         1e-4,
+        ge=1e-7,
+        le=1.0,
         description="1-sigma of the zero-velocity measurement (m/s): table vibration and "
-        "velocity quantization",
+        "velocity quantization; 1e-7 (a tenth of a micrometre per second) to 1",
     )
 
 
@@ -265,4 +284,9 @@ class CompensationFile(ScenarioSection):
     unit: Unit = Field(description="the unit it was made for")
     calibrated: str = Field("", description="UTC time of the calibration")
     method: str = Field("", description="the method the terms come from")
+    model: str = Field("", description="the method's model: what its gyro bias includes")
+    not_determined: list[str] = Field(
+        [],
+        description="terms the schedule did not separate (left at zero, not compensated)",
+    )
     imu: CompensationImu = Field(description="the error terms the compensation removes")

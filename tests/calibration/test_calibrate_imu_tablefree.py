@@ -73,6 +73,25 @@ def test_noise_free_with_earth_rate_is_at_its_model_limit():
     assert np.linalg.norm(bias) <= np.linalg.norm(sim.sensor.gyro_matrix(), 2) * earth.RATE
 
 
+def test_noise_free_with_the_earth_rate_modelled_recovers_all_21_terms():
+    # the same record as it comes (the Earth rate in it), the latitude given: the bias is
+    # the sensor's alone and the gyro matrix exact, the heading of the first position
+    # found (the table's 0 deg); 1e-4 relative or 1e-9 SI (the simulator's midpoint
+    # quadrature of the 60 deg/s turns: (w dt)^2 / 24 = 5e-6 at 100 Hz)
+    sim, rec = _mems_record()
+    fit = tablefree.calibrate(*_inputs(sim, rec, False), DETECTOR, lat=rec.lla[0])
+    assert fit.earth_rate and not fit.verdict.inseparable
+    truth = imu_model.terms_from_sensor(sim.sensor).vector(fit.names)
+    err = np.abs(fit.values - truth)
+    assert np.all((err <= 1e-4 * np.abs(truth)) | (err <= 1e-9)), list(
+        zip(fit.names, err / np.abs(truth), strict=True)
+    )
+    assert abs(np.degrees(fit.heading)) < 0.01
+    # imu_tk's formulation on the same record: the bias off by the Earth rate
+    tk = tablefree.calibrate(*_inputs(sim, rec, False), DETECTOR)
+    assert np.linalg.norm(tk.terms.gyro_bias() - fit.terms.gyro_bias()) > 10 * DPH
+
+
 def test_detector_flags_a_moving_static_interval():
     # a slow 3 deg turn over 6 s (0.5 deg/s) keeps the variance below the threshold
     # (noise 0.01 m/s^2) but turns the gravity direction: flagged as moving, not used

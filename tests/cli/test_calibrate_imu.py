@@ -72,7 +72,7 @@ def test_compensated_rerun_finds_what_is_left(default_run, tmp_path):
         if not key.startswith("discrete_") or "_sigma_" in key or "_u_" in key:
             continue
         name = key.removeprefix("discrete_")
-        if name.startswith(("mount", "chi2", "dof", "intervals", "holds", "spins")):
+        if name.startswith(("mount", "chi2", "dof", "intervals", "holds", "spins", "insep")):
             continue
         unit = name.rsplit("_", 1)[1]
         sigma = res[key.replace(f"_{unit}", f"_sigma_{unit}")]
@@ -157,7 +157,10 @@ def test_too_few_positions_are_refused(tmp_path):
     np.savetxt(acc, rows)
     np.savetxt(gyro, rows)
     scen = tmp_path / "s.yaml"
-    scen.write_text(f"methods: [table-free]\nlog: {{accel_file: {acc}, gyro_file: {gyro}}}\n")
+    scen.write_text(
+        f"methods: [table-free]\nlog: {{accel_file: {acc}, gyro_file: {gyro}}}\n"
+        "table_free: {lat_deg: 45.0}\n"
+    )
     result = run(scen, "-o", tmp_path / "o")
     assert result.exit_code == 2
     assert "static intervals usable" in result.output and "table_free.detector" in result.output
@@ -171,17 +174,15 @@ def test_unknown_key_and_two_sources_are_bad_input(tmp_path):
 
 
 CHROMIUM = shutil.which("chromium") or shutil.which("chromium-browser")
+SKIP_CHROMIUM = pytest.mark.skipif(
+    CHROMIUM is None,
+    reason="certificate rendering: no chromium on this machine (Debian's chromium package; "
+    ".ci/run installs it)",
+)
 
 
-def test_certificate_renders_in_headless_chromium(default_run, tmp_path):
-    if CHROMIUM is None:
-        pytest.skip(
-            "certificate rendering skipped: no chromium on this machine (install "
-            "Debian's chromium package; .ci/run does)"
-        )
-    shot = tmp_path / "certificate.png"
-    page = default_run / "calibrate-imu-certificate.html"
-    out = subprocess.run(
+def _chromium(*args):
+    return subprocess.run(
         [
             CHROMIUM,
             "--headless",
@@ -193,17 +194,70 @@ def test_certificate_renders_in_headless_chromium(default_run, tmp_path):
             "--no-first-run",
             "--enable-logging=stderr",
             "--v=0",
-            f"--screenshot={shot}",
-            "--window-size=1000,1400",
-            page.as_uri(),
+            *args,
         ],
         capture_output=True,
         text=True,
         timeout=120,
     )
+
+
+def test_certificate_says_what_a_lab_signs(default_run):
+    page = (default_run / "calibrate-imu-certificate.html").read_text()
+    assert "<title>Calibration certificate</title>" in page
+    # lab units, not result-name suffixes
+    assert "µg" in page and "°/h" in page and "arcsec" in page and "ppm" in page
+    assert ">ug<" not in page and ">dph<" not in page
+    # value and U to U's two significant digits: "x.xx</td><td>0.0y" style rows
+    summary = json.loads((default_run / "summary.json").read_text())["results"]
+    from inins.commands.calibrate_imu_certificate import value_with_uncertainty
+
+    v, u = value_with_uncertainty(summary["discrete_ba_x_ug"], summary["discrete_ba_x_u_ug"])
+    assert f"<td class='n'>ba_x</td><td>{v}</td><td>{u}</td>" in page
+    assert len(u.replace("0.", "").lstrip("0").replace(".", "")) == 2  # two digits of U
+    for text in ("Legend", "misalignment of gyro i toward axis j", "calibration date (UTC)"):
+        assert text in page
+    assert "the gyro bias is the sensor&#x27;s alone" in page and "all 24 terms separable" in page
+
+
+def test_certificate_escapes_and_wraps_the_serial(tmp_path):
+    serial = "<script>alert(1)</script>&" + "X" * 120
+    result = run(
+        DEFAULT,
+        "-o",
+        tmp_path,
+        "--plot",
+        "--set",
+        f"simulate.imu.sample_rate_hz={RATE}",
+        "--set",
+        "checks=[]",
+        "--set",
+        f"unit.serial={serial}",
+    )
+    assert result.exit_code == 0, result.output
+    page = (tmp_path / "calibrate-imu-certificate.html").read_text()
+    assert "<script>" not in page and "&lt;script&gt;alert(1)&lt;/script&gt;&amp;" in page
+    assert "word-break:break-all" in page
+
+
+@SKIP_CHROMIUM
+def test_certificate_renders_in_headless_chromium_and_prints_on_a4(default_run, tmp_path):
+    page = default_run / "calibrate-imu-certificate.html"
+    shot = tmp_path / "certificate.png"
+    out = _chromium(f"--screenshot={shot}", "--window-size=800,1130", page.as_uri())
     assert shot.is_file() and shot.stat().st_size > 5000, out.stderr[-2000:]
     console = [line for line in out.stderr.splitlines() if "CONSOLE" in line]
     assert console == [], console
+    pdf = tmp_path / "certificate.pdf"
+    out = _chromium(f"--print-to-pdf={pdf}", "--no-pdf-header-footer", page.as_uri())
+    data = pdf.read_bytes()
+    assert data.startswith(b"%PDF"), out.stderr[-2000:]
+    # every page A4 (595 x 842 pt), and the certificate on a few of them
+    import re
+
+    boxes = re.findall(rb"/MediaBox\s*\[\s*0\s+0\s+([\d.]+)\s+([\d.]+)\s*\]", data)
+    assert boxes and all(abs(float(w) - 595.3) < 1 and abs(float(h) - 841.9) < 1 for w, h in boxes)
+    assert len(boxes) <= 4
 
 
 def test_static_log_planner_says_what_it_can_and_cannot_give(tmp_path):
@@ -211,7 +265,9 @@ def test_static_log_planner_says_what_it_can_and_cannot_give(tmp_path):
     scen = CONFIGS / "calibrate-imu" / "rlg-static-plan.yaml"
     result = run(scen, "-o", tmp_path, "--plot")
     assert result.exit_code == 0, result.output
-    assert "Calibration plan" in (tmp_path / "calibrate-imu-certificate.html").read_text()
+    plan = (tmp_path / "calibrate-imu-certificate.html").read_text()
+    assert "<title>Calibration plan</title>" in plan and "Calibration certificate" not in plan
+    assert "Nothing was measured" in plan
     assert "nothing estimated" in (tmp_path / "calibrate-imu-compensation.yaml").read_text()
     res = json.loads((tmp_path / "summary.json").read_text())["results"]
     assert res["plan_ba_z_sigma_ug"] > 0  # the vertical accelerometer bias: separable
@@ -266,3 +322,132 @@ def test_positions_not_found_are_bad_input(tmp_path):
     )
     assert result.exit_code == 2
     assert "table_free.use_positions" in result.output and "38 static intervals" in result.output
+
+
+def _scenario(tmp_path, config, motion=None, **top):
+    data = yaml.safe_load((CONFIGS / "calibrate-imu" / config).read_text())
+    data.pop("checks", None)
+    data["simulate"]["imu"]["sample_rate_hz"] = 20
+    if motion is not None:
+        data["simulate"]["motion"] = motion
+    data.update(top)
+    path = tmp_path / "s.yaml"
+    path.write_text(yaml.safe_dump(data))
+    return path
+
+
+ROLLS = [{"kind": "hold", "duration_s": 20, "label": "init"}] + [
+    step
+    for k in range(11)
+    for step in (
+        {"kind": "rotate", "axis": "roll", "angle_deg": 30 + 5 * (k % 3), "rate_dps": 60},
+        {"kind": "hold", "duration_s": 6},
+    )
+]
+
+
+@pytest.mark.parametrize("only", [True, False])
+def test_table_free_rolls_only_is_refused_naming_the_null_space(tmp_path, only):
+    # turns about body x alone: the x accelerometer never sees gravity (ba_x, sa_x, ma_yx,
+    # ma_zx free); the planner and the run say so alike, exit 2, nothing written
+    scen = _scenario(tmp_path, "table-free-mems.yaml", ROLLS)
+    result = run(scen, "-o", tmp_path / "o", "--set", f"plan.only={str(only).lower()}")
+    assert result.exit_code == 2, result.output
+    assert "table-free: the schedule cannot separate" in result.output
+    for name in ("ba_x", "sa_x", "ma_yx", "ma_zx"):
+        assert name in result.output
+    assert not (tmp_path / "o" / "calibrate-imu-compensation.yaml").exists()
+
+
+LEVEL = [{"kind": "hold", "duration_s": 30.0}, {"kind": "rotate", "axis": "yaw", "angle_deg": 90}]
+LEVEL += [{"kind": "hold", "duration_s": 10.0}]
+for _ in range(8):
+    LEVEL += [
+        {"kind": "rotate", "axis": "pitch", "angle_deg": 90},
+        {"kind": "hold", "duration_s": 10.0},
+    ]
+YAW = [{"kind": "hold", "duration_s": 30.0}]
+for _ in range(8):
+    YAW += [
+        {"kind": "rotate", "axis": "yaw", "angle_deg": 90},
+        {"kind": "hold", "duration_s": 10.0},
+    ]
+
+
+@pytest.mark.parametrize(
+    "motion, only, names",
+    [
+        (YAW, True, ("sa_x", "sa_y", "ma_zy")),
+        (LEVEL, True, ("sa_x", "ma_yx", "ma_zx")),
+        (LEVEL, False, ("sa_x", "ma_yx", "ma_zx")),
+    ],
+)
+def test_system_level_degenerate_sequences_are_refused(tmp_path, motion, only, names):
+    # yaw turns only, or the x axis level throughout: the filter's information leaves
+    # combinations free; refused with them named (no sigma at the prior, no compensation)
+    scen = _scenario(tmp_path, "system-level-19.yaml", motion)
+    result = run(scen, "-o", tmp_path / "o", "--set", f"plan.only={str(only).lower()}")
+    assert result.exit_code == 2, result.output
+    assert "system-level: the schedule cannot separate" in result.output
+    for name in names:
+        assert name in result.output
+    # told to estimate the combinations, the run reports those terms without a sigma
+    if not only:
+        result = run(scen, "-o", tmp_path / "c", "--set", "plan.allow_combinations=true")
+        assert result.exit_code == 0, result.output
+        res = json.loads((tmp_path / "c" / "summary.json").read_text())["results"]
+        assert res["system_sa_x_sigma_ppm"] is None and res["system_sa_x_ppm"] is None
+        assert res["system_sa_z_sigma_ppm"] > 0 and res["system_inseparable"] >= 3
+        comp = yaml.safe_load((tmp_path / "c" / "calibrate-imu-compensation.yaml").read_text())
+        assert "sa_x" in comp["not_determined"] and comp["imu"]["accel_scale_ppm"][0] == 0.0
+
+
+def test_max_sigma_is_one_rule_for_the_plan_and_the_run(tmp_path):
+    # the discrete schedule with 5-s holds at 20 Hz: scale-factor 1-sigma of a few ppm
+    for only in ("true", "false"):
+        result = run(
+            DEFAULT,
+            "-o",
+            tmp_path / only,
+            "--set",
+            "simulate.imu.sample_rate_hz=20",
+            "--set",
+            "checks=[]",
+            "--set",
+            "plan.max_sigma_ppm=0.001",
+            "--set",
+            f"plan.only={only}",
+        )
+        assert result.exit_code == 2, result.output
+        assert "plan.max_sigma_ppm" in result.output and "predicted 1-sigma above" in result.output
+
+
+@pytest.mark.parametrize(
+    "case, message",
+    [
+        ("constant", "accelerometer x, accelerometer y, accelerometer z give the same count"),
+        ("zero", "read their nominal zero"),
+        ("stuck", "accelerometer y give the same count at every sample"),
+    ],
+)
+def test_raw_counts_that_cannot_be_calibrated_are_bad_input(tmp_path, case, message):
+    n = 6000
+    rng = np.random.default_rng(0)
+    acc = np.column_stack([np.arange(n) * 0.01, np.full((n, 3), 32768.0)])
+    gyro = acc.copy()
+    gyro[:, 1:] += rng.normal(0, 2, (n, 3))
+    if case == "stuck":
+        acc[:, 1:] += rng.normal(0, 2, (n, 3))
+        acc[:, 2] = 33000.0
+    elif case == "zero":  # moving about the nominal zero, mean exactly zero
+        acc[:, 1:] += np.where(np.arange(n) % 2, 1.0, -1.0)[:, None]
+    np.savetxt(tmp_path / "acc.txt", acc)
+    np.savetxt(tmp_path / "gyro.txt", gyro)
+    scen = tmp_path / "s.yaml"
+    scen.write_text(
+        "methods: [table-free]\nlog: {accel_file: acc.txt, gyro_file: gyro.txt}\n"
+        "table_free: {earth_rate: imu_tk}\n"
+    )
+    result = run(scen, "-o", tmp_path / "o")
+    assert result.exit_code == 2, result.output
+    assert message in result.output and "acc.txt" in result.output

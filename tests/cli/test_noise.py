@@ -15,6 +15,8 @@ from inins.core import noise as core_noise
 from inins.core.units import DEG_RTH, UG_RTHZ
 from inins.io.resources import config_path
 
+CHANNELS = ("gyro_x", "gyro_y", "gyro_z", "accel_x", "accel_y", "accel_z")
+
 RLG = (
     Path(__file__).resolve().parents[2] / ".." / "shared" / "data" / "rlg-static" / "lasergyro.imu"
 )
@@ -42,6 +44,17 @@ def test_default_cuts_the_motion_of_the_rlg_excerpt(tmp_path):
     with h5py.File(tmp_path / "noise.h5") as f:
         assert f["adev/gyro"].shape == (f["adev/tau"].shape[0], 3)
         assert np.all(f["adev/gyro_lo"][()] < f["adev/gyro"][()])
+    # this RLG's curve is not the five-term model (its dither readout): the check's own
+    # chi-square says so, and the written model says it, in the file itself
+    block = (tmp_path / "noise-imu.yaml").read_text()
+    assert "does NOT reproduce" in block and "DOES NOT reproduce" in report
+    assert all(r[f"{c}_reproduces"] == 0 and r[f"{c}_model_p"] < 0.01 for c in CHANNELS)
+    # the pulse weights are the log's (0.1 arcsec, 125 ug*s in its g of 9.780327)
+    imu = yaml.safe_load(block)["imu"]
+    assert imu["gyro"]["pulse_weight_arcsec"] == [0.1, 0.1, 0.1]
+    assert imu["accel"]["pulse_weight_ug_s"] == pytest.approx(
+        [125 * 9.780327 / 9.80665] * 3, rel=1e-5
+    )
 
 
 SIM = """
@@ -56,13 +69,15 @@ simulate:
     - {kind: hold, duration_s: 2400.0}
 fit:
   terms: [quantization, random_walk, bias_instability, rate_random_walk]
+  confidence: 0.9917   # six axes checked at once: 1 - 0.05 / 6 each (Bonferroni)
 """
 
 
 def test_written_block_runs_simulate_table_and_gives_the_same_terms(tmp_path):
     """Characterise a simulated hold, put the written imu: block into a new simulation
-    (another seed), characterise that: each white-noise density of the second run lies
-    within the first run's interval and both hold the simulated truth."""
+    (another seed), characterise that: the first run's intervals hold the simulated
+    truth, the second's the first's values (its truth: the block written) (six axes at
+    once: each interval at 1 - 0.05 / 6, so all six hold it at 95 %)."""
     first = tmp_path / "a"
     (tmp_path / "a.yaml").write_text(SIM)
     result = invoke(tmp_path / "a.yaml", "-o", first, "--seed", 1)
@@ -81,7 +96,7 @@ def test_written_block_runs_simulate_table_and_gives_the_same_terms(tmp_path):
         for i, a in enumerate("xyz"):
             name = f"{sensor}_{a}_{key}"
             assert r1[f"{name}_lo"] <= truth[sensor][i] <= r1[f"{name}_hi"], name
-            assert r1[f"{name}_lo"] <= r2[name] <= r1[f"{name}_hi"], name
+            # the second simulation's truth is the block the first wrote
             assert r2[f"{name}_lo"] <= r1[name] <= r2[f"{name}_hi"], name
     assert block["filter"]["noise"]["arw_deg_rth"] == pytest.approx(
         max(r1[f"gyro_{a}_arw_deg_rth"] for a in "xyz"), rel=1e-5
@@ -173,6 +188,11 @@ def _static_rows(n=20000, dt=0.01, seed=0):
         ("backwards", "", "log.columns.time"),
         ("saturated", "static: {gyro_range_dps: 0.01}\n", "saturated"),
         ("stuck", "", "stuck far from its median"),
+        ("constant", "", "gyro_y give the same value at every sample"),
+        ("in g", "", "reads 0.9993 m/s^2 (0.1019 g): g declared as m/s^2"),
+        ("no gravity", "", "no gravity at all"),
+        ("quiet, no earth rate", "", "no Earth rate"),
+        ("deg/s as rad/s", "", "more than any gyro bias"),
     ],
 )
 def test_bad_input_is_one_message_exit_2(tmp_path, case, extra, message):
@@ -185,6 +205,16 @@ def test_bad_input_is_one_message_exit_2(tmp_path, case, extra, message):
         rows[900, 0] = rows[898, 0]
     elif case == "stuck":
         rows[8000:8500, 2] = 500.0
+    elif case == "constant":  # one gyro stuck at one value for the whole record
+        rows[:, 2] = 3.0
+    elif case == "in g":  # the accelerometers in g, declared m/s^2
+        rows[:, 4:] /= 9.80665
+    elif case == "no gravity":
+        rows[:, 6] += 9.8
+    elif case == "quiet, no earth rate":  # a navigation-grade gyro reading no Earth rate
+        rows[:, 1:4] *= 1e-3
+    elif case == "deg/s as rad/s":  # a MEMS bias of 0.5 deg/s logged as 0.5 "rad/s"
+        rows[:, 1:4] += 0.5 * 3600.0 * 180.0 / np.pi  # (the log's column is in deg/h)
     _csv(tmp_path / "log.csv", rows)
     (tmp_path / "s.yaml").write_text(_csv_scenario(tmp_path, extra))
     result = invoke(tmp_path / "s.yaml", "-o", tmp_path / "out")

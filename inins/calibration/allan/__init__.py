@@ -30,8 +30,8 @@ The overlapping Allan variance at m needs only the phase at its starts. Above
 points (level l: ``m = M 2^l`` with ``offsets <= M < 2 offsets``): the second
 differences at every ``2^l``-th start, ``offsets`` of them per m. With 16 offsets
 the result differs from the fully overlapping estimate by under a quarter of its
-1-sigma interval (white noise, tests); its interval is computed with the fully
-overlapping edf, slightly optimistic for the decimated tau. ``offsets=0`` gives the
+1-sigma interval (white noise, tests); its interval is computed with Greenhall &
+Riley's edf for M starts per m (their S), not the fully overlapping one. ``offsets=0`` gives the
 fully overlapping estimate at every tau. The accumulator keeps per
 level only the last ``4 offsets`` phase points and the ones it gathers for the next
 kernel call (``batch_rows``), so a record of any length streams through it in
@@ -67,10 +67,12 @@ B bias instability (rad/s, m/s^2; the flat part of the deviation is
 ``sqrt(2 ln 2 / pi) B = 0.664 B``), K rate random walk (rad/s/sqrt(s)), R rate ramp
 (rad/s^2). :func:`fit_terms` fits the five squared coefficients by non-negative
 weighted least squares in the variance, weights ``edf / (2 s2_model^2)`` (the
-variance of a chi-square estimate), iterated on the model. Each term is reported
-with the tau range where it carries at least half the model variance, and its
-interval from the fit covariance widened for the correlation of the overlapping
-estimates at neighbouring tau (see :func:`fit_terms`).
+variance of a chi-square estimate), iterated on the model, each coefficient bounded by
+what the curve allows (its variance alone within the curve's upper limit at every tau).
+Each term is reported with the tau range where it carries at least half the model
+variance, and its interval from the covariance of the fit with the estimates'
+correlation across tau (:mod:`inins.calibration.allan.covariance`); the model check is
+the fit's chi-square with that covariance (see :func:`fit_terms`).
 """
 
 from inins.calibration.allan.deviation import (
@@ -93,9 +95,9 @@ from inins.calibration.allan.deviation import (
 from inins.calibration.allan.edf import J_MAX, edf_for, edf_greenhall, edf_totdev
 from inins.calibration.allan.fit import (
     BIAS_FACTOR,
-    CORRELATION_INFLATION,
     EDF_CAP,
     MIN_DOMINANT_EDF,
+    MODEL_P,
     SLOPES,
     TERMS,
     Fit,
@@ -109,13 +111,13 @@ from inins.calibration.allan.stream import DIFFERENCE_ROWS, AllanAccumulator, _l
 
 __all__ = [
     "BIAS_FACTOR",
-    "CORRELATION_INFLATION",
     "DIFFERENCE_ROWS",
     "EDF_CAP",
     "ID_MIN_POINTS",
     "J_MAX",
     "KINDS",
     "MIN_DOMINANT_EDF",
+    "MODEL_P",
     "ONE_SIGMA",
     "SLOPES",
     "TERMS",

@@ -7,6 +7,7 @@ power-law noise ``S_y(f) ~ f^alpha`` at each tau (the overview:
 :mod:`inins.calibration.allan`).
 """
 
+import functools
 import math
 
 import numpy as np
@@ -77,16 +78,18 @@ _TABLE3 = ((6.0, 4.0), (15.23, 12.0), (47.8, 40.0))  # alpha = 1, unmodified (G&
 J_MAX = 100
 
 
-def edf_greenhall(alpha, m, n, kind="adev", d=2, overlapping=True):
+@functools.lru_cache(maxsize=4096)
+def edf_greenhall(alpha, m, n, kind="adev", d=2, overlapping=True, starts=None):
     """Equivalent degrees of freedom (Greenhall & Riley 2003, eqs. 7-13, Tables 1-3).
 
     alpha: power-law exponent (+2 .. -4, alpha + 2 d > 1); m averaging factor; n number
     of phase points; kind ``adev`` (unmodified, F = m) or ``mdev`` (modified, F = 1);
-    d = 2 for the Allan variances; overlapping: stride S = m (else 1).
+    d = 2 for the Allan variances; overlapping: S = m starts per m (else 1); ``starts``
+    another S (the streaming estimator's decimated tau use S = M starts per m).
     """
     modified = kind == "mdev"
     f = 1.0 if modified else float(m)
-    s = float(m) if overlapping else 1.0
+    s = float(starts) if starts is not None else (float(m) if overlapping else 1.0)
     if alpha + 2 * d <= 1:
         raise ValueError(f"edf undefined for alpha {alpha} with d {d}")
     length = m / f + m * d
@@ -142,8 +145,9 @@ def edf_totdev(alpha, m, n):
     return edf_greenhall(alpha, m, n, "adev")
 
 
-def edf_for(kind, alpha, m, n):
-    """edf of deviation ``kind`` (:data:`KINDS`) at alpha, m, n phase points.
+def edf_for(kind, alpha, m, n, starts=None):
+    """edf of deviation ``kind`` (:data:`KINDS`) at alpha, m, n phase points (``starts``
+    per m where not all m of them are used: :func:`edf_greenhall`).
 
     alpha below -2 (rate ramp) is taken as -2 for the Allan variances (d = 2 needs
     alpha > -3)."""
@@ -151,5 +155,10 @@ def edf_for(kind, alpha, m, n):
     if kind == "totdev":
         return edf_totdev(alpha, m, n)
     return edf_greenhall(
-        alpha, m, n, "mdev" if kind == "mdev" else "adev", overlapping=kind != "adev"
+        alpha,
+        m,
+        n,
+        "mdev" if kind == "mdev" else "adev",
+        overlapping=kind != "adev",
+        starts=starts,
     )

@@ -72,17 +72,22 @@ class Fit:
     model : ndarray (j,)
         Model deviation at each tau of the curve.
     inside : ndarray of bool (j,)
-        The model lies within the curve's interval at ``check_confidence``, with the
-        edf capped at :data:`EDF_CAP` as in the fit (a point is not asked to agree
-        better than 4.5 % in variance).
+        The model lies within the curve's interval at ``check_confidence`` (per tau, for
+        the report and the figure).
     chi2_per_dof : float
-        Weighted residual sum of squares per degree of freedom.
+        Residual chi-square per degree of freedom with the full covariance of the
+        estimates (correlated across tau: :mod:`inins.calibration.allan.covariance`).
+    dof : int
+    p_value : float
+        Probability of a chi-square at least this large if the curve were the model.
     """
 
     terms: tuple
     model: np.ndarray
     inside: np.ndarray
     chi2_per_dof: float
+    dof: int = 1
+    p_value: float = 1.0
 
     def term(self, name):
         """The term called ``name``."""
@@ -90,72 +95,125 @@ class Fit:
 
     @property
     def reproduces(self):
-        """The model lies within the curve's interval at all but a tenth of the fitted tau."""
-        fitted = self.inside[np.isfinite(self.model)]
-        return bool(fitted.mean() >= 0.9) if fitted.size else False
+        """The curve is the model by the fit's own statistic: the chi-square of the
+        residuals below its 99 % point (``p_value >= 0.01``)."""
+        return bool(self.p_value >= MODEL_P)
 
 
 EDF_CAP = 1000.0
 """The fit weighs no tau as if it had more degrees of freedom than this (a relative
 sd of 4.5 % in the variance): real curves are not exactly the five-term model, and
 the thousands of degrees of freedom at the shortest tau would otherwise decide the
-whole fit."""
+whole fit (the covariance of the estimate uses the true edf)."""
 MIN_DOMINANT_EDF = 30.0
 """A term whose dominant tau hold fewer degrees of freedom than this gets the interval
 [0, bound] (see fit_terms)."""
-CORRELATION_INFLATION = 2.0
-"""Variance factor for the correlation of overlapping Allan estimates at neighbouring
-octave tau: the least-squares covariance treats the points as independent; with
-the overlap each point shares about half its information with its neighbours, so the
-fit's parameter variance is widened by this factor (coverage measured in the tests)."""
+MODEL_P = 0.01
+"""The model check: a chi-square beyond its 1 - MODEL_P point rejects the model."""
 
 
-def nnls(a, b):
-    """Non-negative least squares ``min |a x - b|, x >= 0`` for a few unknowns (here at
-    most 5): the least-squares solution of every subset of columns, the best one with
-    no negative coefficient (exact; 2^n small solves instead of scipy.optimize, whose
-    import costs more than a short run)."""
+def nnls(a, b, upper=None):
+    """Bounded least squares ``min |a x - b|, 0 <= x <= upper`` for a few unknowns (here
+    at most 5): every assignment of each unknown to its lower bound, its upper bound or
+    free, the best feasible one (exact; 3^n small solves instead of scipy.optimize, whose
+    import costs more than a short run). ``upper`` None: no upper bounds."""
     n = a.shape[1]
+    upper = np.full(n, np.inf) if upper is None else np.asarray(upper, float)
     best, best_x = math.inf, np.zeros(n)
-    for size in range(n + 1):
-        for cols in itertools.combinations(range(n), size):
-            x = np.zeros(n)
-            if cols:
-                sol = np.linalg.lstsq(a[:, cols], b, rcond=None)[0]
-                if np.any(sol < 0):
-                    continue
-                x[list(cols)] = sol
-            r = float(np.sum((a @ x - b) ** 2))
-            if r < best * (1 - 1e-12):
-                best, best_x = r, x
+    states = [(0, 2) if np.isfinite(upper[i]) else (0,) for i in range(n)]
+    for fixed in itertools.product(*[(None, *s) for s in states]):
+        x = np.zeros(n)
+        for i, f in enumerate(fixed):
+            if f == 2:
+                x[i] = upper[i]
+        free = [i for i, f in enumerate(fixed) if f is None]
+        if free:
+            sol = np.linalg.lstsq(a[:, free], b - a @ x, rcond=None)[0]
+            if np.any(sol < 0) or np.any(sol > upper[free]):
+                continue
+            x[free] = sol
+        r = float(np.sum((a @ x - b) ** 2))
+        if r < best * (1 - 1e-12):
+            best, best_x = r, x
     return best_x
+
+
+def _curve_bounds(a, s2, edf, confidence):
+    """Largest squared coefficient of each term whose variance alone stays within the
+    curve's upper limit at every tau (the curve allows no more). The limit of each tau
+    is taken at ``1 - (1 - confidence) / (10 j)`` (Bonferroni: the bound cuts the truth
+    with a tenth of the interval's own risk over all j tau together; at ``confidence``
+    each, one of twenty tau would dip below the truth by chance and cut a white noise
+    short)."""
+    risk = (1.0 - confidence) / (10 * max(s2.size, 1))
+    _, hi = chi2_interval(np.sqrt(s2), edf, 1.0 - risk)
+    return np.min(hi[:, None] ** 2 / a, axis=0)
+
+
+def _covariance(a, coef, model, s2, w2, edf, ms, cols, active):
+    """Sandwich covariance of the squared coefficients ``(A'WA)^-1 A'W S W A (A'WA)^-1``
+    with ``S`` the covariance of the Allan variance estimates (variance ``2 s2^2 / edf``,
+    correlation across tau from :func:`inins.calibration.allan.covariance.correlation`),
+    the residual chi-square and its degrees of freedom. The chi-square takes each
+    variance with the edf capped at :data:`EDF_CAP` as the fit weighs it (the model is not
+    asked to agree with a point better than the fit asks it to)."""
+    from inins.calibration.allan.covariance import TERMS as STOCHASTIC
+    from inins.calibration.allan.covariance import correlation
+
+    shares = np.zeros((s2.size, 4))
+    for k, c in enumerate(cols):
+        if TERMS[c] in STOCHASTIC:
+            shares[:, STOCHASTIC.index(TERMS[c])] = a[:, k] * coef[k]
+    rho = correlation(ms, shares)
+    sd = np.sqrt(2.0 / edf) * model
+    cov_s = rho * np.outer(sd, sd)
+    sd_check = np.sqrt(2.0 / np.minimum(edf, EDF_CAP)) * model
+    resid = s2 - model
+    dof = max(1, s2.size - int(active.sum()))
+    check = rho * np.outer(sd_check, sd_check)
+    try:
+        chi2 = float(resid @ np.linalg.solve(check, resid))
+    except np.linalg.LinAlgError:
+        chi2 = float(resid @ np.linalg.lstsq(check, resid, rcond=None)[0])
+    cov = np.zeros((len(cols), len(cols)))
+    if active.any():
+        aa = a[:, active]
+        info = aa.T @ (aa * w2[:, None])
+        gain = np.linalg.pinv(info) @ (aa * w2[:, None]).T
+        cov[np.ix_(active, active)] = gain @ cov_s @ gain.T
+    return cov, chi2, dof
 
 
 def fit_terms(dev, channel=0, confidence=0.95, check_confidence=0.95, use=TERMS):
     """Fit the IEEE five-term model to one channel of a :class:`Deviation`.
 
-    Weighted non-negative least squares on the Allan variance ``s2(tau) = A c``
-    (:func:`basis`, c the squared coefficients), weights ``edf / (2 s2_model^2)``
-    (edf capped at :data:`EDF_CAP`), six passes re-weighting on the model. The
-    covariance ``(A' W A)^-1`` of the terms the fit keeps (times
-    :data:`CORRELATION_INFLATION`) gives each squared coefficient a normal interval at
-    ``confidence`` (its variance also multiplied by the residual chi-square per degree
-    of freedom where that exceeds 1, the Birge ratio: the curve is then not the model
-    and the scatter says how far), taken to the coefficient by the square root
-    (clipped at 0). A term left out of the model, or whose dominant tau hold
-    fewer than :data:`MIN_DOMINANT_EDF` degrees of freedom (a chi-square of few degrees
-    is far from normal), gets the interval from 0 to the largest coefficient whose variance
-    alone stays below the curve's upper limit at every tau. ``use`` restricts the
-    terms fitted.
+    Weighted least squares on the Allan variance ``s2(tau) = A c`` (:func:`basis`, c the
+    squared coefficients), weights ``edf / (2 s2_model^2)`` (edf capped at
+    :data:`EDF_CAP`), six passes re-weighting on the model, each coefficient bounded by
+    ``0 <= c_i <= u_i``: ``u_i`` the largest squared coefficient whose variance alone
+    stays within the curve's upper limit at every tau (:func:`_curve_bounds`), so that no
+    fitted term exceeds what the curve allows. The covariance of the coefficients is the
+    sandwich of the weighted fit with the full covariance of the estimates (correlated
+    across tau for the fitted mixture of noises: :func:`_covariance`; a random-walk rate
+    correlates neighbouring octaves by 0.9, white rate by 0.5), multiplied by the residual
+    chi-square per degree of freedom where the chi-square rejects the model
+    (:data:`MODEL_P`). Each squared coefficient gets a normal interval at ``confidence``,
+    taken to the coefficient by the square root (clipped at 0, and at the curve's bound).
+    A term left out of the model, or whose dominant tau hold fewer than
+    :data:`MIN_DOMINANT_EDF` degrees of freedom (a chi-square of few degrees is far from
+    normal), gets the interval from 0 to its curve bound. ``use`` restricts the terms.
+    The model check is the chi-square (:attr:`Fit.reproduces`).
     """
+    from inins.core.stats import chi2_cdf, chi2_ppf
+
     tau = dev.tau
     s2 = dev.dev[:, channel] ** 2
     edf = np.maximum(dev.edf[:, channel], 1.0)
     good = np.isfinite(s2) & (s2 > 0)
-    tau, s2, edf = tau[good], s2[good], edf[good]
+    tau, s2, edf, ms = tau[good], s2[good], edf[good], dev.m[good]
     cols = [TERMS.index(u) for u in use]
-    a_full = basis(tau)
-    a = a_full[:, cols]
+    a = basis(tau)[:, cols]
+    bound = _curve_bounds(a, s2, edf, confidence)
     model = s2.copy()
     coef = np.zeros(len(cols))
     weight_edf = np.minimum(edf, EDF_CAP)
@@ -163,48 +221,38 @@ def fit_terms(dev, channel=0, confidence=0.95, check_confidence=0.95, use=TERMS)
         w = np.sqrt(weight_edf / 2.0) / model
         scale = np.linalg.norm(a * w[:, None], axis=0)
         scale[scale == 0] = 1.0
-        sol = nnls(a * w[:, None] / scale, s2 * w)
-        coef = sol / scale
+        coef = nnls(a * w[:, None] / scale, s2 * w, bound * scale) / scale
         model = np.maximum(a @ coef, 1e-300)
     w2 = weight_edf / (2.0 * model**2)
-    resid = (s2 - model) * np.sqrt(w2)
     active = coef > 0
-    dof = max(1, tau.size - int(active.sum()))
-    birge = max(1.0, float(resid @ resid / dof))
-    cov = np.zeros((len(cols), len(cols)))
-    if active.any():
-        aa = a[:, active]
-        info = aa.T @ (aa * w2[:, None])
-        try:
-            cov_a = np.linalg.inv(info) * CORRELATION_INFLATION * birge
-        except np.linalg.LinAlgError:
-            cov_a = np.linalg.pinv(info) * CORRELATION_INFLATION * birge
-        cov[np.ix_(active, active)] = cov_a
+    # the covariance over every fitted term, those at 0 or at their bound too: which
+    # terms a noisy curve switches on moves the others (white noise alone: the random
+    # walk's estimate scatters 4x more than the covariance of the active terms says)
+    cov, chi2, dof = _covariance(a, coef, model, s2, w2, edf, ms, cols, np.ones(len(cols), bool))
+    dof = max(1, s2.size - int(active.sum()))
+    if chi2 > float(chi2_ppf(1.0 - MODEL_P, dof)):
+        cov = cov * (chi2 / dof)
     z = NormalDist().inv_cdf(0.5 + confidence / 2.0)
     share = (a * coef) / model[:, None]
-    # the check allows each point the scatter the fit allows it (edf capped)
     lo_dev, hi_dev = chi2_interval(np.sqrt(s2), weight_edf, check_confidence)
     inside = (np.sqrt(model) >= lo_dev) & (np.sqrt(model) <= hi_dev)
-    _, hi_curve = chi2_interval(np.sqrt(s2), edf, confidence)
-    bound = np.min(hi_curve[:, None] ** 2 / a, axis=0)
     terms = []
     for i, c in enumerate(cols):
         dom = share[:, i] >= 0.5
         rng = (float(tau[dom].min()), float(tau[dom].max())) if dom.any() else None
-        if not active[i] or edf[dom].sum() < MIN_DOMINANT_EDF:
-            # shown with too few degrees of freedom: only a bound, 0 up to the largest
-            # coefficient the curve's upper limit allows at every tau
-            lo, hi = 0.0, math.sqrt(max(bound[i], coef[i]))
+        if coef[i] <= 0 or edf[dom].sum() < MIN_DOMINANT_EDF:
+            lo, hi = 0.0, math.sqrt(bound[i])
         else:
             sd = math.sqrt(max(cov[i, i], 0.0))
             lo = math.sqrt(max(coef[i] - z * sd, 0.0))
-            hi = math.sqrt(coef[i] + z * sd)
+            hi = math.sqrt(min(coef[i] + z * sd, bound[i]))
         terms.append(Term(TERMS[c], math.sqrt(coef[i]), lo, hi, rng))
     full_model = np.full(dev.tau.size, np.nan)
     full_model[good] = np.sqrt(model)
     full_inside = np.zeros(dev.tau.size, dtype=bool)
     full_inside[good] = inside
-    return Fit(tuple(terms), full_model, full_inside, float(resid @ resid / dof))
+    p_value = float(1.0 - chi2_cdf(chi2, dof))
+    return Fit(tuple(terms), full_model, full_inside, chi2 / dof, dof, p_value)
 
 
 # --------------------------------------------------------------------------- simulation

@@ -13,7 +13,7 @@ from inins.calibration.allan.deviation import (
     ID_MIN_POINTS,
     Deviation,
     _fill_alpha,
-    autocorr_alpha,
+    frequency_alphas,
 )
 from inins.calibration.allan.edf import edf_for
 from inins.core import jit
@@ -93,37 +93,28 @@ def _difference_sums(buf, first, ms, sums, terms):
     Each channel's sum is continued in the order of j, one term at a time, as one
     channel alone and the whole record in one call would give it (bit for bit,
     whatever k and however the record is cut into calls). The rows go by in runs of
-    :data:`DIFFERENCE_ROWS`, every stride over a run before the next; six channels
-    (3 gyros, 3 accelerometers) have their sums in six scalars (the compiler keeps
-    them in registers and packs the six differences of a point into vector
-    instructions: 2.2x the generic loop).
+    :data:`DIFFERENCE_ROWS`, every stride over a run (from its first whole window on)
+    before the next; six channels (3 gyros, 3 accelerometers) have their sums in six
+    scalars (the compiler keeps them in registers and packs the six differences of a
+    point into vector instructions: 2.2x the generic loop).
     """
     n, k = buf.shape
     q = ms.shape[0]
-    if q == 0:
-        return
-    top = 0
     for e in range(q):
         j0 = max(first, 2 * ms[e])
         if j0 < n:
             terms[e] += n - j0
-        top = max(top, 2 * ms[e])
-    # the points where some stride still lacks a whole window: one stride at a time
-    for e in range(q):
-        mm = ms[e]
-        for j in range(max(first, 2 * mm), min(n, max(first, top))):
-            for c in range(k):
-                d = buf[j, c] - 2.0 * buf[j - mm, c] + buf[j - 2 * mm, c]
-                sums[e, c] += d * d
-    # then every stride over each run of rows
-    for r0 in range(max(first, top), n, DIFFERENCE_ROWS):
+    for r0 in range(first, n, DIFFERENCE_ROWS):
         r1 = min(n, r0 + DIFFERENCE_ROWS)
         for e in range(q):
             mm = ms[e]
+            j0 = max(r0, 2 * mm)
+            if j0 >= r1:
+                continue
             if k == 6:
                 t0, t1, t2 = sums[e, 0], sums[e, 1], sums[e, 2]
                 t3, t4, t5 = sums[e, 3], sums[e, 4], sums[e, 5]
-                for j in range(r0, r1):
+                for j in range(j0, r1):
                     d0 = buf[j, 0] - 2.0 * buf[j - mm, 0] + buf[j - 2 * mm, 0]
                     d1 = buf[j, 1] - 2.0 * buf[j - mm, 1] + buf[j - 2 * mm, 1]
                     d2 = buf[j, 2] - 2.0 * buf[j - mm, 2] + buf[j - 2 * mm, 2]
@@ -139,7 +130,7 @@ def _difference_sums(buf, first, ms, sums, terms):
                 sums[e, 0], sums[e, 1], sums[e, 2] = t0, t1, t2
                 sums[e, 3], sums[e, 4], sums[e, 5] = t3, t4, t5
             else:
-                for j in range(r0, r1):
+                for j in range(j0, r1):
                     for c in range(k):
                         d = buf[j, c] - 2.0 * buf[j - mm, c] + buf[j - 2 * mm, c]
                         sums[e, c] += d * d
@@ -162,13 +153,21 @@ class AllanAccumulator:
     offsets : int
         Starts kept per tau above this many (0: fully overlapping at every tau).
     id_points : int
-        Tau-averages kept per tau for the noise identification (the first ones).
+        Tau-averages kept per tau for the noise identification (the first ones; 4096
+        give the lag-1 autocorrelation to 0.016, against the 0.25 steps of its rule).
     reference : ndarray (k,), optional
         Rate subtracted before summing (a constant rate does not change the second
         differences; it keeps the phase small). Default the first chunk's mean.
     block_n : int
         Samples per block of :meth:`blocks` (block means and spreads, for the motion
         check), accumulated in the same pass.
+    monotone_alpha : bool
+        The noise identified at a tau never above the shorter tau's (sensor noise:
+        :func:`inins.calibration.allan.deviation._fill_alpha`).
+    expected_rows : int
+        The record's length when known: with ``offsets=0`` (the whole phase kept) its
+        buffer is taken at once instead of grown by doubling (copies and first touches
+        of up to twice the record).
     batch_rows : int
         Phase points a level gathers before the second differences run over them and
         its next level's points are taken: chunks of any size, kernel calls over runs
@@ -182,10 +181,12 @@ class AllanAccumulator:
         n_channels,
         ms,
         offsets=0,
-        id_points=1 << 14,
+        id_points=1 << 12,
         reference=None,
         block_n=1,
         batch_rows=1 << 16,
+        monotone_alpha=False,
+        expected_rows=0,
     ):
         self.tau0 = float(tau0)
         self.k = int(n_channels)
@@ -214,8 +215,14 @@ class AllanAccumulator:
         self.n = 0
         self._buffers = {}
         self.batch_rows = max(int(batch_rows), 1)
+        self.monotone_alpha = bool(monotone_alpha)
+        self.expected_rows = int(expected_rows)
         self._pending = [0] * self.levels
         """Phase points of each level written after its tail, not yet differenced."""
+        self._whole = [False] * self.levels
+        """The tail is the level's whole history, kept in place in its buffer (the fully
+        overlapping estimator, offsets=0: every point stays needed; copying it on every
+        batch made the pass quadratic in the record length)."""
 
     def add(self, increments, more=None):
         """Add a chunk of increments, shape (p, k) (rad or m/s), or its first columns
@@ -256,17 +263,24 @@ class AllanAccumulator:
         """Make room for ``rows`` more points of ``level`` after its tail and pending
         points; returns the row where they go."""
         tail = self._tail[level]
-        h, pending = tail.shape[0], self._pending[level]
+        h, pending, whole = tail.shape[0], self._pending[level], self._whole[level]
         start = h + pending
         have = self._buffers.get(level)
         if have is None or have.shape[0] < start + rows:
-            # while points gather (small chunks): room for a whole batch at once
+            # while points gather (small chunks): room for a whole batch at once; a whole
+            # history grows by doubling (its copies sum to O(N))
             size = start + rows if not pending else max(start + rows, h + self.batch_rows + rows)
+            if whole and have is not None:
+                size = max(size, 2 * have.shape[0], h + self.batch_rows + rows)
+            if self.offsets == 0 and level == 0:
+                size = max(size, self.expected_rows + 2)
             grown = np.empty((size, self.k))
-            if pending:
+            if pending or (whole and have is not None):
                 grown[:start] = have[:start]
             have = self._buffers[level] = grown
-        if not pending:
+            if whole:
+                self._tail[level] = have[:h]
+        if not pending and not whole:
             have[:h] = tail
         return start
 
@@ -302,7 +316,8 @@ class AllanAccumulator:
                             self._idx[e].append(take.copy())
                             self._id_n[e] += take.shape[0]
             hold = max(self._hold[level], 2)
-            self._tail[level] = buf[-hold:].copy()
+            self._whole[level] = hold >= buf.shape[0] or self.offsets == 0
+            self._tail[level] = buf if self._whole[level] else buf[-hold:].copy()
             self._count[level] = c + pending
             level += 1
             if level >= self.levels:
@@ -334,21 +349,19 @@ class AllanAccumulator:
         tau = self.ms * self.tau0
         with np.errstate(invalid="ignore", divide="ignore"):
             var = self._sums / np.maximum(self._terms, 1)[:, None] / (2.0 * tau[:, None] ** 2)
-        alpha = np.zeros((self.ms.size, self.k), dtype=np.int64)
+        alpha = np.full((self.ms.size, self.k), _NO_ID, dtype=np.int64)
         for a in range(self.ms.size):
             x = np.vstack(self._idx[a]) if self._idx[a] else np.zeros((0, self.k))
-            # one contiguous row per channel: np.dot of a strided column is ~20x slower
-            y = np.ascontiguousarray(np.diff(x, axis=0).T)
-            for c in range(self.k):
-                alpha[a, c] = (
-                    autocorr_alpha(y[c], "frequency") if y.shape[1] >= ID_MIN_POINTS else _NO_ID
-                )
-        alpha = _fill_alpha(alpha)
-        ms, var, alpha = self.ms[keep], var[keep], alpha[keep]
+            y = np.diff(x, axis=0)
+            if y.shape[0] >= ID_MIN_POINTS:
+                alpha[a] = frequency_alphas(y)
+        alpha = _fill_alpha(alpha, self.monotone_alpha)
+        ms, var, alpha, big = self.ms[keep], var[keep], alpha[keep], self._big[keep]
+        # a decimated tau has M starts per m, not m (Greenhall & Riley's S)
         edf = np.array(
             [
-                [edf_for("oadev", int(al), int(m), self.n + 1) for al in row]
-                for m, row in zip(ms, alpha, strict=True)
+                [edf_for("oadev", int(al), int(m), self.n + 1, int(s)) for al in row]
+                for m, s, row in zip(ms, big, alpha, strict=True)
             ]
         ).reshape(var.shape)
         return Deviation("oadev", ms * self.tau0, ms, np.sqrt(var), edf, alpha, self._terms[keep])
