@@ -270,8 +270,11 @@ def _axis_map_of(key):
     )
 
 
-def _increments(block, c0, sensor, pw, dt, mat_bl, keys, source):
+def _increments(block, c0, sensor, pw, dt, mat_bl, keys, source, g=1.0):
     """Body-frame increments of a block: int64 counts or SI floats, and SI floats.
+
+    ``g`` (m/s^2) is the log's g unit: a float column in a multiple of g
+    (``sensor.per_g``) is multiplied by it (pulse weights ``pw`` already are).
 
     ``mat_bl`` is a signed permutation, so each body axis is one log column times a
     sign (and the scale): done element-wise, bit for bit what ``values @ mat.T`` gives
@@ -293,7 +296,9 @@ def _increments(block, c0, sensor, pw, dt, mat_bl, keys, source):
         for i, (j, sign) in enumerate(axes):
             np.multiply(values[:, j], sign, out=stored[:, i], casting="unsafe")
         return stored, stored * (np.abs(mat_bl) @ pw)
-    scale = sensor.factor * (dt if sensor.quantity == "rate" else 1.0)
+    scale = (
+        sensor.factor * (g if sensor.per_g else 1.0) * (dt if sensor.quantity == "rate" else 1.0)
+    )
     si = np.empty(values.shape)
     for i, (j, sign) in enumerate(axes):
         np.multiply(values[:, j], sign * scale, out=si[:, i])
@@ -374,7 +379,7 @@ class LogReader:
                 block, g0, cfg.gyro, res.gyro_pw, dt, cfg.mat_bl, keys, source
             )
             stored_a, dv = _increments(
-                block, a0, cfg.accel, res.accel_pw, dt, cfg.mat_bl, keys, source
+                block, a0, cfg.accel, res.accel_pw, dt, cfg.mat_bl, keys, source, res.g
             )
             for name, stored, sensor in (
                 ("dtheta", stored_g, cfg.gyro),

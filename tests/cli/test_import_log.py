@@ -95,3 +95,39 @@ def test_schema_documents_every_key():
     props = json.loads(result.stdout)["$defs"]
     assert props["LogGyro"]["properties"]["pulse_weight_arcsec"]["unit"] == "arcsec"
     assert props["LogStep"]["properties"]["start_s"]["unit"] == "s"
+
+
+def test_a_float_accelerometer_in_g_is_scaled_by_g(tmp_path):
+    """The CSV example's specific force written in g (and in mg) imports to the same
+    increments as the m/s^2 original: a log unit that is a multiple of g is multiplied
+    by ``accel.g_mps2`` (a float log in g was once taken as m/s^2, 9.8 times too small)."""
+    import yaml
+
+    original = config_path("import-log", "csv-example")
+    scenario = yaml.safe_load(original.read_text())
+    g = 9.80665
+    lines = (original.parent / scenario["log"]["file"]).resolve().read_text().splitlines()
+    header = next(i for i, line in enumerate(lines) if not line.startswith("#"))
+    names = lines[header].split(",")
+    accel = [names.index(c) for c in scenario["log"]["columns"]["accel"]]
+    results = {}
+    for unit, per in (("m/s^2", 1.0), ("g", g), ("mg", g / 1000)):
+        rows = [lines[header]]
+        for line in lines[header + 1 :]:
+            values = line.split(",")
+            for j in accel:
+                values[j] = repr(float(values[j]) / per)
+            rows.append(",".join(values))
+        log = tmp_path / f"log-{unit.replace('/', '_')}.csv"
+        log.write_text("\n".join(rows) + "\n")
+        variant = {**scenario, "log": {**scenario["log"], "file": str(log)}}
+        variant["accel"] = {"quantity": "rate", "unit": unit, "g_mps2": g}
+        path = tmp_path / f"scenario-{unit.replace('/', '_')}.yaml"
+        path.write_text(yaml.safe_dump(variant))
+        out = tmp_path / f"out-{unit.replace('/', '_')}"
+        result = invoke(path, "-o", out)
+        assert result.exit_code == 0, result.output
+        _, dv = read_table_data(out / "import-log.h5").imu(0, 100)
+        results[unit] = dv
+    np.testing.assert_allclose(results["g"], results["m/s^2"], rtol=1e-12, atol=1e-15)
+    np.testing.assert_allclose(results["mg"], results["m/s^2"], rtol=1e-12, atol=1e-15)

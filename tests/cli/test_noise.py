@@ -191,6 +191,7 @@ def _static_rows(n=20000, dt=0.01, seed=0):
         ("constant", "", "gyro_y give the same value at every sample"),
         ("in g", "", "reads 0.9993 m/s^2 (0.1019 g): g declared as m/s^2"),
         ("no gravity", "", "no gravity at all"),
+        ("m/s^2 as g", "", "reads 96.11 m/s^2 (9.8 g): g declared as m/s^2 (or the reverse)"),
         ("quiet, no earth rate", "", "no Earth rate"),
         ("deg/s as rad/s", "", "more than any gyro bias"),
     ],
@@ -216,7 +217,10 @@ def test_bad_input_is_one_message_exit_2(tmp_path, case, extra, message):
     elif case == "deg/s as rad/s":  # a MEMS bias of 0.5 deg/s logged as 0.5 "rad/s"
         rows[:, 1:4] += 0.5 * 3600.0 * 180.0 / np.pi  # (the log's column is in deg/h)
     _csv(tmp_path / "log.csv", rows)
-    (tmp_path / "s.yaml").write_text(_csv_scenario(tmp_path, extra))
+    scenario = _csv_scenario(tmp_path, extra)
+    if case == "m/s^2 as g":  # the log in m/s^2, the scenario says g
+        scenario = scenario.replace("unit: m/s^2}", "unit: g}")
+    (tmp_path / "s.yaml").write_text(scenario)
     result = invoke(tmp_path / "s.yaml", "-o", tmp_path / "out")
     assert result.exit_code == 2, result.output
     assert message in result.output, result.output
