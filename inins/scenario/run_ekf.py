@@ -20,7 +20,7 @@ from inins.scenario.base import InputFile, ScenarioModel, ScenarioPath
 from inins.scenario.base import ScenarioSection as Section
 from inins.scenario.common import Imu, Site
 from inins.scenario.run_ekf_post import PostProcess
-from inins.scenario.types import NonNegFloat, PositiveFloat
+from inins.scenario.types import LeverArm, NonNegFloat, PositiveFloat, Sigma
 from inins.scenario.validation import KeyPathError
 
 LegKindName = Literal["wait", "takeoff", "climb", "descend", "straight", "turn"]
@@ -161,7 +161,7 @@ class Gnss(Section):
     )
     clock_bias_m: float = Field(3000.0, description="receiver clock bias at t = 0 (m)")
     clock_drift_mps: float = Field(0.5, description="receiver clock drift at t = 0 (m/s)")
-    lever_arm_m: tuple[float, float, float] = Field(
+    lever_arm_m: LeverArm = Field(
         (1.5, 0.2, -1.0), description="antenna minus IMU, body axes (m), each within 100 m"
     )
     latency_s: NonNegFloat = Field(
@@ -221,7 +221,7 @@ class Data(Section):
         description="body axis the vehicle moves along (unit vector, body axes; 1), for "
         "the heading reported against the track",
     )
-    lever_arm_m: tuple[float, float, float] = Field(
+    lever_arm_m: LeverArm = Field(
         (0.0, 0.0, 0.0), description="antenna minus IMU, body axes (m), each within 100 m"
     )
     latency_s: NonNegFloat = Field(0.0, le=0.9, description="data arrival after the epoch (s)")
@@ -237,19 +237,21 @@ class Data(Section):
 class InitialSigma(Section):
     """Initial 1-sigma of the error states."""
 
-    position_m: PositiveFloat = Field(5.0, description="position, each axis (m)")
-    velocity_mps: PositiveFloat = Field(0.1, description="velocity, each axis (m/s)")
-    tilt_deg: PositiveFloat = Field(0.01, description="roll and pitch error (deg)")
-    heading_deg: PositiveFloat = Field(0.1, description="heading error (deg)")
-    accel_bias_ug: PositiveFloat = Field(100.0, description="accelerometer bias (ug)")
-    gyro_bias_dph: PositiveFloat = Field(0.02, description="gyro bias (deg/h)")
-    accel_misalignment_arcsec: PositiveFloat = Field(
+    position_m: Sigma(1e-4, 1e5) = Field(5.0, description="position, each axis (m)")
+    velocity_mps: Sigma(1e-4, 1e3) = Field(0.1, description="velocity, each axis (m/s)")
+    tilt_deg: Sigma(1e-6, 90.0) = Field(0.01, description="roll and pitch error (deg)")
+    heading_deg: Sigma(1e-6, 180.0) = Field(0.1, description="heading error (deg)")
+    accel_bias_ug: Sigma(1e-3, 1e6) = Field(100.0, description="accelerometer bias (ug)")
+    gyro_bias_dph: Sigma(1e-6, 1e5) = Field(0.02, description="gyro bias (deg/h)")
+    accel_misalignment_arcsec: Sigma(1e-3, 1e5) = Field(
         20.0, description="accelerometer misalignment (arcsec)"
     )
-    gyro_misalignment_arcsec: PositiveFloat = Field(60.0, description="gyro misalignment (arcsec)")
-    clock_bias_m: PositiveFloat = Field(1e4, description="receiver clock bias (m)")
-    clock_drift_mps: PositiveFloat = Field(10.0, description="receiver clock drift (m/s)")
-    system_bias_m: PositiveFloat = Field(
+    gyro_misalignment_arcsec: Sigma(1e-3, 1e5) = Field(
+        60.0, description="gyro misalignment (arcsec)"
+    )
+    clock_bias_m: Sigma(1e-3, 1e8) = Field(1e4, description="receiver clock bias (m)")
+    clock_drift_mps: Sigma(1e-4, 1e5) = Field(10.0, description="receiver clock drift (m/s)")
+    system_bias_m: Sigma(1e-3, 1e6) = Field(
         100.0, description="each inter-system bias state (m), set first from the residuals"
     )
 
@@ -276,6 +278,16 @@ class FilterNoise(Section):
         le=1e3,
         description="inter-system bias random walk: 1-sigma growth over one hour (m); 0: constant",
     )
+
+    @model_validator(mode="after")
+    def _some_white_noise(self):
+        if self.arw_deg_rth == 0.0 and self.vrw_ug_rthz == 0.0:
+            raise KeyPathError(
+                ("arw_deg_rth",),
+                "the gyro and accelerometer noise are both 0: the filter would trust the "
+                "integrated IMU forever and stop taking the GNSS; give the sensor's noise",
+            )
+        return self
 
 
 class FilterSettings(Section):

@@ -12,7 +12,7 @@ from pydantic import Field, model_validator
 
 from inins.scenario.base import InputFile
 from inins.scenario.base import ScenarioSection as Section
-from inins.scenario.types import NonNegFloat, PositiveFloat
+from inins.scenario.types import LeverArm, MountingAngles, NonNegFloat, PositiveFloat, Sigma
 from inins.scenario.validation import KeyPathError
 
 AxisName = Literal["x", "-x", "y", "-y", "z", "-z"]
@@ -231,16 +231,26 @@ class PostNoise(Section):
         3.0, le=100.0, description="multiplier on all densities (unmodelled errors; 1)"
     )
 
+    @model_validator(mode="after")
+    def _some_white_noise(self):
+        if self.arw_dps_rthz == 0.0 and self.vrw_ug_rthz == 0.0:
+            raise KeyPathError(
+                ("arw_dps_rthz",),
+                "the gyro and accelerometer noise are both 0: the filter would trust the "
+                "integrated IMU forever and stop taking the GNSS; give the sensor's noise",
+            )
+        return self
+
 
 class PostSigma(Section):
-    """Initial 1-sigma (lab units)."""
+    """Initial 1-sigma (lab units), each within a range a real start can have."""
 
-    position_m: PositiveFloat = Field(0.05, description="position, each axis (m)")
-    velocity_mps: PositiveFloat = Field(0.05, description="velocity, each axis (m/s)")
-    tilt_deg: PositiveFloat = Field(1.0, description="roll, pitch (deg)")
-    heading_deg: PositiveFloat = Field(5.0, description="heading (deg)")
-    accel_bias_ug: PositiveFloat = Field(1e4, description="accelerometer bias (ug)")
-    gyro_bias_dps: PositiveFloat = Field(0.1, description="gyro bias (deg/s)")
+    position_m: Sigma(1e-4, 1e4) = Field(0.05, description="position, each axis (m)")
+    velocity_mps: Sigma(1e-4, 1e3) = Field(0.05, description="velocity, each axis (m/s)")
+    tilt_deg: Sigma(1e-5, 90.0) = Field(1.0, description="roll, pitch (deg)")
+    heading_deg: Sigma(1e-5, 180.0) = Field(5.0, description="heading (deg)")
+    accel_bias_ug: Sigma(1e-3, 1e6) = Field(1e4, description="accelerometer bias (ug)")
+    gyro_bias_dps: Sigma(1e-7, 100.0) = Field(0.1, description="gyro bias (deg/s)")
 
 
 class Stationary(Section):
@@ -268,8 +278,10 @@ class Aiding(Section):
     zaru_sigma_dps: NonNegFloat = Field(
         0.0, le=10.0, description="ZARU while stationary: angular-rate 1-sigma (deg/s)"
     )
-    mounting_deg: tuple[float, float, float] = Field(
-        (0.0, 0.0, 0.0), description="roll, pitch, yaw of the IMU body in the vehicle axes (deg)"
+    mounting_deg: MountingAngles = Field(
+        (0.0, 0.0, 0.0),
+        description="roll, pitch, yaw of the IMU body in the vehicle axes (deg; roll and yaw "
+        "within 180, pitch within 90)",
     )
     stationary: Stationary = Field(default_factory=Stationary)
     stationary_windows_s: list[tuple[float, float]] | None = Field(
@@ -286,7 +298,7 @@ class PostProcess(Section):
     imu: ImuLog = Field(description="the IMU log")
     gnss: GnssFile = Field(description="the GNSS solution file")
     time: TimeMapping = Field(default_factory=TimeMapping)
-    lever_arm_m: tuple[float, float, float] = Field(
+    lever_arm_m: LeverArm = Field(
         (0.0, 0.0, 0.0), description="antenna minus IMU, body axes (m), each within 100 m"
     )
     static_window_s: tuple[float, float] = Field(

@@ -307,3 +307,38 @@ def test_compensation_file_moves_the_post_bias_estimates_by_its_biases(lc15, tmp
             -dph, abs=0.5
         )
     assert b["post_fwd_drift_hor_rms_m"] == pytest.approx(a["post_fwd_drift_hor_rms_m"], rel=0.02)
+
+
+@pytest.mark.parametrize(
+    ("setting", "expect"),
+    [
+        ("post.lever_arm_m=[1000, 0, 0]", "post.lever_arm_m[0]: must be <= 100"),
+        ("post.aiding.mounting_deg=[1e6, 0, 0]", "post.aiding.mounting_deg[0]"),
+        ("post.aiding.mounting_deg=[0, 95, 0]", "post.aiding.mounting_deg[1]"),
+        ("post.initial_sigma.position_m=1e-300", "post.initial_sigma.position_m"),
+        ("post.initial_sigma.heading_deg=1e9", "post.initial_sigma.heading_deg"),
+        ("post.noise={arw_dps_rthz: 0, vrw_ug_rthz: 0}", "noise are both 0"),
+    ],
+)
+def test_absurd_filter_settings_are_refused_before_any_reading(tmp_path, setting, expect):
+    """An antenna 1 km from its IMU, a mounting of a million degrees, an initial sigma
+    of 1e-300 m or 1e9 deg, a filter with no process noise: no real installation has
+    them, and the scenario refuses each naming its key (issue 31, class 8)."""
+    out = run(CONFIGS / "run-ekf" / "lc-drive-15s.yaml", "-o", tmp_path / "o", "--set", setting)
+    assert out.exit_code == 2, out.output
+    assert expect in out.stderr, out.stderr
+    assert not (tmp_path / "o" / "summary.json").exists()
+
+
+@pytest.mark.parametrize(
+    ("setting", "expect"),
+    [
+        ("gnss.lever_arm_m=[0, 500, 0]", "gnss.lever_arm_m[1]"),
+        ("filter.initial_sigma.tilt_deg=1e-300", "filter.initial_sigma.tilt_deg"),
+        ("filter.noise={arw_deg_rth: 0, vrw_ug_rthz: 0}", "noise are both 0"),
+    ],
+)
+def test_absurd_tight_filter_settings_are_refused(tmp_path, setting, expect):
+    out = run(CONFIGS / "run-ekf" / "default.yaml", "-o", tmp_path / "o", "--set", setting)
+    assert out.exit_code == 2, out.output
+    assert expect in out.stderr, out.stderr
