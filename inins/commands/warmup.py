@@ -35,6 +35,7 @@ RUNS = {  # command -> ((scenario folder, name, --set overrides), ...)
     "calibrate-imu": (
         ("calibrate-imu", "default", ()),
         ("calibrate-imu", "table-free-mems", ()),
+        ("calibrate-imu", "system-level-19", ()),
     ),
     "noise": (("noise", "simulated-hold", ()),),
 }
