@@ -30,7 +30,7 @@ class AlignmentSettings(ScenarioSection):
         "for method known, clockwise from north (deg)",
     )
     heading_sigma_arcsec: NonNegFloat = Field(
-        0.0, le=36000.0, description="1-sigma of a known heading (arcsec; at most 10 deg)"
+        0.0, le=36000.0, description="1-sigma of a known heading, at most 10 deg (arcsec)"
     )
     gyro_bias_bound_dph: NonNegFloat | None = Field(
         None,

@@ -280,8 +280,8 @@ class Aiding(Section):
     )
     mounting_deg: MountingAngles = Field(
         (0.0, 0.0, 0.0),
-        description="roll, pitch, yaw of the IMU body in the vehicle axes (deg; roll and yaw "
-        "within 180, pitch within 90)",
+        description="roll, pitch, yaw of the IMU body in the vehicle axes, roll and yaw "
+        "within 180, pitch within 90 (deg)",
     )
     stationary: Stationary = Field(default_factory=Stationary)
     stationary_windows_s: list[tuple[float, float]] | None = Field(
