@@ -96,6 +96,9 @@ class TableFreeFit:
         The Earth rate modelled (latitude given); else the gyro bias carries it.
     heading : float or None
         Heading of the first position (rad) with the Earth rate modelled.
+    heading_sigma : float or None
+        Its 1-sigma (rad): a nuisance parameter, fixed by the Earth rate alone (a MEMS
+        unit's is degrees).
     lat : float or None
         The latitude of the Earth-rate model (rad).
     chi2 : dict
@@ -118,6 +121,7 @@ class TableFreeFit:
     heading: float | None = None
     chi2: dict | None = None
     lat: float | None = None
+    heading_sigma: float | None = None
 
     @property
     def terms(self):
@@ -284,7 +288,12 @@ def _fit_gyro_earth(problem, sig_s, sig_d, given):
         ]
 
     propagation = (res_of, sol.x, step, factor)
-    return sol.x[:12], _inflated(v, factor), chi2, dof, float(sol.x[12]), propagation
+    jac = _jacobian(res, sol.x, step)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        cov = np.linalg.pinv(jac.T @ jac)
+    heading_sigma = float(np.sqrt(max(cov[12, 12], 0.0) * factor))
+    heading = (float(sol.x[12]), heading_sigma)
+    return sol.x[:12], _inflated(v, factor), chi2, dof, heading, propagation
 
 
 def _accel_into_gyro(problem, u_of, x_a, cov_a, propagation):
@@ -406,6 +415,7 @@ def calibrate(time, acc, gyro, gravity, detector=DEFAULT, use=None, lat=None, no
             problem, sig_s, sig_d, given
         )
         before = problem.direction_residuals(np.zeros(9), g_means[0])
+    heading, heading_sigma = (None, None) if heading is None else heading
     after = problem.direction_residuals(x_g[:9], x_g[9:12], 0.0 if heading is None else heading)
     names = ACCEL_NAMES + GYRO_NAMES + BIAS_NAMES
     both = verdict.merge(v_a, v_g)
@@ -440,6 +450,7 @@ def calibrate(time, acc, gyro, gravity, detector=DEFAULT, use=None, lat=None, no
         heading,
         {"accel": (chi2_a, dof_a), "gyro": (chi2_g, dof_g)},
         lat,
+        heading_sigma,
     )
 
 

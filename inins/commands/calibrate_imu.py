@@ -324,6 +324,7 @@ def declared_results(scenario):
                 "alignment_correction_deg",
                 "earth_rate_modelled",
                 "heading_deg",
+                "heading_sigma_deg",
                 "inseparable",
             )
         ]

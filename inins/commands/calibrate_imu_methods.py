@@ -16,7 +16,8 @@ MODEL = {
     "latitude is in the model: the gyro bias is the sensor's alone",
     "table-free-model": "gravity norm and the rotations between static positions "
     "(Tedaldi et al. 2014) with the Earth rate at latitude {lat:.4f} deg in the model "
-    "(heading of the first position estimated, {heading:.2f} deg; each static interval a "
+    "(heading of the first position estimated, {heading:.2f} +- {heading_sigma:.2f} deg; "
+    "each static interval a "
     "gyrocompass): the gyro bias is the sensor's alone",
     "table-free-imu_tk": "gravity norm and the rotations between static positions "
     "(Tedaldi et al. 2014, imu_tk's formulation): the Earth rate is not modelled, so the "
@@ -236,7 +237,9 @@ def from_tablefree(fit):
     ]
     if fit.earth_rate:
         model = MODEL["table-free-model"].format(
-            lat=np.degrees(fit.lat), heading=np.degrees(fit.heading)
+            lat=np.degrees(fit.lat),
+            heading=np.degrees(fit.heading),
+            heading_sigma=np.degrees(fit.heading_sigma),
         )
     else:
         model = MODEL["table-free-imu_tk"]
@@ -252,6 +255,7 @@ def from_tablefree(fit):
     }
     if fit.earth_rate:
         scalars["heading_deg"] = float(np.degrees(fit.heading))
+        scalars["heading_sigma_deg"] = float(np.degrees(fit.heading_sigma))
     datasets = {
         "static_intervals": Series(
             np.array([[iv.start, iv.stop] for iv in ivs]), "1", "", "samples [start, stop)"
