@@ -13,7 +13,6 @@ track, and the error against a known position when the scenario gives one.
 import numpy as np
 
 from inins.commands import figures
-from inins.commands.run_ekf_post import read_post_gnss, read_post_imu
 from inins.core import earth
 from inins.core.units import DEG
 from inins.exceptions import InputError
@@ -21,7 +20,7 @@ from inins.gnss import broadcast, ephemeris, glonass, measurements, spp
 from inins.gnss import systems as systems_mod
 from inins.gnss.spp import FixStatus
 from inins.gnss.systems import LETTERS, NAMES, rinex_name
-from inins.io import flight_layout, solution_layout
+from inins.io import flight_layout, post_inputs, solution_layout
 from inins.io.flight_checks import checked_flight
 from inins.io.flight_layout import ImuRecord, RecordedFlight
 from inins.io.psins_tc import read_psins_tc
@@ -92,8 +91,8 @@ def run_solution(scenario):
     maps it to GNSS time, as from the source files. Refused: IMU and GNSS spans that
     cannot overlap (the IMU log shorter than a tenth of the GNSS span, or the other way,
     so no mapping of the IMU tick onto GNSS time would cover the drive)."""
-    sol = read_post_gnss(scenario.solution_gnss)
-    imu = read_post_imu(scenario.solution_imu)
+    sol = post_inputs.read_gnss(scenario.solution_gnss)
+    imu = post_inputs.read_imu(scenario.solution_imu)
     span_g = float(sol.time[-1] - sol.time[0])
     span_i = float(imu.time[-1] - imu.time[0])
     if span_g <= 0.0 or span_i < 0.1 * span_g or span_g < 0.1 * span_i:

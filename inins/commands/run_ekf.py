@@ -23,9 +23,10 @@ from inins.commands._compensation import scenario_terms
 from inins.core import rotation, strapdown
 from inins.core.units import ARCSEC, DEG, DPH
 from inins.ekf import flight as fl
-from inins.ekf import recorded, sources
+from inins.ekf import recorded, smoother, sources
 from inins.ekf.config import Coupling, FilterConfig, InitialSigma, Model, clock_psd
 from inins.ekf.filter import run_filter
+from inins.ekf.tight_store import TightStore
 from inins.exceptions import InputError
 from inins.gnss import broadcast, constellation, ephemeris, glonass, gpstime, measurements
 from inins.io.flight_layout import read_flight
@@ -49,12 +50,13 @@ def run(scenario, seed, *, sink=None, progress=None):
     """Run the filter on the scenario's flight or recording."""
     if scenario.post is not None:  # loosely coupled post-processing of a drive
         return run_ekf_post.run(scenario, seed, sink=sink, progress=progress)
-    store = run_ekf_post.tight_store(scenario.filter)
+    store = TightStore() if scenario.filter.smoother == "rts" else None
     if scenario.data is not None:
         result, info = _recorded(scenario, store)
     else:
         result, info = _simulated(scenario, seed, progress, store)
-    smoothed = run_ekf_post.tight_smoothed(result, store, scenario.filter.outages_s)
+    sm = None if store is None else smoother.smooth(store.run())
+    smoothed = run_ekf_report.tight_smoothed(result, sm, scenario.filter.outages_s)
     summary = result.summary()
     if result.heading_error.size and np.any(result.time >= scenario.filter.turning_from_s):
         window = result.summary(window=(scenario.filter.turning_from_s, math.inf))
@@ -357,8 +359,8 @@ RESULT_NAMES = (
     "mg_zy_sigma_arcsec",
 )
 """Every result a run gives (null where not applicable: no truth, no recording, EKF1)."""
-RESULT_NAMES += run_ekf_post.TIGHT_SMOOTH_NAMES  # null unless filter.smoother: rts
-RESULT_NAMES += run_ekf_post.TIGHT_OUTAGE_NAMES  # null without truth and outages_s
+RESULT_NAMES += run_ekf_report.TIGHT_SMOOTH_NAMES  # null unless filter.smoother: rts
+RESULT_NAMES += run_ekf_report.TIGHT_OUTAGE_NAMES  # null without truth and outages_s
 TRUTH_NAMES = ("gyro_bias_z_est_dph", "mg_yz_est_arcsec", "mg_zy_est_arcsec")
 
 

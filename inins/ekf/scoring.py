@@ -1,0 +1,187 @@
+"""Scores of a filter run against a reference: outage drifts, attitude differences, and
+what smoothing gains; plain functions of the runs' arrays (SI).
+
+- Post-processing (:mod:`inins.ekf.post`): the antenna positions of the forward and
+  smoothed solutions against the reference epochs of the solution file inside the
+  outage windows (:func:`outage_scores`, :func:`inins.ekf.outages.score`), and their
+  attitude against a reference attitude (:func:`attitude_differences`).
+- The tight filter on a simulated flight (:func:`tight_outage_scores`): the output
+  against truth in the windows of ``filter.outages_s``; with a smoother
+  (:func:`smoothing_figures`) the smoothed 1-sigma and solution against the forward
+  ones.
+"""
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from inins.core import error_model, rotation
+from inins.ekf import loose, outages
+from inins.exceptions import InputError
+
+
+def reference_hits(ref_time, time):
+    """Index into ``ref_time`` (r,) of each of ``time`` (m,) and whether that reference
+    epoch is at the same time (within 1 us)."""
+    idx = np.minimum(np.searchsorted(ref_time, time), max(ref_time.size - 1, 0))
+    if not ref_time.size:
+        return idx, np.zeros(time.size, bool)
+    return idx, np.abs(ref_time[idx] - time) < 1e-6
+
+
+def outage_scores(time, solutions, lever_arm, ref_time, ref_lla, windows, t0=0.0, reference=None):
+    """Drift of each solution's antenna in each outage window against the reference.
+
+    Parameters
+    ----------
+    time : ndarray (m,)
+        Epochs of the solutions (s).
+    solutions : dict of str to inins.ekf.post.Solution
+        E.g. ``{"fwd": ..., "sm": ...}``; the antenna is ``lla + C_nb l_b`` carried by
+        ``v offset`` where the solution has a time-offset state
+        (:func:`inins.ekf.loose.antenna_positions`).
+    lever_arm : ndarray (3,)
+        Antenna minus IMU, body axes (m).
+    ref_time, ref_lla : ndarray (r,), (r, 3)
+        Reference epochs (s) and antenna positions.
+    windows : sequence of (float, float)
+        Outage windows (s).
+    t0 : float
+        Run start (s): the windows' times in a message are from it.
+    reference : (int, str), optional
+        The reference's quality flag and file, for the message when a window has no
+        reference epoch.
+
+    Returns
+    -------
+    dict of str to inins.ekf.outages.OutageScore
+        Empty without windows.
+    """
+    if not windows:
+        return {}
+    idx, hit = reference_hits(ref_time, time)
+    for a, b in windows:
+        if not np.any(hit & (time >= a) & (time < b)):
+            q, source = reference if reference is not None else ("?", None)
+            raise InputError(
+                f"the reference (quality {q}) has no epoch in the outage "
+                f"[{a - t0:g}, {b - t0:g}) s: it does not cover the run",
+                source=source,
+                key="post.reference_q",
+            )
+    ref = ref_lla[idx[hit]]
+    out = {}
+    for name, s in solutions.items():
+        antenna = loose.antenna_positions(s.quat, s.lla, lever_arm, s.vel, s.offset)
+        out[name] = outages.score(time[hit], antenna[hit], None, ref, None, windows)
+    return out
+
+
+@dataclass(frozen=True)
+class AttitudeDifference:
+    """Attitude minus the reference over the scored epochs (rad): heading mean and
+    standard deviation, and the larger of the mean roll and pitch differences."""
+
+    heading_mean: float
+    heading_std: float
+    tilt_mean_max: float
+
+
+def attitude_differences(time, quats, ref_time, ref_mat_nb, t_from):
+    """Each solution's Euler angles minus the reference's at the epochs they share from
+    ``t_from`` (s) on.
+
+    Parameters
+    ----------
+    time : ndarray (m,)
+        Solution epochs (s).
+    quats : dict of str to ndarray (m, 4)
+        Attitude of each solution.
+    ref_time, ref_mat_nb : ndarray (r,), (r, 3, 3)
+        Reference epochs (s) and attitudes.
+    t_from : float
+
+    Returns
+    -------
+    dict of str to AttitudeDifference
+    """
+    idx = np.clip(np.searchsorted(ref_time, time), 0, ref_time.size - 1)
+    ok = (np.abs(ref_time[idx] - time) < 1e-6) & (time >= t_from)
+    if not ok.any():
+        raise InputError("no reference attitude epoch to score", key="post.score_from_s")
+    ref = np.array([rotation.euler_from_mat(m) for m in ref_mat_nb[idx[ok]]])
+    out = {}
+    for name, q in quats.items():
+        e = np.array([rotation.euler_from_mat(m) for m in rotation.mat_from_quat(q[ok])]) - ref
+        e = (e + math.pi) % (2 * math.pi) - math.pi
+        tilt = float(np.abs(e[:, :2].mean(0)).max())
+        out[name] = AttitudeDifference(float(e[:, 2].mean()), float(e[:, 2].std()), tilt)
+    return out
+
+
+def _yaw_mat(yaw):
+    zero = np.zeros_like(yaw)
+    return rotation.mat_from_euler(zero, zero, yaw)
+
+
+def tight_outage_scores(result, smoothed, windows):
+    """Outage protocol of a tight run against truth (:func:`inins.ekf.outages.score`).
+
+    Per window of ``filter.outages_s`` (the filter coasts there) the largest horizontal
+    and 3D drift and the heading error at its last epoch, for the forward output of
+    ``result`` (:class:`inins.ekf.result.EkfResult`) and the ``smoothed`` solution
+    (:class:`inins.ekf.smoother.Smoothed`, or None). Truth is the forward output minus
+    its recorded error (position ``nav_error[:, 0:3]``, heading ``heading_error``); the
+    smoothed heading error is the smoothed minus the forward heading plus the forward
+    error.
+
+    Returns
+    -------
+    (OutageScore, OutageScore or None) or None
+        None without truth or windows.
+    """
+    if not windows or result.nav_error.shape[0] != result.time.size or result.time.size == 0:
+        return None
+    true_lla = error_model.lla_offset(result.lla, -result.nav_error[:, 0:3])
+    fwd_yaw = rotation.euler_from_mat(rotation.mat_from_quat(result.quat_nb))[:, 2]
+    ref = _yaw_mat(fwd_yaw - result.heading_error)
+    fwd = outages.score(result.time, result.lla, _yaw_mat(fwd_yaw), true_lla, ref, windows)
+    if smoothed is None:
+        return fwd, None
+    sm_yaw = rotation.euler_from_mat(rotation.mat_from_quat(smoothed.quat))[:, 2]
+    sm = outages.score(result.time, smoothed.lla, _yaw_mat(sm_yaw), true_lla, ref, windows)
+    return fwd, sm
+
+
+@dataclass(frozen=True)
+class SmoothingFigures:
+    """What smoothing a tight run gains: median horizontal 1-sigma forward and smoothed
+    (m), the smoothed heading 1-sigma at the start (rad), the largest horizontal
+    forward-smoothed difference (m), and the smoothed position error RMS against truth
+    (m, None without truth)."""
+
+    forward_hor_sigma_median: float
+    smoothed_hor_sigma_median: float
+    smoothed_heading_sigma_start: float
+    hor_diff_max: float
+    smoothed_pos_err_rms: float | None
+
+
+def smoothing_figures(result, smoothed):
+    """:class:`SmoothingFigures` of a tight ``result`` and its ``smoothed`` solution."""
+    fwd_h = np.hypot(result.sigma[:, 0], result.sigma[:, 1])
+    sm_h = np.hypot(smoothed.sigma[:, 0], smoothed.sigma[:, 1])
+    diff = error_model.position_error_ned(result.lla, smoothed.lla)
+    err_rms = None
+    if result.nav_error.shape[0]:
+        true = error_model.lla_offset(result.lla, -result.nav_error[:, 0:3])
+        err = error_model.position_error_ned(smoothed.lla, true)
+        err_rms = float(np.sqrt(np.mean(np.sum(err**2, axis=1))))
+    return SmoothingFigures(
+        forward_hor_sigma_median=float(np.median(fwd_h)),
+        smoothed_hor_sigma_median=float(np.median(sm_h)),
+        smoothed_heading_sigma_start=float(smoothed.sigma[0, result.layout.index("phi_D")]),
+        hor_diff_max=float(np.hypot(diff[:, 0], diff[:, 1]).max()),
+        smoothed_pos_err_rms=err_rms,
+    )
