@@ -12,7 +12,7 @@ track, and the error against a known position when the scenario gives one.
 
 import numpy as np
 
-from inins.commands import figures
+from inins.commands import import_flight_figures
 from inins.core.units import DEG
 from inins.exceptions import InputError
 from inins.gnss import broadcast, ephemeris, glonass, measurements, spp
@@ -31,9 +31,9 @@ from inins.scenario.import_flight import ImportFlightScenario
 
 SCENARIO_MODEL = ImportFlightScenario
 FIGURES = {
-    "import-flight-track.png": figures.import_flight_track,
-    "import-flight-residuals.png": figures.import_flight_residuals,
-    "import-flight-sky.png": figures.import_flight_sky,
+    "import-flight-track.png": import_flight_figures.import_flight_track,
+    "import-flight-residuals.png": import_flight_figures.import_flight_residuals,
+    "import-flight-sky.png": import_flight_figures.import_flight_sky,
 }
 
 

@@ -10,7 +10,7 @@ combinations, the singular values per segment and the 1-sigma history.
 
 import numpy as np
 
-from inins.commands import figures
+from inins.commands import observability_figures
 from inins.core import rotation
 from inins.core.error_model import GROUPS
 from inins.core.units import ARCSEC, DEG, DEG_RTH, DPH, UG, UG_RTHZ
@@ -24,8 +24,8 @@ from inins.scenario.si.observability import listed_segments, measurement
 
 SCENARIO_MODEL = ObservabilityScenario
 FIGURES = {
-    "observability-sigma.png": figures.observability_sigma,
-    "observability-singular-values.png": figures.observability_singular_values,
+    "observability-sigma.png": observability_figures.observability_sigma,
+    "observability-singular-values.png": observability_figures.observability_singular_values,
 }
 
 

@@ -18,7 +18,7 @@ from dataclasses import replace
 import numpy as np
 
 from inins.calibration.imu_model import compensate
-from inins.commands import figures, run_ekf_post, run_ekf_post_figures, run_ekf_report
+from inins.commands import run_ekf_figures, run_ekf_post, run_ekf_report
 from inins.commands._compensation import scenario_terms
 from inins.core import rotation, strapdown
 from inins.core.units import ARCSEC, DEG, DPH
@@ -36,14 +36,7 @@ from inins.results import CommandResult, Series
 from inins.scenario.run_ekf import RunEkfScenario
 
 SCENARIO_MODEL = RunEkfScenario
-FIGURES = run_ekf_post_figures.with_post_figures(
-    {
-        "run-ekf-heading-error.png": figures.run_ekf_heading,
-        "run-ekf-gyro-bias.png": figures.run_ekf_gyro_bias,
-        "run-ekf-misalignment.png": figures.run_ekf_misalignment,
-        "run-ekf-fb-corrections.png": figures.run_ekf_corrections,
-    }
-)
+FIGURES = run_ekf_figures.FIGURES
 
 
 def run(scenario, seed, *, sink=None, progress=None):
