@@ -358,7 +358,7 @@ def prepare(gnss, imu, settings, reference_euler=None, compensate=None):
     )
 
 
-def forward(prepared, config, store=loose.default_store):
+def forward(prepared, config, store=smoother.default_store):
     """The loosely coupled run (:func:`inins.ekf.loose.run_loose`) over ``prepared``, its
     epochs in ``store``; returns the :class:`~inins.ekf.loose.LooseRun` and its wall time (s)."""
     tick = _time.perf_counter()
@@ -376,7 +376,7 @@ def forward(prepared, config, store=loose.default_store):
     return run, _time.perf_counter() - tick
 
 
-def smooth(run, store=loose.default_store):
+def smooth(run, store=smoother.default_store):
     """The RTS pass over a forward run (:func:`inins.ekf.smoother.smooth`) and its wall
     time (s)."""
     tick = _time.perf_counter()

@@ -5,8 +5,9 @@ what smoothing gains; plain functions of the runs' arrays (SI).
   smoothed solutions against the reference epochs of the solution file inside the
   outage windows (:func:`outage_scores`, :func:`inins.ekf.outages.score`), and their
   attitude against a reference attitude (:func:`attitude_differences`).
-- The tight filter on a simulated flight (:func:`tight_outage_scores`): the output
-  against truth in the windows of ``filter.outages_s``; with a smoother
+- The tight filter on a simulated flight: the output error, heading error and NEES of
+  every epoch against truth (:func:`truth_errors`, after the run); the output against
+  truth in the windows of ``filter.outages_s`` (:func:`tight_outage_scores`); with a smoother
   (:func:`smoothing_figures`) the smoothed 1-sigma and solution against the forward
   ones.
 """
@@ -17,6 +18,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from inins.core import error_model, rotation
+from inins.core.satellites import LETTERS
 from inins.ekf import loose, outages
 from inins.exceptions import InputError
 
@@ -185,3 +187,99 @@ def smoothing_figures(result, smoothed):
         hor_diff_max=float(np.hypot(diff[:, 0], diff[:, 1]).max()),
         smoothed_pos_err_rms=err_rms,
     )
+
+
+def _bias_names(layout):
+    """The inter-system bias states of a layout (the last states)."""
+    return tuple(n for n in layout.names if n in error_model.SYSTEM_BIASES)
+
+
+def _true_biases(truths, names, systems):
+    """(m, 1 + len(names)) true biases: the reference system's (the clock carries it),
+    then each bias state's (its system's minus the reference's); None if no truth
+    carries a ``system_bias`` (one without counts as no bias)."""
+    if all(t.system_bias is None for t in truths):
+        return None
+    index = [LETTERS.index(systems[0])] + [LETTERS.index(n[-1]) for n in names]
+    zero = np.zeros(len(LETTERS))
+    b = np.array([zero if t.system_bias is None else t.system_bias for t in truths])
+    b = b.reshape(-1, len(LETTERS))[:, index]
+    b[:, 1:] -= b[:, :1]
+    return b
+
+
+def truth_errors(result, log, true_sensor=None, *, pps_storage=True, systems="G"):
+    """The result with its errors against truth: output error, heading error, NEES.
+
+    Vectorised over the epochs, after the run. The navigation truth is the one at
+    ``result.time`` (the PPS, or the arrival with the naive pairing: the truth's
+    ``at_arrival``); the clock truth the one at the measurement epoch.
+
+    Parameters
+    ----------
+    result : inins.ekf.result.EkfResult
+    log : inins.ekf.filter.EpochLog
+        With one :class:`~inins.ekf.config.TruthEpoch` and ``P`` per epoch.
+    true_sensor : inins.core.imu.SensorErrors, optional
+        Constant true sensor errors: with them the NEES of all states.
+    pps_storage : bool
+    systems : str
+        The filter's systems (:class:`~inins.ekf.config.FilterConfig`), the first the
+        reference of the inter-system biases.
+
+    Returns
+    -------
+    inins.ekf.result.EkfResult
+    """
+    truths = log.truth
+    if not pps_storage:
+        if any(t.at_arrival is None for t in truths):
+            raise ValueError("the naive pairing is scored with the truth at the data arrival")
+        nav = [t.at_arrival for t in truths]
+    else:
+        nav = [(t.mat_nb, t.vel_n, t.lla) for t in truths]
+    mat_true = np.array([v[0] for v in nav]).reshape(-1, 3, 3)
+    vel_true = np.array([v[1] for v in nav]).reshape(-1, 3)
+    lla_true = np.array([v[2] for v in nav]).reshape(-1, 3)
+    mat_est = rotation.mat_from_quat(result.quat_nb)
+    err = np.concatenate(
+        [
+            error_model.position_error_ned(result.lla, lla_true),
+            result.vel_n - vel_true,
+            error_model.attitude_error(mat_est, mat_true),
+        ],
+        axis=1,
+    )
+    heading = rotation.euler_from_mat(mat_est)[:, 2] - rotation.euler_from_mat(mat_true)[:, 2]
+    nees = np.zeros(0)
+    if true_sensor is not None:
+        n = result.state.shape[1]
+        clock = np.array([[t.clock_bias, t.clock_drift] for t in truths]).reshape(-1, 2)
+        base = n - len(_bias_names(result.layout))
+        biases = _true_biases(truths, _bias_names(result.layout), systems)
+        if biases is not None:
+            clock[:, 0] += biases[:, 0]  # the clock carries the reference system's bias
+        true = np.concatenate(
+            [
+                np.zeros((len(truths), 9)),
+                np.tile(
+                    np.concatenate([true_sensor.accel_bias, true_sensor.gyro_bias]),
+                    (len(truths), 1),
+                ),
+                clock,
+                np.tile(
+                    np.concatenate([true_sensor.accel_misalignment, true_sensor.gyro_misalignment]),
+                    (len(truths), 1),
+                ),
+            ],
+            axis=1,
+        )[:, :base]
+        if biases is not None:
+            true = np.concatenate([true, biases[:, 1:]], axis=1)
+        # the navigation states estimate the INS error: their estimation error is minus
+        # the output error; sensor and clock states estimate the quantity itself
+        e = result.state - true
+        e[:, :9] = -err
+        P = np.array(log.covariance)
+        nees = np.einsum("mi,mi->m", e, np.linalg.solve(P, e[..., None])[..., 0])
+    return result.with_truth(err, rotation.wrap_angle(heading), nees)

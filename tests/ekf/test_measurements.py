@@ -6,7 +6,7 @@ import pytest
 
 from inins.core import earth, error_model, rotation
 from inins.core.units import DEG
-from inins.ekf import kernels
+from inins.ekf import kernels, rows
 from inins.ekf.measurements import GnssEpoch, antenna, predict
 from inins.exceptions import InputError
 
@@ -44,6 +44,45 @@ def _measure(x, lla, vel_n, mat_nb, omega_eb_b, lever_b, epoch):
     return np.ravel(np.column_stack([pr, rr]))
 
 
+def _rows(lla, vel_n, mat_nb, omega_eb_b, lever_b, epoch):
+    """The filter's pseudorange and range-rate rows (interleaved, 2 k x 17) and their
+    predictions at the error state zero."""
+    r, v = antenna(lla, vel_n, mat_nb, omega_eb_b, lever_b)
+    j_v = np.empty((3, 3))
+    kernels.earth_jacobians(lla[0], lla[2], vel_n, j_v, *np.empty((3, 3, 3)))
+    ant = rows.Antenna(
+        lla,
+        earth.ecef_from_llh(*lla),
+        earth.mat_en(lla[0], lla[1]),
+        mat_nb,
+        vel_n,
+        mat_nb @ lever_b,
+        mat_nb @ np.cross(omega_eb_b, lever_b),
+        r,
+        v,
+        j_v,
+    )
+    sats = rows.Satellites(
+        epoch.prn,
+        epoch.sat_pos,
+        epoch.sat_vel,
+        epoch.pseudorange,
+        epoch.sat_clock,
+        epoch.delay,
+        epoch.range_rate,
+        epoch.sat_clock_drift,
+        epoch.sigma_pr,
+        epoch.sigma_rr,
+    )
+    x = np.zeros(17)
+    y_pr, H_pr, _ = rows.pseudorange_rows(ant, sats, x, np.full(len(epoch), -1))
+    y_rr, H_rr, _ = rows.range_rate_rows(ant, sats, x)
+    H = np.empty((2 * len(epoch), 17))
+    H[0::2], H[1::2] = H_pr, H_rr
+    # the epoch's measurements and satellite clocks are zero: y = -zhat
+    return H, -np.ravel(np.column_stack([y_pr, y_rr]))
+
+
 @pytest.mark.parametrize("lever_b", [np.zeros(3), np.array([3.0, -1.0, -2.0])])
 def test_rows_match_finite_difference(lever_b):
     lla = np.array([37.0 * DEG, 127.0 * DEG, 3000.0])
@@ -51,23 +90,7 @@ def test_rows_match_finite_difference(lever_b):
     mat_nb = rotation.mat_from_euler(0.5, 0.1, 2.0)
     omega_eb_b = np.array([0.2, -0.1, 0.3])  # rad/s: a strong lever-arm velocity
     epoch = _epoch(lla)
-    r, v = antenna(lla, vel_n, mat_nb, omega_eb_b, lever_b)
-    H = np.zeros((8, 17))
-    zhat = np.empty(8)
-    j_v = np.empty((3, 3))
-    kernels.earth_jacobians(lla[0], lla[2], vel_n, j_v, *np.empty((3, 3, 3)))
-    kernels.pseudorange_rows(
-        r,
-        v,
-        earth.mat_en(lla[0], lla[1]).T,
-        j_v,
-        mat_nb @ lever_b,
-        mat_nb @ np.cross(omega_eb_b, lever_b),
-        epoch.sat_pos,
-        epoch.sat_vel,
-        H,
-        zhat,
-    )
+    H, zhat = _rows(lla, vel_n, mat_nb, omega_eb_b, lever_b, epoch)
     z0 = _measure(np.zeros(17), lla, vel_n, mat_nb, omega_eb_b, lever_b, epoch)
     np.testing.assert_allclose(zhat, z0, rtol=0, atol=1e-6)
     steps = np.array([1.0] * 3 + [0.01] * 3 + [1e-3] * 3 + [1.0] * 8)  # FD above rounding

@@ -1,0 +1,242 @@
+"""Measurement rows of the filters, one small compiled function per kind, each returning
+``(y, H, r)``: the innovation ``y = z - h(nav (-) x)`` (m,), its rows ``H = dz/dx``
+(m, n) and the noise variances ``r`` (m,) (``R = diag(r)``: the rows are updated one
+scalar at a time, :func:`inins.ekf.kernels.sequential_update`).
+
+The states are errors, estimated minus true (design.md §2), with the phi angle
+``C_est = (I - [phi x]) C``; so the columns of the navigation states are minus the
+sensitivity of ``h`` at the estimate, those of the sensor and clock states (values,
+not errors) plus it. Columns are the named blocks of :mod:`inins.ekf.kernels`
+(``POS``, ``VEL``, ``ATT``, ``BG``, ``CLK``) and a time-offset state ``td``.
+Every block is derived in design.md §6b and checked against a finite difference of
+the nonlinear model in ``tests/ekf/test_jacobians.py``:
+
+- :func:`pseudorange_rows`, :func:`range_rate_rows`: tightly coupled, per satellite
+  (003 eq. 7, design.md §6a);
+- :func:`antenna_position_rows`, :func:`antenna_velocity_rows`: loosely coupled, the
+  GNSS solution of the antenna (design.md §10);
+- :func:`nhc_rows`, :func:`odometer_rows`, :func:`zupt_rows`, :func:`zaru_rows`: the
+  vehicle aiding (:mod:`inins.ekf.aiding`).
+"""
+
+import math
+from collections import namedtuple
+
+import numpy as np
+
+from inins.core import jit
+from inins.ekf.kernels import ATT, BG, CLK, POS, VEL, mv3
+
+Antenna = namedtuple("Antenna", "lla r_imu mat_en mat_nb vel lever_n lever_vel_n r v j_v")
+"""The antenna of an INS state (:func:`inins.ekf.step.antenna`): the IMU's ``lla`` (3,)
+and ECEF position ``r_imu`` (3,) m, ``mat_en`` NED to ECEF and ``mat_nb`` (3, 3), the
+NED velocity ``vel`` (3,) m/s, the lever arm ``lever_n = C_nb l_b`` (3,) m and its velocity
+``lever_vel_n = C_nb (omega_eb_b x l_b)`` (3,) m/s, the antenna's ECEF position ``r``
+and velocity ``v`` (3,), and ``J_v`` (3, 3) (the NED frame turns by ``J_v dr``)."""
+Satellites = namedtuple(
+    "Satellites",
+    "prn pos vel pseudorange clock delay range_rate clock_drift sigma_pr sigma_rr",
+)
+"""``k`` satellites' measurements (the fields of :class:`inins.ekf.measurements.GnssEpoch`):
+``prn`` (k,) int, ECEF ``pos``, ``vel`` (k, 3), and per satellite (k,) the pseudorange
+(m), satellite clock (m), modelled delay (m), range rate (m/s), satellite clock drift
+(m/s), and the pseudorange and range-rate 1-sigma (m, m/s)."""
+
+
+@jit.njit(cache=True, error_model="numpy")
+def skew_block(H, row, col, a, sign):
+    """``H[row:row+3, col:col+3] = sign [a x]``."""
+    H[row, col + 1] = -sign * a[2]
+    H[row, col + 2] = sign * a[1]
+    H[row + 1, col] = sign * a[2]
+    H[row + 1, col + 2] = -sign * a[0]
+    H[row + 2, col] = -sign * a[1]
+    H[row + 2, col + 1] = sign * a[0]
+
+
+@jit.njit(cache=True, error_model="numpy")
+def pseudorange_rows(ant, sats, x, bias_col):
+    """Pseudoranges ``rho = |r_sat - r_ant| + c dt + b_s - c dt_sat + T + I`` (design.md
+    §6a), one row per satellite.
+
+    With ``e`` the unit line of sight (NED) and ``dr_ant = dr + [l_n x] phi``
+    (design.md §6b) the sensitivities at the estimate are ``-e^T`` on position and
+    ``-e^T [l_n x]`` on attitude; the error columns are their negatives, ``e^T`` and
+    ``e^T [l_n x] = (e x l_n)^T``; 1 on the clock bias and on the satellite's
+    inter-system bias state ``bias_col[i]`` (-1: none).
+    """
+    k, n = sats.pos.shape[0], x.shape[0]
+    H, y, r = np.zeros((k, n)), np.empty(k), np.empty(k)
+    l0, l1, l2 = ant.lever_n[0], ant.lever_n[1], ant.lever_n[2]
+    mat_ne = ant.mat_en.T
+    for i in range(k):
+        d = sats.pos[i] - ant.r
+        rho = math.sqrt(d[0] ** 2 + d[1] ** 2 + d[2] ** 2)
+        e = mv3(mat_ne, d / rho)
+        e0, e1, e2 = e[0], e[1], e[2]
+        h = H[i]
+        h[POS], h[POS + 1], h[POS + 2] = e0, e1, e2
+        # -e^T [l x] = l x e
+        h[ATT] = -(l1 * e2 - l2 * e1)
+        h[ATT + 1] = -(l2 * e0 - l0 * e2)
+        h[ATT + 2] = -(l0 * e1 - l1 * e0)
+        h[CLK] = 1.0
+        y[i] = sats.pseudorange[i] + sats.clock[i] - sats.delay[i] - rho - x[CLK]
+        if bias_col[i] >= 0:
+            h[bias_col[i]] = 1.0
+            y[i] -= x[bias_col[i]]
+        r[i] = sats.sigma_pr[i] ** 2
+    return y, H, r
+
+
+@jit.njit(cache=True, error_model="numpy")
+def range_rate_rows(ant, sats, x):
+    """Range rates ``rhodot = (v_sat - v_ant) . e + c dt' - c dt_sat'`` (design.md §6a),
+    one row per satellite.
+
+    With ``dv = v_sat - v_ant`` (NED), ``rho`` the range, ``u_n`` the lever arm's
+    velocity and ``G = -dv^T (I - e e^T) / rho``, the sensitivities at the estimate are
+    ``e^T [v_ant x] J_v + G`` on position, ``-e^T`` on velocity, ``-e^T [u_n x] + G [l_n x]``
+    on attitude (from ``dv_ant = dv - [v_ant x] J_v dr + [u_n x] phi``: the estimated NED
+    frame is turned by ``J_v dr``); the error columns are their negatives, and 1 on the
+    clock drift.
+    """
+    k, n = sats.pos.shape[0], x.shape[0]
+    H, y, r = np.zeros((k, n)), np.empty(k), np.empty(k)
+    mat_ne = ant.mat_en.T
+    va = mv3(mat_ne, ant.v)  # the antenna velocity (NED), the same for every satellite
+    l0, l1, l2 = ant.lever_n[0], ant.lever_n[1], ant.lever_n[2]
+    u0, u1, u2 = ant.lever_vel_n[0], ant.lever_vel_n[1], ant.lever_vel_n[2]
+    exv = np.empty(3)
+    for i in range(k):
+        d = sats.pos[i] - ant.r
+        rho = math.sqrt(d[0] ** 2 + d[1] ** 2 + d[2] ** 2)
+        e = mv3(mat_ne, d / rho)
+        dv = mv3(mat_ne, sats.vel[i] - ant.v)
+        edv = 0.0
+        for j in range(3):
+            edv += dv[j] * e[j]
+        e0, e1, e2 = e[0], e[1], e[2]
+        g0 = -(dv[0] - edv * e0) / rho
+        g1 = -(dv[1] - edv * e1) / rho
+        g2 = -(dv[2] - edv * e2) / rho
+        # a^T [b x] phi = a . (b x phi) = (a x b) . phi: the row of a^T [b x] is a x b
+        exv[0], exv[1], exv[2] = (
+            e1 * va[2] - e2 * va[1],
+            e2 * va[0] - e0 * va[2],
+            e0 * va[1] - e1 * va[0],
+        )
+        evj = mv3(ant.j_v.T, exv)  # e^T [v x] J_v
+        h = H[i]
+        h[POS], h[POS + 1], h[POS + 2] = -evj[0] - g0, -evj[1] - g1, -evj[2] - g2
+        h[VEL], h[VEL + 1], h[VEL + 2] = e0, e1, e2
+        # -e^T [u x] + G [l x] = u x e + g x l
+        h[ATT] = -((u1 * e2 - u2 * e1) + (g1 * l2 - g2 * l1))
+        h[ATT + 1] = -((u2 * e0 - u0 * e2) + (g2 * l0 - g0 * l2))
+        h[ATT + 2] = -((u0 * e1 - u1 * e0) + (g0 * l1 - g1 * l0))
+        h[CLK + 1] = 1.0
+        y[i] = sats.range_rate[i] + sats.clock_drift[i] - edv - x[CLK + 1]
+        r[i] = sats.sigma_rr[i] ** 2
+    return y, H, r
+
+
+@jit.njit(cache=True, error_model="numpy")
+def antenna_position_rows(ant, pos_e, var, x, td, lag):
+    """The GNSS solution's antenna position ``pos_e`` (3,) ECEF m, variances ``var`` (3,)
+    m^2 NED, taken ``lag`` s after the INS state (design.md §10, §6b).
+
+    Predicted ``r_ant = r + C_nb l_b + v lag``; in NED at the INS position
+    ``y = z - r_ant``, ``H``: ``-I`` on ``POS``, ``-[l_n x]`` on ``ATT`` and ``+v`` on the
+    time-offset state ``td`` (-1: none; ``lag`` includes its estimate).
+    """
+    n = x.shape[0]
+    H = np.zeros((3, n))
+    r_ant = ant.r_imu + mv3(ant.mat_en, ant.lever_n + ant.vel * lag)
+    y = mv3(ant.mat_en.T, pos_e - r_ant)
+    for i in range(3):
+        H[i, POS + i] = -1.0
+        if td >= 0:
+            H[i, td] = ant.vel[i]
+    skew_block(H, 0, ATT, ant.lever_n, -1.0)
+    return y, H, var.copy()
+
+
+@jit.njit(cache=True, error_model="numpy")
+def antenna_velocity_rows(ant, vel_n, var, acc_n, x, td, lag):
+    """The GNSS solution's antenna velocity ``vel_n`` (3,) NED m/s, variances ``var`` (3,),
+    taken ``lag`` s after the INS state (design.md §10, §6b).
+
+    Predicted ``v_ant = v + C_nb (omega_eb x l_b) + a lag`` with ``acc_n`` the INS
+    acceleration ``C_nb f_b + g`` (Coriolis dropped); ``H``: ``-I`` on ``VEL``,
+    ``-[u_n x]`` on ``ATT`` (``u_n = C_nb (omega_eb x l_b)``), ``+a`` on ``td``.
+    """
+    n = x.shape[0]
+    H, y = np.zeros((3, n)), np.empty(3)
+    for i in range(3):
+        H[i, VEL + i] = -1.0
+        y[i] = vel_n[i] - ant.vel[i] - ant.lever_vel_n[i] - acc_n[i] * lag
+        if td >= 0:
+            H[i, td] = acc_n[i]
+    skew_block(H, 0, ATT, ant.lever_vel_n, -1.0)
+    return y, H, var.copy()
+
+
+@jit.njit(cache=True, error_model="numpy")
+def _vehicle_velocity(c_vn, vel, axes, n):
+    """Rows ``axes`` of ``v_v = C_vn v`` (design.md §6b): ``-C_vn`` on ``VEL``,
+    ``+C_vn [v x]`` on ``ATT``; returns (predicted, H)."""
+    vx = np.zeros((3, 3))
+    vx[0, 1], vx[0, 2], vx[1, 0] = -vel[2], vel[1], vel[2]
+    vx[1, 2], vx[2, 0], vx[2, 1] = -vel[0], -vel[1], vel[0]
+    mv = c_vn @ vx
+    vv = c_vn @ vel
+    m = len(axes)
+    H, pred = np.zeros((m, n)), np.empty(m)
+    for k in range(m):
+        i = axes[k]
+        for j in range(3):
+            H[k, VEL + j] = -c_vn[i, j]
+            H[k, ATT + j] = mv[i, j]
+        pred[k] = vv[i]
+    return pred, H
+
+
+@jit.njit(cache=True, error_model="numpy")
+def nhc_rows(c_vn, vel, sigma, n):
+    """Non-holonomic constraint: the lateral and vertical vehicle velocity
+    ``(C_vb C_bn v)_{y,z}`` are zero, 1-sigma ``sigma`` m/s (design.md §10, §6b);
+    ``c_vn = C_vb C_bn`` (3, 3), ``vel`` the INS velocity (3,) NED."""
+    pred, H = _vehicle_velocity(c_vn, vel, (1, 2), n)
+    return -pred, H, np.full(2, sigma**2)
+
+
+@jit.njit(cache=True, error_model="numpy")
+def odometer_rows(c_vn, vel, speed, sigma, n):
+    """Odometer: the forward vehicle speed ``(C_vb C_bn v)_x`` is ``speed`` m/s, 1-sigma
+    ``sigma`` (design.md §10, §6b)."""
+    pred, H = _vehicle_velocity(c_vn, vel, (0,), n)
+    return speed - pred, H, np.full(1, sigma**2)
+
+
+@jit.njit(cache=True, error_model="numpy")
+def zupt_rows(vel, sigma, n):
+    """Zero velocity: ``v_true = 0``; ``y = -v``, ``-I`` on ``VEL``, 1-sigma ``sigma`` m/s."""
+    H, y = np.zeros((3, n)), np.empty(3)
+    for i in range(3):
+        H[i, VEL + i] = -1.0
+        y[i] = -vel[i]
+    return y, H, np.full(3, sigma**2)
+
+
+@jit.njit(cache=True, error_model="numpy")
+def zaru_rows(omega_mean, c_bn, w_ie_n, x, sigma):
+    """Zero angular rate: the compensated gyro mean ``omega_mean`` (3,) rad/s minus the
+    Earth rate in body axes ``C_bn w_ie`` is the residual gyro bias: ``+I`` on ``BG``,
+    ``y = omega_mean - C_bn w_ie - bg``, 1-sigma ``sigma`` rad/s."""
+    n = x.shape[0]
+    H, y = np.zeros((3, n)), np.empty(3)
+    z = omega_mean - c_bn @ w_ie_n
+    for i in range(3):
+        H[i, BG + i] = 1.0
+        y[i] = z[i] - x[BG + i]
+    return y, H, np.full(3, sigma**2)
