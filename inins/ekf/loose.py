@@ -48,6 +48,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from inins.core import earth, error_model, rotation, stats
+from inins.core.error_model import EKF26, GROUPS, NAV15, TIME_OFFSET, StateLayout
 from inins.ekf import aiding, loose_kernel, step
 from inins.ekf.kernels import NAV
 from inins.ekf.smoother import ForwardRecord, correct_many, default_store
@@ -55,6 +56,10 @@ from inins.exceptions import InputError
 
 BLOCK = 512
 """Epochs the compiled kernel runs per call (the store is written block by block)."""
+LOOSE15 = NAV15
+"""The loosely coupled filter's states: EKF17 without the receiver clock."""
+LOOSE24 = NAV15 + StateLayout(GROUPS["accel_misalignment"] + GROUPS["gyro_misalignment"])
+"""With the accelerometer (3) and gyro (6) misalignments: EKF26 without the clock."""
 
 
 @dataclass(frozen=True, eq=False)
@@ -150,9 +155,17 @@ class LooseConfig:
         return self.n_base + int(self.time_offset)
 
     @property
+    def layout(self):
+        """The states (:class:`inins.core.error_model.StateLayout`): :data:`LOOSE15` or
+        :data:`LOOSE24`, then ``dt_g`` with the time offset."""
+        base = LOOSE24 if self.misalignments else LOOSE15
+        return base + StateLayout((TIME_OFFSET,)) if self.time_offset else base
+
+    @property
     def keep(self):
-        """Indices of the states in the EKF26 order of :mod:`inins.ekf.kernels`."""
-        return np.r_[0:15, 17:26] if self.misalignments else np.arange(15)
+        """Indices of the states but the time offset in the EKF26 order of
+        :mod:`inins.ekf.kernels` (the loose model is EKF26's without the clock)."""
+        return np.array([EKF26.index(name) for name in self.layout.names if name in EKF26.names])
 
     def covariance0(self):
         """Diagonal ``P0`` (n, n)."""
@@ -323,7 +336,7 @@ def _model(cfg):
         feedback=bool(cfg.feedback),
         threshold=float(stats.chi2_ppf(cfg.gate_probability, 1)),
         n_base=cfg.n_base,
-        td=cfg.n_base if cfg.time_offset else -1,
+        td=cfg.layout.index(TIME_OFFSET) if cfg.time_offset else -1,
         keep=cfg.keep.astype(np.int64),
         noise=cfg.noise(),
         lever=cfg.lever_arm,

@@ -30,6 +30,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from inins.core import earth, error_model, rotation, strapdown
+from inins.core.error_model import TIME_OFFSET
 from inins.ekf import loose, outages, smoother, sources, timeoffset
 from inins.exceptions import InputError
 
@@ -422,7 +423,8 @@ class PostRun:
 
 def solutions(run, sm, filter_wall_s, smoother_wall_s=None):
     """:class:`PostRun` of a forward ``run`` and its smoothed ``sm`` (or None)."""
-    td = run.config.n_base if run.config.time_offset else None
+    cfg = run.config
+    td = cfg.layout.index(TIME_OFFSET) if cfg.time_offset else None
     quat, vel, lla, sens, sig = (np.array(a) for a in run.output())
     fwd = Solution(quat, vel, lla, sens, sig, None if td is None else np.array(run.x[:, td]))
     smoothed, offset = None, None
