@@ -17,7 +17,7 @@ import numpy as np
 from inins.core import jit, strapdown
 from inins.ekf import aiding, kernels, step
 from inins.ekf import rows as ekf_rows
-from inins.ekf.kernels import NAV
+from inins.ekf.kernels import BA, NAV
 
 LooseState = namedtuple("LooseState", "x P comp times count")
 """The filter's state, updated in place: ``x`` (n,), ``P`` (n, n), the FB sensor
@@ -80,12 +80,9 @@ def _gnss_update(ins, state, model, ep, k, rates, log):
     lag = ep.frac[k] + (x[td] if td >= 0 else 0.0)
     y, H, r = ekf_rows.antenna_position_rows(ant, ep.pos[k], ep.var[k], x, td, lag)
     if math.isfinite(ep.vel[k, 0]):
-        # acceleration (NED) carries the velocity over the lag: C_nb f_b + g
-        acc_n = ant.mat_nb @ rates[1]
-        acc_n[2] += kernels._gravity(ant.lla[0], ant.lla[2])
-        yv, Hv, rv = ekf_rows.antenna_velocity_rows(
-            ant, ep.vel[k], ep.var_vel[k], acc_n, x, td, lag
-        )
+        # the acceleration carries the velocity over the lag: C_nb (f_b - ba) + g
+        f_n = ant.mat_nb @ (rates[1] - x[BA : BA + 3])
+        yv, Hv, rv = ekf_rows.antenna_velocity_rows(ant, ep.vel[k], ep.var_vel[k], f_n, x, td, lag)
         y, H, r = np.concatenate((y, yv)), np.vstack((H, Hv)), np.concatenate((r, rv))
     m = y.shape[0]
     acc, yy, ss = np.zeros(m, np.bool_), np.empty(m), np.empty(m)

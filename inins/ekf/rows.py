@@ -24,8 +24,9 @@ from collections import namedtuple
 
 import numpy as np
 
-from inins.core import jit
-from inins.ekf.kernels import ATT, BG, CLK, POS, VEL, mv3
+from inins.core import earth, jit
+from inins.ekf import kernels
+from inins.ekf.kernels import ATT, BA, BG, CLK, POS, VEL, mv3
 
 Antenna = namedtuple("Antenna", "lla r_imu mat_en mat_nb vel lever_n lever_vel_n r v j_v")
 """The antenna of an INS state (:func:`inins.ekf.step.antenna`): the IMU's ``lla`` (3,)
@@ -41,6 +42,19 @@ Satellites = namedtuple(
 ``prn`` (k,) int, ECEF ``pos``, ``vel`` (k, 3), and per satellite (k,) the pseudorange
 (m), satellite clock (m), modelled delay (m), range rate (m/s), satellite clock drift
 (m/s), and the pseudorange and range-rate 1-sigma (m, m/s)."""
+
+
+@jit.njit(cache=True, error_model="numpy")
+def earth_rate_n(lat):
+    """``w_ie`` (3,) rad/s in NED at latitude ``lat``."""
+    w = earth.RATE
+    return np.array([w * math.cos(lat), 0.0, -w * math.sin(lat)])
+
+
+@jit.njit(cache=True, error_model="numpy")
+def _skew(a):
+    """``[a x]`` (3, 3)."""
+    return np.array([[0.0, -a[2], a[1]], [a[2], 0.0, -a[0]], [-a[1], a[0], 0.0]])
 
 
 @jit.njit(cache=True, error_model="numpy")
@@ -99,7 +113,10 @@ def range_rate_rows(ant, sats, x):
     ``e^T [v_ant x] J_v + G`` on position, ``-e^T`` on velocity, ``-e^T [u_n x] + G [l_n x]``
     on attitude (from ``dv_ant = dv - [v_ant x] J_v dr + [u_n x] phi``: the estimated NED
     frame is turned by ``J_v dr``); the error columns are their negatives, and 1 on the
-    clock drift.
+    clock drift. The lever arm's velocity is formed with the Earth rate turned into body
+    axes by the estimated attitude and the gyro-bias state removed (``omega_eb =
+    omega_ib - bg - C_bn w_ie``), which adds ``-e^T [l_n x][w_ie x]`` to the attitude
+    columns and ``-e^T C_nb [l_b x]`` on ``BG`` (design.md §6b).
     """
     k, n = sats.pos.shape[0], x.shape[0]
     H, y, r = np.zeros((k, n)), np.empty(k), np.empty(k)
@@ -107,6 +124,8 @@ def range_rate_rows(ant, sats, x):
     va = mv3(mat_ne, ant.v)  # the antenna velocity (NED), the same for every satellite
     l0, l1, l2 = ant.lever_n[0], ant.lever_n[1], ant.lever_n[2]
     u0, u1, u2 = ant.lever_vel_n[0], ant.lever_vel_n[1], ant.lever_vel_n[2]
+    w = earth_rate_n(ant.lla[0])
+    lw = l0 * w[0] + l1 * w[1] + l2 * w[2]
     exv = np.empty(3)
     for i in range(k):
         d = sats.pos[i] - ant.r
@@ -134,6 +153,12 @@ def range_rate_rows(ant, sats, x):
         h[ATT] = -((u1 * e2 - u2 * e1) + (g1 * l2 - g2 * l1))
         h[ATT + 1] = -((u2 * e0 - u0 * e2) + (g2 * l0 - g0 * l2))
         h[ATT + 2] = -((u0 * e1 - u1 * e0) + (g0 * l1 - g1 * l0))
+        # the lever arm's Earth rate turns with the attitude: -e^T [l x][w x]
+        ew = e0 * w[0] + e1 * w[1] + e2 * w[2]
+        for j in range(3):
+            h[ATT + j] += lw * e[j] - ew * ant.lever_n[j]
+        # the gyro bias leaves the lever arm's rate: -e^T C_nb [l_b x] = (C_bn (l_n x e))^T
+        h[BG : BG + 3] = mv3(ant.mat_nb.T, np.cross(ant.lever_n, e))
         h[CLK + 1] = 1.0
         y[i] = sats.range_rate[i] + sats.clock_drift[i] - edv - x[CLK + 1]
         r[i] = sats.sigma_rr[i] ** 2
@@ -145,9 +170,11 @@ def antenna_position_rows(ant, pos_e, var, x, td, lag):
     """The GNSS solution's antenna position ``pos_e`` (3,) ECEF m, variances ``var`` (3,)
     m^2 NED, taken ``lag`` s after the INS state (design.md §10, §6b).
 
-    Predicted ``r_ant = r + C_nb l_b + v lag``; in NED at the INS position
-    ``y = z - r_ant``, ``H``: ``-I`` on ``POS``, ``-[l_n x]`` on ``ATT`` and ``+v`` on the
-    time-offset state ``td`` (-1: none; ``lag`` includes its estimate).
+    Predicted ``r_ant = r + C_nb l_b + v lag`` (the antenna carried over the lag by the
+    INS velocity, taken as known: the velocity error's share ``lag dv`` is not modelled,
+    design.md §6b); in NED at the INS position ``y = z - r_ant``, ``H``: ``-I`` on
+    ``POS``, ``-[l_n x]`` on ``ATT`` and ``+v`` on the time-offset state ``td`` (-1: none;
+    ``lag`` includes its estimate).
     """
     n = x.shape[0]
     H = np.zeros((3, n))
@@ -162,22 +189,30 @@ def antenna_position_rows(ant, pos_e, var, x, td, lag):
 
 
 @jit.njit(cache=True, error_model="numpy")
-def antenna_velocity_rows(ant, vel_n, var, acc_n, x, td, lag):
+def antenna_velocity_rows(ant, vel_n, var, f_n, x, td, lag):
     """The GNSS solution's antenna velocity ``vel_n`` (3,) NED m/s, variances ``var`` (3,),
     taken ``lag`` s after the INS state (design.md §10, §6b).
 
-    Predicted ``v_ant = v + C_nb (omega_eb x l_b) + a lag`` with ``acc_n`` the INS
-    acceleration ``C_nb f_b + g`` (Coriolis dropped); ``H``: ``-I`` on ``VEL``,
-    ``-[u_n x]`` on ``ATT`` (``u_n = C_nb (omega_eb x l_b)``), ``+a`` on ``td``.
+    Predicted ``v_ant = v + C_nb (omega_eb x l_b) + a lag`` with the INS acceleration
+    ``a = f_n + g``, ``f_n = C_nb (f_b - ba)`` the specific force (3,) (Coriolis dropped);
+    ``H``: ``-I`` on ``VEL``, ``-[u_n x] + [l_n x][w_ie x] - lag [f_n x]`` on ``ATT``
+    (``u_n = C_nb (omega_eb x l_b)``, ``omega_eb = omega_ib - bg - C_bn w_ie``),
+    ``-lag C_nb`` on ``BA``, ``[l_n x] C_nb`` on ``BG``, ``+a`` on ``td``.
     """
     n = x.shape[0]
     H, y = np.zeros((3, n)), np.empty(3)
+    acc = f_n.copy()
+    acc[2] += kernels._gravity(ant.lla[0], ant.lla[2])
     for i in range(3):
         H[i, VEL + i] = -1.0
-        y[i] = vel_n[i] - ant.vel[i] - ant.lever_vel_n[i] - acc_n[i] * lag
+        y[i] = vel_n[i] - ant.vel[i] - ant.lever_vel_n[i] - acc[i] * lag
         if td >= 0:
-            H[i, td] = acc_n[i]
+            H[i, td] = acc[i]
     skew_block(H, 0, ATT, ant.lever_vel_n, -1.0)
+    lever_x = _skew(ant.lever_n)
+    H[:, ATT : ATT + 3] += lever_x @ _skew(earth_rate_n(ant.lla[0])) - lag * _skew(f_n)
+    H[:, BA : BA + 3] = -lag * ant.mat_nb
+    H[:, BG : BG + 3] = lever_x @ ant.mat_nb
     return y, H, var.copy()
 
 
@@ -230,12 +265,14 @@ def zupt_rows(vel, sigma, n):
 
 @jit.njit(cache=True, error_model="numpy")
 def zaru_rows(omega_mean, c_bn, w_ie_n, x, sigma):
-    """Zero angular rate: the compensated gyro mean ``omega_mean`` (3,) rad/s minus the
-    Earth rate in body axes ``C_bn w_ie`` is the residual gyro bias: ``+I`` on ``BG``,
-    ``y = omega_mean - C_bn w_ie - bg``, 1-sigma ``sigma`` rad/s."""
+    """Zero angular rate: the compensated gyro mean ``omega_mean`` (3,) rad/s is the
+    Earth rate in body axes plus the residual gyro bias, ``C_bn w_ie + bg``:
+    ``y = omega_mean - C_bn w_ie - bg``; ``H``: ``+I`` on ``BG``, ``C_bn [w_ie x]`` on
+    ``ATT`` (the estimated attitude turns the Earth rate); 1-sigma ``sigma`` rad/s."""
     n = x.shape[0]
     H, y = np.zeros((3, n)), np.empty(3)
     z = omega_mean - c_bn @ w_ie_n
+    H[:, ATT : ATT + 3] = c_bn @ _skew(w_ie_n)
     for i in range(3):
         H[i, BG + i] = 1.0
         y[i] = z[i] - x[BG + i]

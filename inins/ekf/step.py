@@ -23,7 +23,7 @@ import numpy as np
 
 from inins.core import earth, jit
 from inins.ekf import kernels, rows
-from inins.ekf.kernels import CLK, NAV, mv3
+from inins.ekf.kernels import BG, CLK, NAV, mv3
 
 _radii = jit.njit(cache=True)(earth.principal_radii)
 
@@ -116,15 +116,15 @@ def propagate(x, P, F, Qc, Phi, Qd, quat, vel, lla, omega_b, f_b, dt_k, noise):
 @jit.njit(cache=True, error_model="numpy")
 def antenna(quat, vel, lla, dx, omega_b, lever_b):
     """The :data:`inins.ekf.rows.Antenna` of the INS state ``nav (-) dx`` with the body
-    rate ``omega_b`` (3,) rad/s and the lever arm ``lever_b`` (3,) m (003 eqs. 8-9):
-    ``r_ant = r + C_en C_nb l_b``, ``v_ant = C_en (v + C_nb (omega_eb_b x l_b))``,
-    ``omega_eb_b = omega_b - C_bn w_ie``."""
+    rate ``omega_b`` (3,) rad/s the INS integrates and the lever arm ``lever_b`` (3,) m
+    (003 eqs. 8-9): ``r_ant = r + C_en C_nb l_b``, ``v_ant = C_en (v + C_nb (omega_eb_b x
+    l_b))``, ``omega_eb_b = omega_b - bg - C_bn w_ie`` with ``bg`` the gyro-bias state."""
     cq, cv, cl = np.empty(4), np.empty(3), np.empty(3)
     correct(quat, vel, lla, dx, cq, cv, cl)
     mat_nb = mat_from_quat(cq)
     w = earth.RATE
     w_ie = np.array([w * math.cos(cl[0]), 0.0, -w * math.sin(cl[0])])
-    omega_eb = omega_b - mv3(mat_nb.T, w_ie)
+    omega_eb = omega_b - dx[BG : BG + 3] - mv3(mat_nb.T, w_ie)
     m_en = mat_en(cl[0], cl[1])
     lever_n = mv3(mat_nb, lever_b)
     lever_vel = mv3(mat_nb, np.cross(omega_eb, lever_b))
