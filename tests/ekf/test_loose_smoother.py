@@ -240,8 +240,8 @@ def test_velocity_rows_run_on_a_drive_with_velocity_solutions():
     the six rows, the velocity rows' NIS is consistent, and the lever arm's velocity
     (omega_eb x l_b, 0.27 m/s in the turns) is in them: flipped, the turns' velocity rows
     are tens of sigma off. Measured: NIS position 1.02, velocity 1.06; flipped lever
-    arm: velocity NIS 48 (position 2.1). Asserted: the rows accepted, NIS within 20 % of 1, the flipped
-    lever arm's velocity NIS above 10."""
+    arm: velocity NIS 48 (position 2.1). Asserted: the rows accepted, NIS within 20 %
+    of 1, the flipped lever arm's velocity NIS above 10."""
     legs = [Leg(LegKind.WAIT, 20.0), Leg(LegKind.TAKEOFF, 20.0, speed=10.0)]
     for k in range(8):
         legs.append(Leg(LegKind.STRAIGHT, 10.0, speed=10.0))
