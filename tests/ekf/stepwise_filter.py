@@ -40,31 +40,11 @@ class package_kernels:
     propagate = staticmethod(step.propagate)
 
     @staticmethod
-    def update(
-        x,
-        P,
-        quat,
-        vel,
-        lla,
-        omega_b,
-        lever_b,
-        sat_pos,
-        sat_vel,
-        pseudorange,
-        sat_clock,
-        delay,
-        range_rate,
-        sat_clock_drift,
-        sigma_pr,
-        sigma_rr,
-        bias_col,
-        threshold,
-        use_rr,
-        init_clock,
-        acc,
-        y,
-        s,
-    ):
+    def update(x, P, quat, vel, lla, omega_b, lever_b, *args):
+        """``frozen_kernels.update``'s arguments: the satellites' nine arrays (the order
+        of :data:`inins.ekf.rows.Satellites` after its ``prn``), then
+        ``bias_col, threshold, use_rr, init_clock, acc, y, s``."""
+        bias_col, threshold, use_rr, init_clock, acc, y, s = args[9:]
         model = fused.TightModel(
             dt=0.0,
             window=1,
@@ -78,19 +58,7 @@ class package_kernels:
             sens=np.zeros(0, np.int64),
             bias_columns=np.zeros(1, np.int64),
         )
-        prn = np.zeros(len(pseudorange), np.int64)
-        sats = rows.Satellites(
-            prn,
-            sat_pos,
-            sat_vel,
-            pseudorange,
-            sat_clock,
-            delay,
-            range_rate,
-            sat_clock_drift,
-            sigma_pr,
-            sigma_rr,
-        )
+        sats = rows.Satellites(np.zeros(len(args[2]), np.int64), *args[:9])
         nav = (quat, vel, lla)
         return step.update(x, P, nav, omega_b, model, sats, bias_col, init_clock, (acc, y, s))
 
