@@ -1,23 +1,16 @@
-"""Vehicle aiding of the loosely coupled filter: ZUPT, ZARU, NHC (and the stationary detector).
+"""Vehicle aiding of the loosely coupled filter: ZUPT, ZARU, NHC, odometer (and the
+stationary detector).
 
-Measurements at a filter epoch, with the states as errors (estimate minus true,
-``C_est = (I - [phi x]) C``), the INS velocity ``v`` (NED) and ``C_bn = C_nb^T``:
+The rows (:mod:`inins.ekf.rows`, block by block in spec §6b), at the INS state
+``nav (-) x`` of an epoch, the vehicle frame ``v`` turned from the body by the mounting
+``C_vb``:
 
-- ZUPT (zero velocity, while stationary): ``z = 0 = v_true``; ``y = -v_est``,
-  ``H = -I`` on the velocity error.
-- ZARU (zero angular rate, while stationary): the compensated gyro mean over the
-  epoch's IMU chunk minus the Earth rate in body axes, ``z = omega - C_bn w_ie``,
-  equals the residual gyro bias: ``H = +I`` on the gyro-bias states (the sensor
-  states are the quantities, not errors).
-- NHC (non-holonomic: no lateral or vertical velocity of the vehicle): with the
-  vehicle-to-IMU mounting ``C_vb`` (IMU body to vehicle axes), ``v_v = C_vb C_bn v``
-  has zero y and z. ``C_bn_est v_est = v_b + C_bn dv - C_bn [v x] phi``, so
-  ``y = -(C_vb C_bn_est v_est)_{y,z}``, ``H = -C_vb C_bn`` on velocity and
-  ``+C_vb C_bn [v x]`` on attitude (rows y, z). The lever arm between the IMU and
-  the point that does not slip (rear axle) is neglected: it adds ``omega x l``,
-  below 0.1 m/s for 1 m at 5 deg/s.
-- Odometer (wheel speed, where a column exists): the forward vehicle speed,
-  ``z = (C_vb C_bn v)_x``, rows as the NHC's for x; ``y = z - (C_vb C_bn_est v_est)_x``.
+- ZUPT (while stationary): the velocity is zero.
+- ZARU (while stationary): the compensated gyro mean over the epoch's IMU chunk is the
+  Earth rate in body axes plus the residual gyro bias.
+- NHC: the lateral and vertical velocity in the vehicle frame are zero (the lever arm
+  to the point that does not slip is neglected: below 0.1 m/s for 1 m at 5 deg/s).
+- Odometer (where a column exists): the forward vehicle speed is the wheel speed.
 
 Stationary detector (:func:`stationary`): over the ``window`` samples up to each
 epoch, the RMS deviation of the specific-force vector from its window mean,

@@ -65,7 +65,7 @@ BA, BG, CLK = _start("accel_bias"), _start("gyro_bias"), _start("clock")
 MA, MG = _start("accel_misalignment"), _start("gyro_misalignment")
 """The named blocks of EKF26 (:data:`inins.core.error_model.EKF26`), each its group's first
 state (clock: bias, then drift); EKF17 is the first 17 states, so the same names serve
-both, and the loosely coupled filter's navigation and bias states (design.md §6)."""
+both, and the loosely coupled filter's navigation and bias states (spec §6, §6b)."""
 NAV = ATT + 3
 """The navigation states (position, velocity, attitude) are ``0:NAV``."""
 

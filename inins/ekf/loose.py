@@ -1,39 +1,21 @@
 """Loosely coupled INS/GNSS error-state filter for post-processing (run-ekf loose mode).
 
 The GNSS receiver's own solution is the measurement: antenna position (and NED
-velocity where the solution file has it) with its per-epoch 1-sigma. The filter
-is the one of :mod:`inins.ekf.filter` without the receiver clock:
+velocity where the solution file has it) with its per-epoch 1-sigma. The filter is the
+tight one of :mod:`inins.ekf.filter` without the receiver clock; its states, model and
+rows block by block are spec §6b:
 
-- States: ``LOOSE15`` = position, velocity, attitude (phi angle), accel bias,
-  gyro bias (EKF17 without the clock, 15); ``LOOSE24`` adds the accel (3) and gyro
-  (6) misalignments (EKF26 without the clock, 24). With ``time_offset`` one more
-  state, the GNSS-minus-IMU time offset ``dt_g`` (s), last.
-- Propagation once per GNSS epoch with ``F`` from
-  :func:`inins.ekf.kernels.system_matrix26` at the mid-interval INS state (the
-  clock rows and columns dropped), third-order ``Phi`` and series ``Qd``
-  (:func:`inins.ekf.kernels.discretize`).
-- Measurement at the solution's time tag ``t_k``: the INS state after the IMU
-  sample boundary nearest ``t_k`` (the stored state of the 1PPS machinery; in
-  post-processing there is no latency) carried by ``v (t_k - t_b)`` to ``t_k``.
-  With the errors ``dr, dv, phi`` (estimated minus true), the antenna at
-  ``r_ant = r + C_nb l`` and moving at ``v_ant = v + C_nb (omega_eb x l)``::
-
-      y_pos = z_pos - r_ant_est = -dr - [l_n x] phi        + v dt_g + noise
-      y_vel = z_vel - v_ant_est = -dv - [u_n x] phi        + a dt_g + noise
-
-  in NED metres at the INS position, ``l_n = C_nb l``, ``u_n = C_nb (omega_eb x l)``
-  (``C_est = (I - [phi x]) C`` gives ``C_est l = C l + [l_n x] phi``). So ``H`` is
-  ``-I`` on position (velocity), ``-[l_n x]`` (``-[u_n x]``) on attitude and
-  ``+v`` (``+a``, ``a = C_nb f_b + g`` the INS acceleration, Coriolis dropped) on
-  ``dt_g`` (a solution tagged ``t_k`` was taken at IMU time ``t_k + dt_g``:
-  the prediction is the INS antenna position carried to it by ``v (t_k - t_b + dt_g)``).
-  The frame rotation ``J_v dr`` of the velocity (O(v/R)) is dropped.
-- Scalar Joseph updates per axis, each gated on chi-square(1)
-  (:func:`inins.ekf.kernels.sequential_update`); the NED sigmas are taken as
-  uncorrelated (RTKLIB's ``sdne``, ``sdeu``, ``sdun`` are not used).
-- FB: the correction goes into the INS state and the sensor compensation at
-  ``t_k``, the states reset (``dt_g`` is never reset: it is a parameter the
-  measurement model uses). FF: the INS runs free, the output is ``nav (-) x``.
+- States: :data:`LOOSE15` or :data:`LOOSE24` (+ the misalignments), then with
+  ``time_offset`` the GNSS-minus-IMU time offset ``dt_g`` (s) (:attr:`LooseConfig.layout`).
+- Propagation once per GNSS epoch, ``F`` of EKF26 at the mid-interval INS state.
+- Update at the INS state after the IMU sample boundary nearest the solution's tag,
+  ``lag = t_k - t_b + dt_g`` before it: the antenna position and velocity rows and the
+  vehicle aiding (:mod:`inins.ekf.rows`, :mod:`inins.ekf.aiding`), scalar Joseph
+  updates gated on chi-square(1); the NED sigmas taken as uncorrelated (RTKLIB's
+  ``sdne``, ``sdeu``, ``sdun`` are not used).
+- FB: the correction into the INS state and the sensor compensation, the states reset
+  (``dt_g`` never: a parameter of the model). FF: the INS runs free, the output is
+  ``nav (-) x``.
 
 Every epoch writes to a store (arrays the caller provides, e.g. memory maps, so
 that a long run does not keep every ``P`` in RAM): the INS state after the

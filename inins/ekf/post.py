@@ -227,7 +227,7 @@ def resample(time, rates, dt, t0, t1):
 
 def initial_state(lla0, mat_nb, vel_n, lever_arm):
     """IMU state from the antenna's position ``lla0`` (3,) with attitude ``mat_nb``, velocity
-    ``vel_n`` (3,) m/s: the IMU is at the antenna minus ``C_nb l_b`` (design.md §10)."""
+    ``vel_n`` (3,) m/s: the IMU is at the antenna minus ``C_nb l_b`` (spec §10)."""
     lla_imu = error_model.lla_offset(lla0, -(mat_nb @ lever_arm))
     return strapdown.NavState.from_attitude(mat_nb, vel_n, lla_imu)
 

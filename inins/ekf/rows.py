@@ -3,18 +3,18 @@
 (m, n) and the noise variances ``r`` (m,) (``R = diag(r)``: the rows are updated one
 scalar at a time, :func:`inins.ekf.kernels.sequential_update`).
 
-The states are errors, estimated minus true (design.md §2), with the phi angle
+The states are errors, estimated minus true (spec §2), with the phi angle
 ``C_est = (I - [phi x]) C``; so the columns of the navigation states are minus the
 sensitivity of ``h`` at the estimate, those of the sensor and clock states (values,
 not errors) plus it. Columns are the named blocks of :mod:`inins.ekf.kernels`
 (``POS``, ``VEL``, ``ATT``, ``BG``, ``CLK``) and a time-offset state ``td``.
-Every block is derived in design.md §6b and checked against a finite difference of
+Every block is derived in spec §6b and checked against a finite difference of
 the nonlinear model in ``tests/ekf/test_jacobians.py``:
 
 - :func:`pseudorange_rows`, :func:`range_rate_rows`: tightly coupled, per satellite
-  (003 eq. 7, design.md §6a);
+  (003 eq. 7, spec §6a);
 - :func:`antenna_position_rows`, :func:`antenna_velocity_rows`: loosely coupled, the
-  GNSS solution of the antenna (design.md §10);
+  GNSS solution of the antenna (spec §10);
 - :func:`nhc_rows`, :func:`odometer_rows`, :func:`zupt_rows`, :func:`zaru_rows`: the
   vehicle aiding (:mod:`inins.ekf.aiding`).
 """
@@ -70,11 +70,11 @@ def skew_block(H, row, col, a, sign):
 
 @jit.njit(cache=True, error_model="numpy")
 def pseudorange_rows(ant, sats, x, bias_col):
-    """Pseudoranges ``rho = |r_sat - r_ant| + c dt + b_s - c dt_sat + T + I`` (design.md
+    """Pseudoranges ``rho = |r_sat - r_ant| + c dt + b_s - c dt_sat + T + I`` (spec
     §6a), one row per satellite.
 
     With ``e`` the unit line of sight (NED) and ``dr_ant = dr + [l_n x] phi``
-    (design.md §6b) the sensitivities at the estimate are ``-e^T`` on position and
+    (spec §6b) the sensitivities at the estimate are ``-e^T`` on position and
     ``-e^T [l_n x]`` on attitude; the error columns are their negatives, ``e^T`` and
     ``e^T [l_n x] = (e x l_n)^T``; 1 on the clock bias and on the satellite's
     inter-system bias state ``bias_col[i]`` (-1: none).
@@ -105,7 +105,7 @@ def pseudorange_rows(ant, sats, x, bias_col):
 
 @jit.njit(cache=True, error_model="numpy")
 def range_rate_rows(ant, sats, x):
-    """Range rates ``rhodot = (v_sat - v_ant) . e + c dt' - c dt_sat'`` (design.md §6a),
+    """Range rates ``rhodot = (v_sat - v_ant) . e + c dt' - c dt_sat'`` (spec §6a),
     one row per satellite.
 
     With ``dv = v_sat - v_ant`` (NED), ``rho`` the range, ``u_n`` the lever arm's
@@ -116,7 +116,7 @@ def range_rate_rows(ant, sats, x):
     clock drift. The lever arm's velocity is formed with the Earth rate turned into body
     axes by the estimated attitude and the gyro-bias state removed (``omega_eb =
     omega_ib - bg - C_bn w_ie``), which adds ``-e^T [l_n x][w_ie x]`` to the attitude
-    columns and ``-e^T C_nb [l_b x]`` on ``BG`` (design.md §6b).
+    columns and ``-e^T C_nb [l_b x]`` on ``BG`` (spec §6b).
     """
     k, n = sats.pos.shape[0], x.shape[0]
     H, y, r = np.zeros((k, n)), np.empty(k), np.empty(k)
@@ -168,11 +168,11 @@ def range_rate_rows(ant, sats, x):
 @jit.njit(cache=True, error_model="numpy")
 def antenna_position_rows(ant, pos_e, var, x, td, lag):
     """The GNSS solution's antenna position ``pos_e`` (3,) ECEF m, variances ``var`` (3,)
-    m^2 NED, taken ``lag`` s after the INS state (design.md §10, §6b).
+    m^2 NED, taken ``lag`` s after the INS state (spec §10, §6b).
 
     Predicted ``r_ant = r + C_nb l_b + v lag`` (the antenna carried over the lag by the
     INS velocity, taken as known: the velocity error's share ``lag dv`` is not modelled,
-    design.md §6b); in NED at the INS position ``y = z - r_ant``, ``H``: ``-I`` on
+    spec §6b); in NED at the INS position ``y = z - r_ant``, ``H``: ``-I`` on
     ``POS``, ``-[l_n x]`` on ``ATT`` and ``+v`` on the time-offset state ``td`` (-1: none;
     ``lag`` includes its estimate).
     """
@@ -191,7 +191,7 @@ def antenna_position_rows(ant, pos_e, var, x, td, lag):
 @jit.njit(cache=True, error_model="numpy")
 def antenna_velocity_rows(ant, vel_n, var, f_n, x, td, lag):
     """The GNSS solution's antenna velocity ``vel_n`` (3,) NED m/s, variances ``var`` (3,),
-    taken ``lag`` s after the INS state (design.md §10, §6b).
+    taken ``lag`` s after the INS state (spec §10, §6b).
 
     Predicted ``v_ant = v + C_nb (omega_eb x l_b) + a lag`` with the INS acceleration
     ``a = f_n + g``, ``f_n = C_nb (f_b - ba)`` the specific force (3,) (Coriolis dropped);
@@ -218,7 +218,7 @@ def antenna_velocity_rows(ant, vel_n, var, f_n, x, td, lag):
 
 @jit.njit(cache=True, error_model="numpy")
 def _vehicle_velocity(c_vn, vel, axes, n):
-    """Rows ``axes`` of ``v_v = C_vn v`` (design.md §6b): ``-C_vn`` on ``VEL``,
+    """Rows ``axes`` of ``v_v = C_vn v`` (spec §6b): ``-C_vn`` on ``VEL``,
     ``+C_vn [v x]`` on ``ATT``; returns (predicted, H)."""
     vx = np.zeros((3, 3))
     vx[0, 1], vx[0, 2], vx[1, 0] = -vel[2], vel[1], vel[2]
@@ -239,7 +239,7 @@ def _vehicle_velocity(c_vn, vel, axes, n):
 @jit.njit(cache=True, error_model="numpy")
 def nhc_rows(c_vn, vel, sigma, n):
     """Non-holonomic constraint: the lateral and vertical vehicle velocity
-    ``(C_vb C_bn v)_{y,z}`` are zero, 1-sigma ``sigma`` m/s (design.md §10, §6b);
+    ``(C_vb C_bn v)_{y,z}`` are zero, 1-sigma ``sigma`` m/s (spec §10, §6b);
     ``c_vn = C_vb C_bn`` (3, 3), ``vel`` the INS velocity (3,) NED."""
     pred, H = _vehicle_velocity(c_vn, vel, (1, 2), n)
     return -pred, H, np.full(2, sigma**2)
@@ -248,7 +248,7 @@ def nhc_rows(c_vn, vel, sigma, n):
 @jit.njit(cache=True, error_model="numpy")
 def odometer_rows(c_vn, vel, speed, sigma, n):
     """Odometer: the forward vehicle speed ``(C_vb C_bn v)_x`` is ``speed`` m/s, 1-sigma
-    ``sigma`` (design.md §10, §6b)."""
+    ``sigma`` (spec §10, §6b)."""
     pred, H = _vehicle_velocity(c_vn, vel, (0,), n)
     return speed - pred, H, np.full(1, sigma**2)
 
