@@ -19,8 +19,40 @@ import numpy as np
 
 from inins.core import error_model, rotation
 from inins.core.satellites import LETTERS
-from inins.ekf import loose, outages
+from inins.ekf import loose, outages, recorded
 from inins.exceptions import InputError
+
+
+def forward_heading(quat_nb, forward_b):
+    """Heading (rad, clockwise from north) of the body axis ``forward_b`` (3,) at each
+    attitude ``quat_nb`` (m, 4): the vehicle's heading when the IMU's x is not forward."""
+    axis = rotation.mat_from_quat(quat_nb) @ forward_b
+    return np.arctan2(axis[:, 1], axis[:, 0])
+
+
+@dataclass(frozen=True)
+class FixDifference:
+    """A recorded run's solution against its single-point fixes: the largest and RMS
+    antenna position difference (m) and velocity difference (m/s) over the epochs with a
+    fix."""
+
+    pos_max: float
+    pos_rms: float
+    vel_max: float
+    vel_rms: float
+
+
+def fix_differences(lla, quat_nb, vel_n, lever_b, fix_pos_e, fix_vel_n):
+    """:class:`FixDifference` of a solution (``lla``, ``quat_nb``, ``vel_n``, each per epoch)
+    whose antenna (:func:`inins.ekf.recorded.antenna_positions`, lever arm ``lever_b``)
+    is compared with the SPP fixes ``fix_pos_e`` (m, 3) ECEF and ``fix_vel_n`` (m, 3)
+    NED (NaN rows: no fix)."""
+    r = recorded.antenna_positions(lla, quat_nb, lever_b)
+    ok = np.isfinite(fix_pos_e[:, 0])
+    dp = np.linalg.norm(r[ok] - fix_pos_e[ok], axis=1)
+    dv = np.linalg.norm(vel_n[ok] - fix_vel_n[ok], axis=1)
+    rms = lambda a: float(np.sqrt(np.mean(a**2)))  # noqa: E731
+    return FixDifference(float(dp.max()), rms(dp), float(dv.max()), rms(dv))
 
 
 def reference_hits(ref_time, time):
