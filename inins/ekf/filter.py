@@ -64,7 +64,6 @@ from inins.core.satellites import LETTERS
 from inins.core.stats import chi2_ppf
 from inins.core.strapdown import FreeInertial
 from inins.ekf import fused, scoring, step
-from inins.ekf import rows as ekf_rows
 from inins.ekf.config import Coupling
 from inins.ekf.kernels import NAV
 from inins.ekf.result import EkfResult, Innovations
@@ -187,6 +186,7 @@ class _Log:
         self._sizes()
 
     def _sizes(self):
+        self._record = None  # the arrays may be new
         self.capacity, self.row_capacity = self.flog.shape[0], self.inn_f.shape[0]
         self.cov_capacity = self.cov.shape[0]
 
@@ -211,9 +211,11 @@ class _Log:
         self._sizes()
 
     def record(self):
-        """The arrays as :data:`inins.ekf.fused.Log` (after :meth:`reserve`, which may
-        replace them)."""
-        return fused.Log(self.flog, self.ilog, self.cov, self.inn_f, self.inn_i)
+        """The arrays of :data:`inins.ekf.fused.Log`, a plain tuple (after :meth:`reserve`,
+        which may replace them)."""
+        if self._record is None:
+            self._record = (self.flog, self.ilog, self.cov, self.inn_f, self.inn_i)
+        return self._record
 
     def epochs(self):
         """The :class:`EpochLog` of the epochs written (views of the filled rows)."""
@@ -308,6 +310,8 @@ class _Run:
             sens=_sensor_index(config.model.layout),
             bias_columns=config.bias_columns(),
         )
+        # the records as plain tuples for the compiled call (fused.epochs names them)
+        self.packed = (tuple(self.ins), tuple(self.state), tuple(self.model))
 
 
 def _batches(epochs, size):
@@ -399,10 +403,10 @@ def run_filter(config, initial, t0, epochs, true_sensor=None, store=None):
             log.reserve(first + b.size - 1, 2 * b.sat_starts[-1], bool(b.truths))
         tick = _time.perf_counter()
         written = fused.epochs(
-            run.ins,
+            run.packed[0],
             run.nav.count,
-            run.state,
-            run.model,
+            run.packed[1],
+            run.packed[2],
             b.dtheta,
             b.dv,
             b.starts,
@@ -475,9 +479,8 @@ class _Batch:
         self.starts = np.array(samples)
         self.times = np.array(times).reshape(self.size, 4)
         self.flags = np.array(flags, np.int64).reshape(self.size, 4)
-        self.sats = ekf_rows.Satellites(
-            *(np.concatenate(c) for c in zip(*satellite_arrays, strict=True))
-        )
+        # the fields of inins.ekf.rows.Satellites, a plain tuple (fused.epochs names it)
+        self.sats = tuple(np.concatenate(c) for c in zip(*satellite_arrays, strict=True))
         self.sat_starts = np.array(satellites)
         self.truths = truths
         self.fed_back = cfg.coupling is Coupling.FB and not coasted  # (the last epoch)

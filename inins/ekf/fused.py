@@ -18,6 +18,7 @@ from inins.core import jit, strapdown
 from inins.ekf import rows
 from inins.ekf.kernels import NAV
 from inins.ekf.step import (
+    Ins,
     compensate,
     correct,
     feedback,
@@ -319,10 +320,16 @@ def epochs(
     each epoch's row of :func:`epoch`'s. Epoch ``j`` is logged in row ``first + j``, its
     innovation rows after those of the epochs before it, from ``inn_start`` on.
 
+    The records may come as plain tuples of their fields (what the caller keeps: numba
+    checks a plain tuple's types faster than a named one's, a few microseconds a call
+    with a smoother's store, one epoch a call); they are named here.
+
     Returns the number of innovation rows written, or ``-1 - j`` if epoch ``j`` has a
     satellite of a system the filter does not take (:func:`epoch` returns -1; the
     epochs after it are not run).
     """
+    ins, state, model = Ins(*ins), TightState(*state), TightModel(*model)
+    sats, log = rows.Satellites(*sats), Log(*log)
     written = 0
     for j in range(times.shape[0]):
         a, e = starts[j], starts[j + 1]

@@ -46,15 +46,16 @@ unused); ``aid`` (m, 9) the accepted vehicle rows."""
 
 
 @jit.njit(cache=True)
-def _propagate(state, model, mid, rates, dt_k, Phi):
+def _propagate(state, model, mid, rates, dt_k, Phi, work):
     """``F`` at the mid-interval INS state ``mid`` = (quat, vel, lla) with the averaged
     ``rates`` (2, 3) (:func:`inins.ekf.kernels.system_matrix26`, the clock states
     dropped: rows and columns ``model.keep``), the series ``Phi`` and ``Qd`` over
-    ``dt_k``, the prediction (in place)."""
-    x, n, nb, keep = state.x, state.x.shape[0], model.n_base, model.keep
-    nf = 26 if nb == 24 else 17
-    Ff, Qf = np.zeros((nf, nf)), np.zeros((nf, nf))
-    F, Qc, Qd = np.zeros((n, n)), np.zeros((n, n)), np.zeros((n, n))
+    ``dt_k``, the prediction (in place); ``work`` = (Ff, Qf, F, Qc, Qd) the block's
+    work matrices (EKF26 or EKF17 size, then the filter's)."""
+    x, nb, keep = state.x, model.n_base, model.keep
+    Ff, Qf, F, Qc, Qd = work
+    F.fill(0.0)
+    Qc.fill(0.0)
     mq, mv, ml = mid
     mat_nb = step.mat_from_quat(mq)
     kernels.system_matrix26(ml[0], ml[2], mv, rates[1], mat_nb, rates[0], Ff)
@@ -117,7 +118,10 @@ def run_block(dtheta, dv, ins, state, ep, model, log):
     :data:`LooseEpochs`, ``model`` :data:`LooseModel`, ``log`` :data:`LooseLog`.
     """
     n = state.x.shape[0]
+    nf = 26 if model.n_base == 24 else 17
     Phi = np.zeros((n, n))
+    work = (np.zeros((nf, nf)), np.zeros((nf, nf)), np.zeros((n, n)), np.zeros((n, n)))
+    work = (*work, np.zeros((n, n)))
     rates = np.zeros((2, 3))
     start, dt = 0, model.dt
     for k in range(ep.end.shape[0]):
@@ -152,7 +156,9 @@ def run_block(dtheta, dv, ins, state, ep, model, log):
             state.count[0] += m
         t_k = state.times[1] + hi * dt + ep.frac[k]
         dt_k = t_k - state.times[0]
-        Phi[:] = np.eye(n)
+        for i in range(n):
+            for j in range(n):
+                Phi[i, j] = 1.0 if i == j else 0.0
         if math.isfinite(state.times[0]) and dt_k > 0.0:
             mid = m - math.floor(0.5 * dt_k / dt + 0.5)
             if mid <= 0 or m == 0:
@@ -160,7 +166,7 @@ def run_block(dtheta, dv, ins, state, ep, model, log):
             else:
                 middle = (oq[mid - 1], ov[mid - 1], ol[mid - 1])
             step.mean_rates(dth, dvv, mid, model.window, dt, rates)
-            _propagate(state, model, middle, rates, dt_k, Phi)
+            _propagate(state, model, middle, rates, dt_k, Phi, work)
         log.Phi[k] = Phi
         log.P_pred[k] = state.P
         state.times[0] = t_k

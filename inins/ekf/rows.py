@@ -12,6 +12,7 @@ Every block is derived in spec §6b and checked against a finite difference of
 the nonlinear model in ``tests/ekf/test_jacobians.py``:
 
 - :func:`pseudorange_rows`, :func:`range_rate_rows`: tightly coupled, per satellite
+  (on the geometry of :func:`line_of_sight`)
   (003 eq. 7, spec §6a);
 - :func:`antenna_position_rows`, :func:`antenna_velocity_rows`: loosely coupled, the
   GNSS solution of the antenna (spec §10);
@@ -69,9 +70,27 @@ def skew_block(H, row, col, a, sign):
 
 
 @jit.njit(cache=True, error_model="numpy")
-def pseudorange_rows(ant, sats, x, bias_col):
+def line_of_sight(ant, sats):
+    """Range ``rho`` (k,) m and unit line of sight ``e`` (k, 3) NED from the antenna to
+    each satellite (the geometry both the pseudorange and the range-rate rows use)."""
+    k = sats.pos.shape[0]
+    rho, e = np.empty(k), np.empty((k, 3))
+    m, r = ant.mat_en, ant.r  # e_n = C_ne (d / rho), C_ne = C_en^T
+    for i in range(k):
+        d0, d1, d2 = sats.pos[i, 0] - r[0], sats.pos[i, 1] - r[1], sats.pos[i, 2] - r[2]
+        rh = math.sqrt(d0**2 + d1**2 + d2**2)
+        u0, u1, u2 = d0 / rh, d1 / rh, d2 / rh
+        e[i, 0] = m[0, 0] * u0 + m[1, 0] * u1 + m[2, 0] * u2
+        e[i, 1] = m[0, 1] * u0 + m[1, 1] * u1 + m[2, 1] * u2
+        e[i, 2] = m[0, 2] * u0 + m[1, 2] * u1 + m[2, 2] * u2
+        rho[i] = rh
+    return rho, e
+
+
+@jit.njit(cache=True, error_model="numpy")
+def pseudorange_rows(ant, sats, los, x, bias_col):
     """Pseudoranges ``rho = |r_sat - r_ant| + c dt + b_s - c dt_sat + T + I`` (spec
-    §6a), one row per satellite.
+    §6a), one row per satellite; ``los`` the :func:`line_of_sight` of ``ant``.
 
     With ``e`` the unit line of sight (NED) and ``dr_ant = dr + [l_n x] phi``
     (spec §6b) the sensitivities at the estimate are ``-e^T`` on position and
@@ -79,15 +98,12 @@ def pseudorange_rows(ant, sats, x, bias_col):
     ``e^T [l_n x] = (e x l_n)^T``; 1 on the clock bias and on the satellite's
     inter-system bias state ``bias_col[i]`` (-1: none).
     """
-    k, n = sats.pos.shape[0], x.shape[0]
+    rho, e = los
+    k, n = rho.shape[0], x.shape[0]
     H, y, r = np.zeros((k, n)), np.empty(k), np.empty(k)
     l0, l1, l2 = ant.lever_n[0], ant.lever_n[1], ant.lever_n[2]
-    mat_ne = ant.mat_en.T
     for i in range(k):
-        d = sats.pos[i] - ant.r
-        rho = math.sqrt(d[0] ** 2 + d[1] ** 2 + d[2] ** 2)
-        e = mv3(mat_ne, d / rho)
-        e0, e1, e2 = e[0], e[1], e[2]
+        e0, e1, e2 = e[i, 0], e[i, 1], e[i, 2]
         h = H[i]
         h[POS], h[POS + 1], h[POS + 2] = e0, e1, e2
         # -e^T [l x] = l x e
@@ -95,7 +111,7 @@ def pseudorange_rows(ant, sats, x, bias_col):
         h[ATT + 1] = -(l2 * e0 - l0 * e2)
         h[ATT + 2] = -(l0 * e1 - l1 * e0)
         h[CLK] = 1.0
-        y[i] = sats.pseudorange[i] + sats.clock[i] - sats.delay[i] - rho - x[CLK]
+        y[i] = sats.pseudorange[i] + sats.clock[i] - sats.delay[i] - rho[i] - x[CLK]
         if bias_col[i] >= 0:
             h[bias_col[i]] = 1.0
             y[i] -= x[bias_col[i]]
@@ -104,9 +120,9 @@ def pseudorange_rows(ant, sats, x, bias_col):
 
 
 @jit.njit(cache=True, error_model="numpy")
-def range_rate_rows(ant, sats, x):
+def range_rate_rows(ant, sats, los, x):
     """Range rates ``rhodot = (v_sat - v_ant) . e + c dt' - c dt_sat'`` (spec §6a),
-    one row per satellite.
+    one row per satellite; ``los`` the :func:`line_of_sight` of ``ant``.
 
     With ``dv = v_sat - v_ant`` (NED), ``rho`` the range, ``u_n`` the lever arm's
     velocity and ``G = -dv^T (I - e e^T) / rho``, the sensitivities at the estimate are
@@ -118,47 +134,45 @@ def range_rate_rows(ant, sats, x):
     omega_ib - bg - C_bn w_ie``), which adds ``-e^T [l_n x][w_ie x]`` to the attitude
     columns and ``-e^T C_nb [l_b x]`` on ``BG`` (spec §6b).
     """
-    k, n = sats.pos.shape[0], x.shape[0]
+    rho, e = los
+    k, n = rho.shape[0], x.shape[0]
     H, y, r = np.zeros((k, n)), np.empty(k), np.empty(k)
-    mat_ne = ant.mat_en.T
-    va = mv3(mat_ne, ant.v)  # the antenna velocity (NED), the same for every satellite
+    m, c, j_v = ant.mat_en, ant.mat_nb, ant.j_v
+    va = mv3(m.T, ant.v)  # the antenna velocity (NED), the same for every satellite
     l0, l1, l2 = ant.lever_n[0], ant.lever_n[1], ant.lever_n[2]
     u0, u1, u2 = ant.lever_vel_n[0], ant.lever_vel_n[1], ant.lever_vel_n[2]
     w = earth_rate_n(ant.lla[0])
     lw = l0 * w[0] + l1 * w[1] + l2 * w[2]
-    exv = np.empty(3)
     for i in range(k):
-        d = sats.pos[i] - ant.r
-        rho = math.sqrt(d[0] ** 2 + d[1] ** 2 + d[2] ** 2)
-        e = mv3(mat_ne, d / rho)
-        dv = mv3(mat_ne, sats.vel[i] - ant.v)
-        edv = 0.0
-        for j in range(3):
-            edv += dv[j] * e[j]
-        e0, e1, e2 = e[0], e[1], e[2]
-        g0 = -(dv[0] - edv * e0) / rho
-        g1 = -(dv[1] - edv * e1) / rho
-        g2 = -(dv[2] - edv * e2) / rho
-        # a^T [b x] phi = a . (b x phi) = (a x b) . phi: the row of a^T [b x] is a x b
-        exv[0], exv[1], exv[2] = (
-            e1 * va[2] - e2 * va[1],
-            e2 * va[0] - e0 * va[2],
-            e0 * va[1] - e1 * va[0],
-        )
-        evj = mv3(ant.j_v.T, exv)  # e^T [v x] J_v
+        # dv = C_ne (v_sat - v_ant)
+        s0, s1, s2 = sats.vel[i, 0] - ant.v[0], sats.vel[i, 1] - ant.v[1], sats.vel[i, 2] - ant.v[2]
+        dv0 = m[0, 0] * s0 + m[1, 0] * s1 + m[2, 0] * s2
+        dv1 = m[0, 1] * s0 + m[1, 1] * s1 + m[2, 1] * s2
+        dv2 = m[0, 2] * s0 + m[1, 2] * s1 + m[2, 2] * s2
+        e0, e1, e2 = e[i, 0], e[i, 1], e[i, 2]
+        edv = dv0 * e0 + dv1 * e1 + dv2 * e2
+        g0 = -(dv0 - edv * e0) / rho[i]
+        g1 = -(dv1 - edv * e1) / rho[i]
+        g2 = -(dv2 - edv * e2) / rho[i]
+        # a^T [b x] phi = a . (b x phi) = (a x b) . phi: the row of a^T [b x] is a x b;
+        # e^T [v x] J_v = (e x v)^T J_v
+        x0, x1, x2 = e1 * va[2] - e2 * va[1], e2 * va[0] - e0 * va[2], e0 * va[1] - e1 * va[0]
         h = H[i]
-        h[POS], h[POS + 1], h[POS + 2] = -evj[0] - g0, -evj[1] - g1, -evj[2] - g2
+        h[POS] = -(j_v[0, 0] * x0 + j_v[1, 0] * x1 + j_v[2, 0] * x2) - g0
+        h[POS + 1] = -(j_v[0, 1] * x0 + j_v[1, 1] * x1 + j_v[2, 1] * x2) - g1
+        h[POS + 2] = -(j_v[0, 2] * x0 + j_v[1, 2] * x1 + j_v[2, 2] * x2) - g2
         h[VEL], h[VEL + 1], h[VEL + 2] = e0, e1, e2
-        # -e^T [u x] + G [l x] = u x e + g x l
-        h[ATT] = -((u1 * e2 - u2 * e1) + (g1 * l2 - g2 * l1))
-        h[ATT + 1] = -((u2 * e0 - u0 * e2) + (g2 * l0 - g0 * l2))
-        h[ATT + 2] = -((u0 * e1 - u1 * e0) + (g0 * l1 - g1 * l0))
-        # the lever arm's Earth rate turns with the attitude: -e^T [l x][w x]
+        # -e^T [u x] + G [l x] = u x e + g x l; the lever arm's Earth rate turns with
+        # the attitude: -e^T [l x][w x] = (l . w) e^T - (e . w) l^T
         ew = e0 * w[0] + e1 * w[1] + e2 * w[2]
-        for j in range(3):
-            h[ATT + j] += lw * e[j] - ew * ant.lever_n[j]
+        h[ATT] = -((u1 * e2 - u2 * e1) + (g1 * l2 - g2 * l1)) + (lw * e0 - ew * l0)
+        h[ATT + 1] = -((u2 * e0 - u0 * e2) + (g2 * l0 - g0 * l2)) + (lw * e1 - ew * l1)
+        h[ATT + 2] = -((u0 * e1 - u1 * e0) + (g0 * l1 - g1 * l0)) + (lw * e2 - ew * l2)
         # the gyro bias leaves the lever arm's rate: -e^T C_nb [l_b x] = (C_bn (l_n x e))^T
-        h[BG : BG + 3] = mv3(ant.mat_nb.T, np.cross(ant.lever_n, e))
+        c0, c1, c2 = l1 * e2 - l2 * e1, l2 * e0 - l0 * e2, l0 * e1 - l1 * e0
+        h[BG] = c[0, 0] * c0 + c[1, 0] * c1 + c[2, 0] * c2
+        h[BG + 1] = c[0, 1] * c0 + c[1, 1] * c1 + c[2, 1] * c2
+        h[BG + 2] = c[0, 2] * c0 + c[1, 2] * c1 + c[2, 2] * c2
         h[CLK + 1] = 1.0
         y[i] = sats.range_rate[i] + sats.clock_drift[i] - edv - x[CLK + 1]
         r[i] = sats.sigma_rr[i] ** 2

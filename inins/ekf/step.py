@@ -177,12 +177,13 @@ def update(x, P, nav, omega_b, model, sats, bias_col, init_clock, out):
     """
     quat, vel, lla = nav
     ant = antenna(quat, vel, lla, x, omega_b, model.lever)
-    y_pr, H_pr, r_pr = rows.pseudorange_rows(ant, sats, x, bias_col)
-    y_rr, H_rr, r_rr = rows.range_rate_rows(ant, sats, x)
+    los = rows.line_of_sight(ant, sats)
+    y_pr, H_pr, r_pr = rows.pseudorange_rows(ant, sats, los, x, bias_col)
+    y_rr, H_rr, r_rr = rows.range_rate_rows(ant, sats, los, x)
     if init_clock:  # receiver clock from the first epoch's residuals
         initial_clock(x, y_pr, y_rr, bias_col)
-        y_pr, H_pr, r_pr = rows.pseudorange_rows(ant, sats, x, bias_col)
-        y_rr, H_rr, r_rr = rows.range_rate_rows(ant, sats, x)
+        y_pr, H_pr, r_pr = rows.pseudorange_rows(ant, sats, los, x, bias_col)
+        y_rr, H_rr, r_rr = rows.range_rate_rows(ant, sats, los, x)
     k, n = y_pr.shape[0], x.shape[0]
     step = 2 if model.use_rr else 1  # rows: pseudorange, range rate of each satellite
     y0, H, r = np.empty(step * k), np.empty((step * k, n)), np.empty(step * k)

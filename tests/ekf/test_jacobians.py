@@ -190,8 +190,9 @@ def test_pseudorange_and_range_rate_rows(layout):
         bias_col[[1, 3]] = layout.index("isb_R")
     x0 = _x0(layout)
     ant = step.antenna(QUAT, FLIGHT, LLA, x0, OMEGA_IB, LEVER)
-    y_pr, H_pr, r_pr = rows.pseudorange_rows(ant, sats, x0, bias_col)
-    y_rr, H_rr, r_rr = rows.range_rate_rows(ant, sats, x0)
+    los = rows.line_of_sight(ant, sats)
+    y_pr, H_pr, r_pr = rows.pseudorange_rows(ant, sats, los, x0, bias_col)
+    y_rr, H_rr, r_rr = rows.range_rate_rows(ant, sats, los, x0)
     model = _tight_model(layout, sats, bias_col, x0)
     pr0, rr0 = model(x0)
     z_pr = sats.pseudorange  # y = z - zhat, zhat with the satellite clock and delay
