@@ -149,6 +149,7 @@ def test_shipped_scenario_reproduces_the_reference(config):
     summary = execute(find_command(ref["command"]), ROOT / config).summary
     assert summary["seed"] == ref["seed"]
     relative = ESTIMATORS.get(ref["command"], RELATIVE)
+    estimator = ref["command"] in ESTIMATORS
     for part in ("results", "truth"):
         got, want = summary[part], ref[part]
         assert sorted(got) == sorted(want), part
@@ -156,9 +157,7 @@ def test_shipped_scenario_reproduces_the_reference(config):
             k: (got[k], want[k])
             for k in want
             if k not in VOLATILE
-            and not agrees(
-                k, got[k], want[k], relative, sigma_of(k, want) if ref["command"] in ESTIMATORS else None
-            )
+            and not agrees(k, got[k], want[k], relative, sigma_of(k, want) if estimator else None)
         }
         assert diff == {}, f"{part} differ: {diff}"
 

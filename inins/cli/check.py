@@ -95,25 +95,13 @@ def _check(paths, workers, scheduler) -> int:
 def _run(targets, executor, records) -> None:
     """Run every target on ``executor``; print one line per scenario as it finishes
     (``records``: index -> worker record, filled as they arrive)."""
-    from inins.sweep.worker import PointTask
+    from inins.sweep.check import check_records
 
-    tasks = [
-        PointTask(str(t.path), i, t.command, str(t.path.resolve()), (), None)
-        for i, t in enumerate(targets)
-    ]
     with executor as ex:
         try:
-            pending = {ex.submit((task,)) for task in tasks}
-            while pending:
-                done, pending = ex.wait_any(pending)
-                for future in done:
-                    batch, retry = ex.outcome(future)
-                    if retry is not None:
-                        pending.add(retry)
-                        continue
-                    record = batch[0]
-                    records[record["index"]] = record
-                    _line(targets[record["index"]], record, len(records), len(targets))
+            for record in check_records(targets, ex):
+                records[record["index"]] = record
+                _line(targets[record["index"]], record, len(records), len(targets))
         except KeyboardInterrupt:
             _stop_workers(ex)
             raise

@@ -26,7 +26,7 @@ The IMU heading at any table position is the heading of ``mat_nt(encoder) @ mat_
 import numpy as np
 
 from inins.calibration.ett import align_ett, paper_angles
-from inins.commands import figures
+from inins.commands import align_ett_figures
 from inins.commands._table import load_record, table_estimate
 from inins.core import rotation
 from inins.core.units import ARCSEC
@@ -35,7 +35,7 @@ from inins.scenario.align_ett import AlignEttScenario
 from inins.scenario.si.align_ett import options
 
 SCENARIO_MODEL = AlignEttScenario
-FIGURES = {"align-ett.png": figures.align_ett_geometry}
+FIGURES = {"align-ett.png": align_ett_figures.align_ett_geometry}
 RESULT_NAMES = (
     "heading_deg",
     "heading_sigma_deg",

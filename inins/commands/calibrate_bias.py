@@ -9,7 +9,7 @@ datasets and text report from its outcome.
 import numpy as np
 
 from inins.calibration import budget, ett, three_axis
-from inins.commands import figures
+from inins.commands import calibrate_bias_figures
 from inins.commands._compensation import CompensatedRecord, scenario_terms
 from inins.commands._table import load_record, read_ett_result, table_estimate
 from inins.commands.calibrate_bias_report import (
@@ -31,8 +31,8 @@ from inins.scenario.si.calibrate_bias import method_settings
 
 SCENARIO_MODEL = CalibrateBiasScenario
 FIGURES = {
-    "calibrate-bias-roll.png": figures.calibrate_bias_roll,
-    "calibrate-bias-pitch.png": figures.calibrate_bias_pitch,
+    "calibrate-bias-roll.png": calibrate_bias_figures.calibrate_bias_roll,
+    "calibrate-bias-pitch.png": calibrate_bias_figures.calibrate_bias_pitch,
 }
 
 

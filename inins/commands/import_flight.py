@@ -12,16 +12,14 @@ track, and the error against a known position when the scenario gives one.
 
 import numpy as np
 
-from inins.commands import figures
-from inins.commands.run_ekf_post import read_post_gnss, read_post_imu
-from inins.core import earth
+from inins.commands import import_flight_figures
 from inins.core.units import DEG
 from inins.exceptions import InputError
 from inins.gnss import broadcast, ephemeris, glonass, gpstime, measurements, spp, timescales
 from inins.gnss import systems as systems_mod
-from inins.gnss.spp import FixStatus
+from inins.gnss.spp_check import SppCheck
 from inins.gnss.systems import LETTERS, NAMES, rinex_name
-from inins.io import flight_layout, imu_units, solution_layout
+from inins.io import flight_layout, imu_units, post_inputs, solution_layout
 from inins.io.flight_checks import checked_flight
 from inins.io.flight_layout import ImuRecord, RecordedFlight
 from inins.io.psins_tc import read_psins_tc
@@ -33,9 +31,9 @@ from inins.scenario.import_flight import ImportFlightScenario
 
 SCENARIO_MODEL = ImportFlightScenario
 FIGURES = {
-    "import-flight-track.png": figures.import_flight_track,
-    "import-flight-residuals.png": figures.import_flight_residuals,
-    "import-flight-sky.png": figures.import_flight_sky,
+    "import-flight-track.png": import_flight_figures.import_flight_track,
+    "import-flight-residuals.png": import_flight_figures.import_flight_residuals,
+    "import-flight-sky.png": import_flight_figures.import_flight_sky,
 }
 
 
@@ -65,7 +63,15 @@ def run(scenario, seed, *, sink=None, progress=None):
     klobuchar = (flight.iono_alpha, flight.iono_beta) if rows.klobuchar else None
     iono = rows.text
     solution = spp.solve(epochs, spp_options(scenario.spp, klobuchar))
-    check = SppCheck(solution, flight, scenario.static_window_imu_s, epochs)
+    imu_end = None if flight.imu is None else float(flight.imu.time[-1])
+    check = SppCheck(
+        solution,
+        flight.reference_pos_e,
+        flight.imu_t0_sow,
+        imu_end,
+        scenario.static_window_imu_s,
+        epochs,
+    )
     check.single_frequency_dropped = rows.dropped
     if scenario.reference_track is not None:
         check.score_track(*read_track(scenario.reference_track), scenario.reference_track_offset_s)
@@ -73,12 +79,12 @@ def run(scenario, seed, *, sink=None, progress=None):
         path: Series(value, unit, "", description)
         for path, (value, unit, description) in flight_layout.flight_arrays(flight).items()
     }
-    datasets.update(check.datasets())
+    datasets.update(_spp_datasets(check))
     used = "".join(LETTERS[k] for k in np.unique(epochs.obs.prn[solution.used] // 100).tolist())
     systems = {"systems_asked": scenario.systems, "systems_used": used}
     return CommandResult(
         command="import-flight",
-        results=check.results() | {"systems_used": len(used)},
+        results=_spp_results(check, flight) | {"systems_used": len(used)},
         datasets=datasets,
         attrs={"": flight_layout.flight_attrs(flight), "spp": {"ionosphere": iono} | systems},
         report=report(scenario, flight, epochs, check, iono),
@@ -95,8 +101,8 @@ def run_solution(scenario):
     maps it to GNSS time, as from the source files. Refused: IMU and GNSS spans that
     cannot overlap (the IMU log shorter than a tenth of the GNSS span, or the other way,
     so no mapping of the IMU tick onto GNSS time would cover the drive)."""
-    sol = read_post_gnss(scenario.solution_gnss)
-    imu = read_post_imu(scenario.solution_imu)
+    sol = post_inputs.read_gnss(scenario.solution_gnss)
+    imu = post_inputs.read_imu(scenario.solution_imu)
     imu_units.check_against_gnss(imu, sol, scenario.solution_imu.axes)
     span_g = float(sol.time[-1] - sol.time[0])
     span_i = float(imu.time[-1] - imu.time[0])
@@ -443,183 +449,59 @@ def nav_records(nav):
     return out
 
 
-class SppCheck:
-    """The SPP solution with the figures the report and summary carry."""
+def _spp_results(check, flight):
+    """The check's figures and the IMU sample count."""
+    return check.results() | {"imu_samples": 0 if flight.imu is None else len(flight.imu.time)}
 
-    def __init__(self, solution, flight, window, epochs=None):
-        self.epochs = epochs
-        self.sol = solution
-        self.flight = flight
-        self.window = window
-        self.fixed = np.isfinite(solution.pos[:, 0])
-        self.track = spp.track(solution)
-        ref = flight.reference_pos_e
-        self.error_ned = spp.errors_ned(solution, ref) if np.all(np.isfinite(ref)) else None
-        self.warnings = ()
-        self.single_frequency_dropped = 0
-        self.track_error_h = None
-        if not self.fixed.any():
-            self.warnings = ("no epoch has four satellites above the mask: no fix at all",)
 
-    def score_track(self, time, pos, offset_s):
-        """Horizontal errors of the accepted fixes against a reference trajectory whose time
-        is GPS seconds of week minus ``offset_s`` (linear interpolation; epochs outside it
-        are not scored)."""
-        t = self.sol.time - offset_s
-        inside = (t >= time[0]) & (t <= time[-1])
-        ref = np.stack([np.interp(t, time, pos[:, i]) for i in range(3)], axis=1)
-        lla = earth.llh_from_ecef(pos[0])
-        ned = (self.sol.pos - ref) @ earth.mat_en(lla[0], lla[1])
-        err = np.hypot(ned[:, 0], ned[:, 1])
-        self.track_error_h = np.where(inside & self.accepted, err, np.nan)
-        self.track_inside = int(inside.sum())
-
-    @property
-    def accepted(self):
-        """Epochs with a fix that passed the residual test (directly or after exclusions)."""
-        status = self.sol.status
-        return self.fixed & ((status == FixStatus.FIX) | (status == FixStatus.FAULT_EXCLUDED))
-
-    def imu_time(self):
-        """Epoch times on the IMU clock (s), NaN without IMU."""
-        return self.sol.time - self.flight.imu_t0_sow
-
-    def static_mask(self):
-        if self.window is None or self.flight.imu is None:
-            return None
-        t = self.imu_time()
-        return (t >= self.window[0]) & (t <= self.window[1]) & self.fixed
-
-    def results(self):
-        s, status = self.sol, self.sol.status
-        err_h = self.track_error_h
-        scored = None if err_h is None else err_h[np.isfinite(err_h)]
-        out = {
-            "epochs": len(s.time),
-            "epochs_accepted": int(np.count_nonzero(self.accepted)),
-            "single_frequency_rows_dropped": int(self.single_frequency_dropped),
-            "err_h_median_m": None if scored is None or not scored.size else _median(scored),
-            "err_h_p95_m": None if scored is None or not scored.size else _p95(scored),
-            "epochs_scored": None if scored is None else int(scored.size),
-            "epochs_fix": int(np.count_nonzero(self.fixed)),
-            "epochs_no_fix": int(np.count_nonzero(status == FixStatus.NO_FIX)),
-            "epochs_fault_excluded": int(np.count_nonzero(status == FixStatus.FAULT_EXCLUDED)),
-            "epochs_fault_detected": int(np.count_nonzero(status == FixStatus.FAULT_DETECTED)),
-            "satellites_used_median": _median(s.n_used[self.fixed]),
-            "pdop_median": _median(s.pdop[self.fixed]),
-            "residual_rms_median_m": _median(s.residual_rms[self.fixed]),
-            "track_length_m": float(self.track.distance[-1]) if len(s.time) else 0.0,
-            "speed_max_mps": _max(self.track.speed[self.fixed]),
-        }
-        err = None if self.error_ned is None else np.linalg.norm(self.error_ned, axis=1)
-        err = None if err is None else err[np.isfinite(err)]
-        out["err_3d_rms_m"] = None if err is None or not err.size else _rms(err)
-        out["err_3d_p95_m"] = None if err is None or not err.size else _p95(err)
-        out["err_3d_max_m"] = None if err is None or not err.size else float(err.max())
-        imu = self.flight.imu
-        out["imu_samples"] = 0 if imu is None else len(imu.time)
-        during = None
-        if imu is not None:
-            t = self.imu_time()
-            span = (t >= 0.0) & (t <= imu.time[-1])
-            if span.any():
-                d = self.track.distance[span]
-                during = float(d[-1] - d[0])
-        out["track_length_imu_m"] = during
-        still = self.static_mask()
-        if still is not None and still.sum() >= 2:
-            centre = self.sol.pos[still].mean(axis=0)
-            lla = earth.llh_from_ecef(centre)
-            ned = (self.sol.pos[still] - centre) @ earth.mat_en(lla[0], lla[1])
-            out["static_horizontal_std_m"] = float(np.hypot(*ned[:, :2].std(axis=0)))
-            speed = np.linalg.norm(self.sol.vel[still], axis=1)
-            out["static_speed_rms_mps"] = _rms(speed[np.isfinite(speed)])
-        else:
-            out["static_horizontal_std_m"] = out["static_speed_rms_mps"] = None
-        return out
-
-    def datasets(self):
-        s = self.sol
-        lla = earth.llh_from_ecef(np.nan_to_num(s.pos))
-        lla[~self.fixed] = np.nan
-        out = {
-            "spp/time": Series(s.time, "s", "", "receive time tag, GPS seconds of week"),
-            "spp/pos_e": Series(s.pos, "m", "e", "antenna position, ECEF (NaN: no fix)"),
-            "spp/lla": Series(lla, "rad, rad, m", "", "latitude, longitude, height"),
-            "spp/vel_n": Series(self.track.vel_n, "m/s", "n", "range-rate velocity, NED"),
-            "spp/clock_m": Series(s.clock, "m", "", "receiver clock bias c dt_rx"),
-            "spp/drift_mps": Series(s.drift, "m/s", "", "receiver clock drift c dt_rx_dot"),
-            "spp/status": Series(
-                s.status.astype(np.int8),
-                "1",
-                "",
-                "0 fix, 1 no fix, 2 fault excluded, 3 fault detected, 4 not converged",
-            ),
-            "spp/satellites_used": Series(s.n_used, "1", "", "satellites in the fix"),
-            "spp/pdop": Series(s.pdop, "1", "", "position dilution of precision"),
-            "spp/residual_rms": Series(s.residual_rms, "m", "", "RMS of the used residuals"),
-            "spp/excluded_prn": Series(s.excluded_prn, "1", "", "satellite excluded, 0 none"),
-            "spp/n_excluded": Series(s.n_excluded, "1", "", "satellites excluded in the epoch"),
-            "spp/distance": Series(self.track.distance, "m", "", "path length so far"),
-        }
-        if s.isb_systems:
-            out["spp/isb_m"] = Series(
-                s.isb,
-                "m",
-                "",
-                "inter-system bias of each further system ("
-                + ", ".join(NAMES[k] for k in s.isb_systems)
-                + "), NaN where not estimated",
-            )
-        out.update(self.row_datasets())
-        if self.error_ned is not None:
-            out["spp/error_ned"] = Series(
-                self.error_ned, "m", "n", "position error against the reference, NED"
-            )
-        return out
-
-    def row_datasets(self):
-        """Per measurement row: elevation and azimuth seen from the epoch's fix (NaN
-        without one), the residual and whether the fix used it (the sky plot, the
-        residual figure)."""
-        if self.epochs is None:
-            return {}
-        s, obs = self.sol, self.epochs.obs
-        counts = np.diff(obs.start)
-        rx = np.repeat(s.pos, counts, axis=0)
-        los = self.epochs.sat_pos - rx
-        lla = earth.llh_from_ecef(np.nan_to_num(rx))
-        mat = earth.mat_en(lla[:, 0], lla[:, 1])  # (m, 3, 3) ECEF from NED
-        ned = np.einsum("mji,mj->mi", mat, los)
-        rng = np.linalg.norm(ned, axis=1)
-        with np.errstate(invalid="ignore"):
-            el = np.arcsin(-ned[:, 2] / rng)
-        az = np.mod(np.arctan2(ned[:, 1], ned[:, 0]), 2 * np.pi)
-        return {
+def _spp_datasets(check):
+    """The ``spp/`` datasets of the check (:class:`inins.gnss.spp_check.SppCheck`)."""
+    s = check.sol
+    out = {
+        "spp/time": Series(s.time, "s", "", "receive time tag, GPS seconds of week"),
+        "spp/pos_e": Series(s.pos, "m", "e", "antenna position, ECEF (NaN: no fix)"),
+        "spp/lla": Series(check.lla(), "rad, rad, m", "", "latitude, longitude, height"),
+        "spp/vel_n": Series(check.track.vel_n, "m/s", "n", "range-rate velocity, NED"),
+        "spp/clock_m": Series(s.clock, "m", "", "receiver clock bias c dt_rx"),
+        "spp/drift_mps": Series(s.drift, "m/s", "", "receiver clock drift c dt_rx_dot"),
+        "spp/status": Series(
+            s.status.astype(np.int8),
+            "1",
+            "",
+            "0 fix, 1 no fix, 2 fault excluded, 3 fault detected, 4 not converged",
+        ),
+        "spp/satellites_used": Series(s.n_used, "1", "", "satellites in the fix"),
+        "spp/pdop": Series(s.pdop, "1", "", "position dilution of precision"),
+        "spp/residual_rms": Series(s.residual_rms, "m", "", "RMS of the used residuals"),
+        "spp/excluded_prn": Series(s.excluded_prn, "1", "", "satellite excluded, 0 none"),
+        "spp/n_excluded": Series(s.n_excluded, "1", "", "satellites excluded in the epoch"),
+        "spp/distance": Series(check.track.distance, "m", "", "path length so far"),
+    }
+    if s.isb_systems:
+        out["spp/isb_m"] = Series(
+            s.isb,
+            "m",
+            "",
+            "inter-system bias of each further system ("
+            + ", ".join(NAMES[k] for k in s.isb_systems)
+            + "), NaN where not estimated",
+        )
+    geometry = check.row_geometry()
+    if geometry is not None:  # the sky plot, the residual figure
+        el, az, epoch = geometry
+        out |= {
             "spp/row_elevation": Series(el, "rad", "", "elevation from the fix (NaN: no fix)"),
             "spp/row_azimuth": Series(az, "rad", "", "azimuth from the fix, from north"),
-            "spp/row_prn": Series(obs.prn, "1", "", "satellite of each row"),
-            "spp/row_epoch": Series(np.repeat(np.arange(len(counts)), counts), "1", "", "epoch"),
+            "spp/row_prn": Series(check.epochs.obs.prn, "1", "", "satellite of each row"),
+            "spp/row_epoch": Series(epoch, "1", "", "epoch"),
             "spp/residual": Series(s.residual, "m", "", "pseudorange residual (measured - model)"),
             "spp/row_used": Series(s.used.astype(np.int8), "1", "", "row used in the fix"),
         }
-
-
-def _median(values):
-    return float(np.median(values)) if len(values) else None
-
-
-def _max(values):
-    values = values[np.isfinite(values)]
-    return float(values.max()) if len(values) else None
-
-
-def _rms(values):
-    return float(np.sqrt(np.mean(np.square(values)))) if len(values) else None
-
-
-def _p95(values):
-    return float(np.percentile(values, 95))
+    if check.error_ned is not None:
+        out["spp/error_ned"] = Series(
+            check.error_ned, "m", "n", "position error against the reference, NED"
+        )
+    return out
 
 
 def report(scenario, flight, epochs, check, iono):

@@ -19,7 +19,7 @@ import numpy as np
 
 from inins.calibration import stationary
 from inins.calibration.imu_model import compensate
-from inins.commands import figures
+from inins.commands import import_log_figures
 from inins.commands._compensation import compensation_provenance, scenario_terms
 from inins.commands.import_log_report import hold_numbers, report
 from inins.core.records import Step, StepKind
@@ -35,7 +35,7 @@ from inins.scenario.import_log import ImportLogScenario, import_settings
 from inins.table import kinematics
 
 SCENARIO_MODEL = ImportLogScenario
-FIGURES = {"import-log.png": figures.import_log_checks}
+FIGURES = {"import-log.png": import_log_figures.import_log_checks}
 HOLD_NAMES = (
     "roll_deg",
     "pitch_deg",

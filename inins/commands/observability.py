@@ -10,12 +10,13 @@ combinations, the singular values per segment and the 1-sigma history.
 
 import numpy as np
 
-from inins.commands import figures
+from inins.commands import observability_figures
 from inins.core import rotation
 from inins.core.error_model import GROUPS
 from inins.core.units import ARCSEC, DEG, DEG_RTH, DPH, UG, UG_RTHZ
 from inins.exceptions import InputError
 from inins.observability import analysis, models
+from inins.observability import segments as segments_mod
 from inins.observability.analysis import NEAR_PRIOR, PRACTICAL_RATIO
 from inins.observability.segments import cut_segments, interval_means
 from inins.results import CommandResult, Series, format_table
@@ -24,8 +25,8 @@ from inins.scenario.si.observability import listed_segments, measurement
 
 SCENARIO_MODEL = ObservabilityScenario
 FIGURES = {
-    "observability-sigma.png": figures.observability_sigma,
-    "observability-singular-values.png": figures.observability_singular_values,
+    "observability-sigma.png": observability_figures.observability_sigma,
+    "observability-singular-values.png": observability_figures.observability_singular_values,
 }
 
 
@@ -53,7 +54,7 @@ def run(scenario, seed, *, sink=None, progress=None):
                 "method": found.pwcs.method,
                 "combinations": list(found.combinations),
                 "tolerance": float(found.pwcs.tolerance),
-                "turns_s": [list(t) for t in turns(segments)],
+                "turns_s": [list(t) for t in segments_mod.turns(segments)],
             }
         },
         report=report(scenario, found, segments) + turn_report(found, segments),
@@ -218,30 +219,10 @@ def datasets(found, segments):
     return out
 
 
-TURN_ROLL = 10.0 * DEG
-"""A segment banked more than this is part of a turn."""
-
-
-def turns(segments):
-    """(start, end) times (s) of the turns: runs of segments banked beyond :data:`TURN_ROLL`."""
-    ends = np.cumsum([s.duration for s in segments])
-    banked = [abs(rotation.euler_from_mat(s.mat_nb)[0]) > TURN_ROLL for s in segments]
-    out, start = [], None
-    for j, b in enumerate(banked):
-        if b and start is None:
-            start = float(ends[j] - segments[j].duration)
-        if start is not None and not b:
-            out.append((start, float(ends[j - 1])))
-            start = None
-    if start is not None:
-        out.append((start, float(ends[-1])))
-    return out
-
-
 def turn_report(found, segments):
     """Degree of observability turn by turn: sigma / prior of the sensor-error states
     before the first turn and at the end of each turn (flights only)."""
-    spans = turns(segments)
+    spans = segments_mod.turns(segments)
     cov = found.covariance
     if not spans or cov is None:
         return ""

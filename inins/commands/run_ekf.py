@@ -18,14 +18,15 @@ from dataclasses import replace
 import numpy as np
 
 from inins.calibration.imu_model import compensate
-from inins.commands import figures, run_ekf_post, run_ekf_post_figures, run_ekf_report
+from inins.commands import run_ekf_figures, run_ekf_post, run_ekf_report
 from inins.commands._compensation import scenario_terms
-from inins.core import rotation, strapdown
+from inins.core import strapdown
 from inins.core.units import ARCSEC, DEG, DPH
 from inins.ekf import flight as fl
-from inins.ekf import recorded, sources
+from inins.ekf import recorded, scoring, smoother, sources
 from inins.ekf.config import Coupling, FilterConfig, InitialSigma, Model, clock_psd
 from inins.ekf.filter import run_filter
+from inins.ekf.tight_store import TightStore
 from inins.exceptions import InputError
 from inins.gnss import broadcast, constellation, ephemeris, glonass, gpstime, measurements
 from inins.io.flight_layout import read_flight
@@ -35,26 +36,20 @@ from inins.results import CommandResult, Series
 from inins.scenario.run_ekf import RunEkfScenario
 
 SCENARIO_MODEL = RunEkfScenario
-FIGURES = run_ekf_post_figures.with_post_figures(
-    {
-        "run-ekf-heading-error.png": figures.run_ekf_heading,
-        "run-ekf-gyro-bias.png": figures.run_ekf_gyro_bias,
-        "run-ekf-misalignment.png": figures.run_ekf_misalignment,
-        "run-ekf-fb-corrections.png": figures.run_ekf_corrections,
-    }
-)
+FIGURES = run_ekf_figures.FIGURES
 
 
 def run(scenario, seed, *, sink=None, progress=None):
     """Run the filter on the scenario's flight or recording."""
     if scenario.post is not None:  # loosely coupled post-processing of a drive
         return run_ekf_post.run(scenario, seed, sink=sink, progress=progress)
-    store = run_ekf_post.tight_store(scenario.filter)
+    store = TightStore() if scenario.filter.smoother == "rts" else None
     if scenario.data is not None:
         result, info = _recorded(scenario, store)
     else:
         result, info = _simulated(scenario, seed, progress, store)
-    smoothed = run_ekf_post.tight_smoothed(result, store, scenario.filter.outages_s)
+    sm = None if store is None else smoother.smooth(store.run())
+    smoothed = run_ekf_report.tight_smoothed(result, sm, scenario.filter.outages_s)
     summary = result.summary()
     if result.heading_error.size and np.any(result.time >= scenario.filter.turning_from_s):
         window = result.summary(window=(scenario.filter.turning_from_s, math.inf))
@@ -320,12 +315,6 @@ def _recorded(scenario, store=None):
     return result, info
 
 
-def forward_heading(result, forward):
-    """Heading (rad) of the body ``forward`` axis at each epoch, shape (m,)."""
-    axis = rotation.mat_from_quat(result.quat_nb) @ forward
-    return np.arctan2(axis[:, 1], axis[:, 0])
-
-
 def _null(value):
     return None if value is None or not np.isfinite(value) else float(value)
 
@@ -357,8 +346,8 @@ RESULT_NAMES = (
     "mg_zy_sigma_arcsec",
 )
 """Every result a run gives (null where not applicable: no truth, no recording, EKF1)."""
-RESULT_NAMES += run_ekf_post.TIGHT_SMOOTH_NAMES  # null unless filter.smoother: rts
-RESULT_NAMES += run_ekf_post.TIGHT_OUTAGE_NAMES  # null without truth and outages_s
+RESULT_NAMES += run_ekf_report.TIGHT_SMOOTH_NAMES  # null unless filter.smoother: rts
+RESULT_NAMES += run_ekf_report.TIGHT_OUTAGE_NAMES  # null without truth and outages_s
 TRUTH_NAMES = ("gyro_bias_z_est_dph", "mg_yz_est_arcsec", "mg_zy_est_arcsec")
 
 
@@ -396,17 +385,20 @@ def _results(result, s, info):
     i = result.layout.index("phi_D")
     out["fb_heading_correction_deg"] = float(result.cumulative[-1, i] / DEG)
     out["phi_d_est_final_deg"] = float(result.state[-1, i] / DEG)
-    if info.get("spp_pos") is not None:
-        # the antenna, compared with the SPP fix
-        r = recorded.antenna_positions(result.lla, result.quat_nb, info["lever"])
-        ok = np.isfinite(info["spp_pos"][:, 0])
-        dp = np.linalg.norm(r[ok] - info["spp_pos"][ok], axis=1)
-        dv = np.linalg.norm(result.vel_n[ok] - info["spp_vel_n"][ok], axis=1)
+    if info.get("spp_pos") is not None:  # the antenna, compared with the SPP fix
+        f = scoring.fix_differences(
+            result.lla,
+            result.quat_nb,
+            result.vel_n,
+            info["lever"],
+            info["spp_pos"],
+            info["spp_vel_n"],
+        )
         out.update(
-            spp_pos_diff_max_m=float(dp.max()),
-            spp_pos_diff_rms_m=float(np.sqrt(np.mean(dp**2))),
-            spp_vel_diff_max_mps=float(dv.max()),
-            spp_vel_diff_rms_mps=float(np.sqrt(np.mean(dv**2))),
+            spp_pos_diff_max_m=f.pos_max,
+            spp_pos_diff_rms_m=f.pos_rms,
+            spp_vel_diff_max_mps=f.vel_max,
+            spp_vel_diff_rms_mps=f.vel_rms,
             initial_heading_deg=float(info["heading_init"].heading / DEG),
         )
     for name in ("mg_yz", "mg_zy"):
@@ -464,7 +456,10 @@ def _datasets(r, info):
         d["spp/pos_e"] = Series(info["spp_pos"], "m", "e", "SPP antenna position at each epoch")
         d["spp/vel_n"] = Series(info["spp_vel_n"], "m/s", "n", "SPP range-rate velocity")
     d["nav/forward_heading"] = Series(
-        forward_heading(r, info["forward"]), "rad", "", "heading of the body forward axis"
+        scoring.forward_heading(r.quat_nb, info["forward"]),
+        "rad",
+        "",
+        "heading of the body forward axis",
     )
     return d
 

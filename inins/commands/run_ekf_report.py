@@ -10,11 +10,13 @@ both couplings: FB folds its corrections back into the state, see
 """
 
 import math
+from dataclasses import dataclass
 
 import numpy as np
 
 from inins.core.units import ARCSEC, DEG, DPH, UG
-from inins.results import format_table
+from inins.ekf import scoring
+from inins.results import Series, format_table
 
 NO_TRUTH = "n/a (recording without truth)"
 _UNITS = (  # state-name prefix -> (lab unit, SI per lab unit)
@@ -132,3 +134,115 @@ def heading_line(s, window_s, has_truth):
         f"heading error RMS from {window_s:g} s: {rms:.4g} deg ({rms * 3600:.4g} arcsec), "
         f"final {number(final, '.4g', 'n/a')} deg"
     )
+
+
+# --------------------------------------------------------------------------- tight smoothing
+
+TIGHT_SMOOTH_NAMES = (
+    "smoothed_hor_sigma_median_m",
+    "forward_hor_sigma_median_m",
+    "smoothed_heading_sigma_start_deg",
+    "smoothed_forward_hor_diff_max_m",
+    "smoothed_pos_err_rms_m",
+)
+"""Results of ``filter.smoother: rts`` in the tight mode (null without it)."""
+TIGHT_OUTAGE_NAMES = (
+    "outages_scored",
+    "outage_fwd_drift_hor_rms_m",
+    "outage_fwd_drift_3d_rms_m",
+    "outage_fwd_heading_end_rms_deg",
+    "outage_sm_drift_hor_rms_m",
+    "outage_sm_drift_3d_rms_m",
+    "outage_sm_heading_end_rms_deg",
+)
+"""Outage scores of a tight run against truth (``filter.outages_s`` on a simulated flight;
+``sm``: with ``filter.smoother: rts``; null otherwise)."""
+
+
+@dataclass(frozen=True)
+class TightSmoothed:
+    """What the smoother and the outage protocol add to a tight run's results, datasets
+    and report."""
+
+    results: dict
+    datasets: dict
+    report: str
+
+
+def tight_outages(result, smoothed, windows):
+    """Results (lab units) and report lines of the outage protocol
+    (:func:`inins.ekf.scoring.tight_outage_scores`); nulls and no text without truth or
+    windows."""
+    out = dict.fromkeys(TIGHT_OUTAGE_NAMES)
+    scores = scoring.tight_outage_scores(result, smoothed, windows)
+    if scores is None:
+        return out, ""
+    fwd, smd = scores
+    out.update(
+        outages_scored=int(fwd.window.shape[0]),
+        outage_fwd_drift_hor_rms_m=fwd.rms_horizontal,
+        outage_fwd_drift_3d_rms_m=fwd.rms_3d,
+        outage_fwd_heading_end_rms_deg=fwd.rms_heading / DEG,
+    )
+    if smd is not None:
+        out.update(
+            outage_sm_drift_hor_rms_m=smd.rms_horizontal,
+            outage_sm_drift_3d_rms_m=smd.rms_3d,
+            outage_sm_heading_end_rms_deg=smd.rms_heading / DEG,
+        )
+    lines = [f"\n\nOutages ({fwd.window.shape[0]}, no GNSS measurement used), against truth:"]
+    lines.append(
+        "  window (s)        fwd hor / 3D max (m)  heading end (deg)"
+        + ("   sm hor / 3D max (m)  heading end (deg)" if smd is not None else "")
+    )
+    for k, (a, b) in enumerate(fwd.window):
+        row = (
+            f"  [{a:7.1f}, {b:7.1f})  {fwd.max_horizontal[k]:9.3f} / {fwd.max_3d[k]:9.3f}"
+            f"  {fwd.heading_end[k] / DEG:17.4f}"
+        )
+        if smd is not None:
+            row += (
+                f"   {smd.max_horizontal[k]:9.3f} / {smd.max_3d[k]:9.3f}"
+                f"  {smd.heading_end[k] / DEG:17.4f}"
+            )
+        lines.append(row)
+    rms = f"  RMS of the maxima: forward {fwd.rms_horizontal:.3f} m horizontal"
+    if smd is not None:
+        rms += f", smoothed {smd.rms_horizontal:.3f} m"
+    lines.append(rms)
+    return out, "\n".join(lines)
+
+
+def tight_smoothed(result, smoothed, windows=()):
+    """Results, datasets and report of a tight run's ``smoothed`` solution
+    (:class:`inins.ekf.smoother.Smoothed`, None: nulls) and its outage ``windows`` (s)."""
+    out = dict.fromkeys(TIGHT_SMOOTH_NAMES)
+    scores, text = tight_outages(result, smoothed, windows)
+    if smoothed is None:
+        return TightSmoothed(out | scores, {}, text)
+    f = scoring.smoothing_figures(result, smoothed)
+    out.update(
+        smoothed_hor_sigma_median_m=f.smoothed_hor_sigma_median,
+        forward_hor_sigma_median_m=f.forward_hor_sigma_median,
+        smoothed_heading_sigma_start_deg=f.smoothed_heading_sigma_start / DEG,
+        smoothed_forward_hor_diff_max_m=f.hor_diff_max,
+        smoothed_pos_err_rms_m=f.smoothed_pos_err_rms,
+    )
+    datasets = {
+        "smoothed/lla": Series(smoothed.lla, "rad, rad, m", "", "RTS-smoothed position (IMU)"),
+        "smoothed/vel_n": Series(smoothed.vel, "m/s", "n", "smoothed velocity"),
+        "smoothed/quat_nb": Series(smoothed.quat, "1", "nb", "smoothed attitude"),
+        "smoothed/sigma": Series(smoothed.sigma, "SI", "", "smoothed 1-sigma of each state"),
+    }
+    report = (
+        f"\n\nRTS smoothing: median horizontal 1-sigma {out['forward_hor_sigma_median_m']:.3g} m "
+        f"forward, {out['smoothed_hor_sigma_median_m']:.3g} m smoothed; heading 1-sigma at the "
+        f"start {out['smoothed_heading_sigma_start_deg']:.3g} deg smoothed; largest horizontal "
+        f"forward-smoothed difference {out['smoothed_forward_hor_diff_max_m']:.3g} m"
+        + (
+            ""
+            if out["smoothed_pos_err_rms_m"] is None
+            else f"; smoothed position error RMS {out['smoothed_pos_err_rms_m']:.3g} m"
+        )
+    )
+    return TightSmoothed(out | scores, datasets, report + text)

@@ -7,7 +7,7 @@ summary numbers and the report.
 
 import numpy as np
 
-from inins.commands import figures
+from inins.commands import simulate_table_figures
 from inins.commands._table import stream, table_estimate, table_layout
 from inins.core.units import DEG_RTH, DPH, PPM, UG, UG_RTHZ
 from inins.results import CommandResult, NullSink, format_table
@@ -15,7 +15,7 @@ from inins.scenario.si.table import table_simulation
 from inins.scenario.simulate_table import SimulateTableScenario
 
 SCENARIO_MODEL = SimulateTableScenario
-FIGURES = {"simulate-table.png": figures.simulate_table_motion}
+FIGURES = {"simulate-table.png": simulate_table_figures.simulate_table_motion}
 RESULT_NAMES = ("samples", "duration_s", "sample_rate_hz", "steps")
 TRUTH_NAMES = tuple(
     f"{s}_bias_{a}_{u}" for s, u in (("gyro", "dph"), ("accel", "ug")) for a in "xyz"

@@ -164,11 +164,17 @@ against the reference system's clock: the tightly coupled filter appends one per
 system it uses (:class:`inins.ekf.config.FilterConfig`). Filter states only, outside
 :data:`GROUPS` (the error model of :func:`system_matrix` has no use for them)."""
 UNITS |= dict.fromkeys(SYSTEM_BIASES, "m")
+TIME_OFFSET = "dt_g"
+"""GNSS-minus-IMU time offset (s) of the loosely coupled filter: a solution tagged ``t``
+was taken at IMU time ``t + dt_g`` (:mod:`inins.ekf.loose`). A filter state only, outside
+:data:`GROUPS`."""
+UNITS[TIME_OFFSET] = "s"
 
 _ALL = tuple(name for names in GROUPS.values() for name in names)
 _POS = {name: i for i, name in enumerate(_ALL)}
 _GROUP_OF = {name: group for group, names in GROUPS.items() for name in names}
 _GROUP_OF |= dict.fromkeys(SYSTEM_BIASES, "inter_system_bias")
+_GROUP_OF[TIME_OFFSET] = "time_offset"
 
 
 @dataclass(frozen=True)

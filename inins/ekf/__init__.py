@@ -12,14 +12,20 @@ Pure numerics: imports only ``inins.core`` and ``inins.gnss``.
   FF/FB, noise, gating, dither window, outages), :class:`~inins.ekf.config.EpochInput`.
 - :mod:`inins.ekf.filter` — :func:`~inins.ekf.filter.run_filter`, the streaming run;
   :class:`~inins.ekf.filter.EpochLog`, what it records per epoch;
-  :func:`~inins.ekf.filter.score`, the errors against truth after the run.
+  :func:`~inins.ekf.scoring.truth_errors`, the errors against truth after the run.
 - :mod:`inins.ekf.sources` — epoch streams: a simulated flight through the GNSS
   layer's receiver simulation, a recording; levelling and the velocity-heading
   initialisation of a recording.
 - :mod:`inins.ekf.recorded` — a recording made ready for the filter: GNSS epochs
   during the IMU record, SPP fixes, initial attitude and the IMU position below the
   antenna's first fix.
+- :mod:`inins.ekf.loose`, :mod:`inins.ekf.aiding`, :mod:`inins.ekf.smoother` — the
+  loosely coupled filter with vehicle aiding, and the RTS smoother of either filter.
+- :mod:`inins.ekf.post` — a recorded drive made ready for the loose filter (time
+  mapping, resampling, initial state, outages); :mod:`inins.ekf.scoring` — scores of
+  a run against a reference or truth.
 - :mod:`inins.ekf.result` — :class:`~inins.ekf.result.EkfResult`,
   :class:`~inins.ekf.result.EkfSummary`.
-- :mod:`inins.ekf.kernels`, :mod:`inins.ekf.step` — compiled per-epoch numerics.
+- :mod:`inins.ekf.kernels`, :mod:`inins.ekf.rows`, :mod:`inins.ekf.step` — compiled per-epoch
+  numerics: the error model and update, the measurement rows by kind, the fused epoch.
 """

@@ -1,23 +1,16 @@
-"""Vehicle aiding of the loosely coupled filter: ZUPT, ZARU, NHC (and the stationary detector).
+"""Vehicle aiding of the loosely coupled filter: ZUPT, ZARU, NHC, odometer (and the
+stationary detector).
 
-Measurements at a filter epoch, with the states as errors (estimate minus true,
-``C_est = (I - [phi x]) C``), the INS velocity ``v`` (NED) and ``C_bn = C_nb^T``:
+The rows (:mod:`inins.ekf.rows`, block by block in spec §6b), at the INS state
+``nav (-) x`` of an epoch, the vehicle frame ``v`` turned from the body by the mounting
+``C_vb``:
 
-- ZUPT (zero velocity, while stationary): ``z = 0 = v_true``; ``y = -v_est``,
-  ``H = -I`` on the velocity error.
-- ZARU (zero angular rate, while stationary): the compensated gyro mean over the
-  epoch's IMU chunk minus the Earth rate in body axes, ``z = omega - C_bn w_ie``,
-  equals the residual gyro bias: ``H = +I`` on the gyro-bias states (the sensor
-  states are the quantities, not errors).
-- NHC (non-holonomic: no lateral or vertical velocity of the vehicle): with the
-  vehicle-to-IMU mounting ``C_vb`` (IMU body to vehicle axes), ``v_v = C_vb C_bn v``
-  has zero y and z. ``C_bn_est v_est = v_b + C_bn dv - C_bn [v x] phi``, so
-  ``y = -(C_vb C_bn_est v_est)_{y,z}``, ``H = -C_vb C_bn`` on velocity and
-  ``+C_vb C_bn [v x]`` on attitude (rows y, z). The lever arm between the IMU and
-  the point that does not slip (rear axle) is neglected: it adds ``omega x l``,
-  below 0.1 m/s for 1 m at 5 deg/s.
-- Odometer (wheel speed, where a column exists): the forward vehicle speed,
-  ``z = (C_vb C_bn v)_x``, rows as the NHC's for x; ``y = z - (C_vb C_bn_est v_est)_x``.
+- ZUPT (while stationary): the velocity is zero.
+- ZARU (while stationary): the compensated gyro mean over the epoch's IMU chunk is the
+  Earth rate in body axes plus the residual gyro bias.
+- NHC: the lateral and vertical velocity in the vehicle frame are zero (the lever arm
+  to the point that does not slip is neglected: below 0.1 m/s for 1 m at 5 deg/s).
+- Odometer (where a column exists): the forward vehicle speed is the wheel speed.
 
 Stationary detector (:func:`stationary`): over the ``window`` samples up to each
 epoch, the RMS deviation of the specific-force vector from its window mean,
@@ -34,15 +27,29 @@ import math
 import numpy as np
 
 from inins.core import earth, jit
-from inins.ekf import kernels, step
+from inins.ekf import kernels, rows, step
+
+NHC, ZUPT, ZARU, ODOMETER = 0, 2, 5, 8
+"""The flags of the vehicle rows in :func:`vehicle_update`'s ``acc_out`` (9,): NHC y, z,
+ZUPT N, E, D, ZARU x, y, z, odometer."""
 
 
 @jit.njit(cache=True)
-def vehicle_update(
-    x, P, quat, vel, lla, omega_mean, c_vb, stationary, odo, sig, threshold, acc_out
-):
-    """ZUPT + ZARU (when ``stationary``), NHC and odometer rows at one epoch; returns
-    the rows accepted.
+def _append(H, y, r, at, part):
+    """Rows ``part`` = (y, H, r) into ``H``, ``y``, ``r`` from row ``at``; the next row."""
+    py, pH, pr = part
+    m = py.shape[0]
+    H[at : at + m] = pH
+    y[at : at + m] = py
+    r[at : at + m] = pr
+    return at + m
+
+
+@jit.njit(cache=True)
+def vehicle_update(x, P, ins, omega_mean, c_vb, stationary, odo, sig, threshold, acc_out):
+    """ZUPT + ZARU (when ``stationary``), NHC and odometer rows at one epoch
+    (:mod:`inins.ekf.rows`), at the INS state ``nav (-) x`` of ``ins``
+    (:data:`inins.ekf.step.Ins`); returns the rows accepted.
 
     ``sig``: [nhc, zupt, zaru, odometer] 1-sigma (m/s, m/s, rad/s, m/s); a value <= 0
     turns that aid off; ``odo`` the odometer's forward speed (m/s, NaN: none).
@@ -50,71 +57,38 @@ def vehicle_update(
     """
     n = x.shape[0]
     cq, cv, cl = np.empty(4), np.empty(3), np.empty(3)
-    step.correct(quat, vel, lla, x, cq, cv, cl)
-    c_nb = step.mat_from_quat(cq)
-    c_bn = c_nb.T
-    rows = 0
-    H = np.zeros((9, n))
-    y0, r = np.zeros(9), np.zeros(9)
+    step.correct(ins.quat, ins.vel, ins.lla, x, cq, cv, cl)
+    c_bn = step.mat_from_quat(cq).T
+    c_vn = c_vb @ c_bn
+    H, y0, r = np.zeros((9, n)), np.zeros(9), np.zeros(9)
+    slots = np.empty(9, np.int64)  # the acc_out flag of each row
+    at = 0
     acc_out.fill(False)
-    m = c_vb @ c_bn
-    vv = m @ cv
-    vx = np.zeros((3, 3))
-    vx[0, 1], vx[0, 2], vx[1, 0] = -cv[2], cv[1], cv[2]
-    vx[1, 2], vx[2, 0], vx[2, 1] = -cv[0], -cv[1], cv[0]
-    mv = m @ vx
     if sig[0] > 0.0:
-        for i in (1, 2):
-            for j in range(3):
-                H[rows, 3 + j] = -m[i, j]
-                H[rows, 6 + j] = mv[i, j]
-            y0[rows] = -vv[i]
-            r[rows] = sig[0] ** 2
-            rows += 1
+        at = _append(H, y0, r, at, rows.nhc_rows(c_vn, cv, sig[0], n))
+        slots[0], slots[1] = NHC, NHC + 1
     if stationary and sig[1] > 0.0:
-        for i in range(3):
-            H[rows, 3 + i] = -1.0
-            y0[rows] = -cv[i]
-            r[rows] = sig[1] ** 2
-            rows += 1
+        first = at
+        at = _append(H, y0, r, at, rows.zupt_rows(cv, sig[1], n))
+        slots[first:at] = np.arange(ZUPT, ZUPT + 3)
     if stationary and sig[2] > 0.0:
         w = earth.RATE
         w_ie = np.array([w * math.cos(cl[0]), 0.0, -w * math.sin(cl[0])])
-        z = omega_mean - c_bn @ w_ie
-        for i in range(3):
-            H[rows, 12 + i] = 1.0
-            y0[rows] = z[i] - x[12 + i]
-            r[rows] = sig[2] ** 2
-            rows += 1
-    use_odo = sig[3] > 0.0 and math.isfinite(odo)
-    if use_odo:
-        for j in range(3):
-            H[rows, 3 + j] = -m[0, j]
-            H[rows, 6 + j] = mv[0, j]
-        y0[rows] = odo - vv[0]
-        r[rows] = sig[3] ** 2
-        rows += 1
-    if rows == 0:
+        first = at
+        at = _append(H, y0, r, at, rows.zaru_rows(omega_mean, c_bn, w_ie, x, sig[2]))
+        slots[first:at] = np.arange(ZARU, ZARU + 3)
+    if sig[3] > 0.0 and math.isfinite(odo):
+        slots[at] = ODOMETER
+        at = _append(H, y0, r, at, rows.odometer_rows(c_vn, cv, odo, sig[3], n))
+    if at == 0:
         return 0
-    acc = np.zeros(rows, np.bool_)
-    yy, ss = np.empty(rows), np.empty(rows)
+    acc = np.zeros(at, np.bool_)
+    yy, ss = np.empty(at), np.empty(at)
     count = kernels.sequential_update(
-        x, P, H[:rows].copy(), y0[:rows].copy(), r[:rows].copy(), threshold, acc, yy, ss
+        x, P, H[:at].copy(), y0[:at].copy(), r[:at].copy(), threshold, acc, yy, ss
     )
-    j = 0
-    if sig[0] > 0.0:
-        acc_out[0], acc_out[1] = acc[0], acc[1]
-        j = 2
-    if stationary and sig[1] > 0.0:
-        for i in range(3):
-            acc_out[2 + i] = acc[j + i]
-        j += 3
-    if stationary and sig[2] > 0.0:
-        for i in range(3):
-            acc_out[5 + i] = acc[j + i]
-        j += 3
-    if use_odo:
-        acc_out[8] = acc[j]
+    for i in range(at):
+        acc_out[slots[i]] = acc[i]
     return count
 
 

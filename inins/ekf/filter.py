@@ -38,19 +38,19 @@ scored against the truth there (the measurements of ``t_k`` pulled onto the stat
 of ``t_k + tau`` leave it ``v tau`` behind along track, which a score at ``t_k``
 hides).
 
-All four steps of an epoch, and its log, are the compiled :func:`inins.ekf.step.epoch`,
+All four steps of an epoch, and its log, are the compiled :func:`inins.ekf.fused.epoch`,
 which composes the building-block kernels of :mod:`inins.ekf.step` (the per-epoch
 Python glue of one call per block cost as much as the arithmetic;
 ``tests/ekf/test_fused_epoch.py`` holds it bit for bit to that loop). The epochs run
-:data:`BATCH` at a time through one call of :func:`inins.ekf.step.epochs`: a call
-with fifty arguments costs 3 us through numba's dispatcher, against some 33 us of
-arithmetic. The log goes into
-preallocated arrays, doubled when full.
+:data:`BATCH` at a time through one call of :func:`inins.ekf.fused.epochs` (its
+arguments a few packed records: a call costs some microseconds through numba's
+dispatcher, against some 33 us of arithmetic an epoch). The log goes into preallocated
+arrays, doubled when full.
 
 With truth (simulation) the output error, the heading error and the NEES of all
-states are computed after the run (:func:`score`), vectorised over the epochs; the
-navigation states estimate the INS error, so their estimation error is minus the
-output error.
+states are computed after the run (:func:`inins.ekf.scoring.truth_errors`), vectorised
+over the epochs; the navigation states estimate the INS error, so their estimation
+error is minus the output error.
 """
 
 import itertools
@@ -60,16 +60,15 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from inins.core import error_model, rotation
 from inins.core.satellites import LETTERS
 from inins.core.stats import chi2_ppf
 from inins.core.strapdown import FreeInertial
-from inins.ekf import step
+from inins.ekf import fused, scoring, step
 from inins.ekf.config import Coupling
+from inins.ekf.kernels import NAV
 from inins.ekf.result import EkfResult, Innovations
 from inins.exceptions import InputError
 
-_NAV = slice(0, 9)
 SUB_STEPS = 10
 """Sub-intervals probed (and used when the rates change fast) per propagation."""
 RATE_CHANGE = 5.0 * np.pi / 180.0
@@ -81,7 +80,7 @@ FORCE_CHANGE = 2.0
 LOG_CAPACITY = 256
 """Epochs the log holds before it first doubles (8 innovation rows per epoch)."""
 BATCH = 32
-"""Epochs per call of the compiled :func:`inins.ekf.step.epochs` (one with a smoother's store)."""
+"""Epochs per call of the compiled :func:`inins.ekf.fused.epochs` (one with a smoother's store)."""
 _GNSS_ARRAYS = operator.attrgetter(
     "prn",
     "sat_pos",
@@ -94,14 +93,17 @@ _GNSS_ARRAYS = operator.attrgetter(
     "sigma_pr",
     "sigma_rr",
 )
-"""The :class:`~inins.ekf.measurements.GnssEpoch` arrays :func:`inins.ekf.step.epochs` takes,
-in its order."""
-"""Epochs the log holds before it first doubles (8 innovation rows per epoch)."""
+"""The :class:`~inins.ekf.measurements.GnssEpoch` arrays :func:`inins.ekf.fused.epochs` takes,
+in its order (the fields of :data:`inins.ekf.rows.Satellites`)."""
 
 
-def _sensor_index(n):
-    """Sensor states in ``comp`` order ``[ba, bg, ma, mg]`` (EKF26) or ``[ba, bg]`` (EKF17)."""
-    return np.r_[9:15, 17:26] if n == 26 else np.r_[9:15]
+_SENSORS = ("accel_bias", "gyro_bias", "accel_misalignment", "gyro_misalignment")
+
+
+def _sensor_index(layout):
+    """Sensor states of ``layout`` (EKF17 or EKF26) in ``comp`` order ``[ba, bg, ma, mg]``."""
+    groups = [g for g in _SENSORS if g in layout.groups()]
+    return np.concatenate([np.arange(layout.size)[layout.slice(g)] for g in groups])
 
 
 def correct(quat, vel, lla, dx):
@@ -168,12 +170,12 @@ class EpochLog:
 
 
 class _Log:
-    """The arrays :func:`inins.ekf.step.epochs` writes its log into, grown by doubling."""
+    """The arrays :func:`inins.ekf.fused.epochs` writes its log into, grown by doubling."""
 
     def __init__(self, n):
         self.n = n
         capacity = LOG_CAPACITY
-        self.flog = np.zeros((capacity, step.LOG_STATE + 3 * n))
+        self.flog = np.zeros((capacity, fused.LOG_STATE + 3 * n))
         self.ilog = np.zeros((capacity, 4), np.int64)
         self.cov = np.zeros((0, n, n))
         self.inn_f = np.zeros((8 * capacity, 2))
@@ -184,6 +186,7 @@ class _Log:
         self._sizes()
 
     def _sizes(self):
+        self._record = None  # the arrays may be new
         self.capacity, self.row_capacity = self.flog.shape[0], self.inn_f.shape[0]
         self.cov_capacity = self.cov.shape[0]
 
@@ -207,6 +210,13 @@ class _Log:
             self.cov = _grown(self.cov, index)
         self._sizes()
 
+    def record(self):
+        """The arrays of :data:`inins.ekf.fused.Log`, a plain tuple (after :meth:`reserve`,
+        which may replace them)."""
+        if self._record is None:
+            self._record = (self.flog, self.ilog, self.cov, self.inn_f, self.inn_i)
+        return self._record
+
     def epochs(self):
         """The :class:`EpochLog` of the epochs written (views of the filled rows)."""
         m, n = len(self.update_s), self.n
@@ -217,21 +227,21 @@ class _Log:
             return f[:, first : first + width]
 
         return EpochLog(
-            time=f[:, step.LOG_TIME],
-            gnss_time=f[:, step.LOG_GNSS_TIME],
-            quat=col(step.LOG_QUAT, 4),
-            vel=col(step.LOG_VEL, 3),
-            lla=col(step.LOG_LLA, 3),
-            state=col(step.LOG_STATE, n),
-            sigma=col(step.LOG_STATE + n, n),
-            cumulative=col(step.LOG_STATE + 2 * n, n),
+            time=f[:, fused.LOG_TIME],
+            gnss_time=f[:, fused.LOG_GNSS_TIME],
+            quat=col(fused.LOG_QUAT, 4),
+            vel=col(fused.LOG_VEL, 3),
+            lla=col(fused.LOG_LLA, 3),
+            state=col(fused.LOG_STATE, n),
+            sigma=col(fused.LOG_STATE + n, n),
+            cumulative=col(fused.LOG_STATE + 2 * n, n),
             covariance=self.cov[[index for index, _ in self.truth]],
             truth=[truth for _, truth in self.truth],
-            n_sats=i[:, step.N_SATS],
-            n_used=i[:, step.N_USED],
-            n_rejected=i[:, step.N_REJECTED],
-            coasted=i[:, step.COASTED].astype(bool),
-            nis=f[:, step.LOG_NIS],
+            n_sats=i[:, fused.N_SATS],
+            n_used=i[:, fused.N_USED],
+            n_rejected=i[:, fused.N_REJECTED],
+            coasted=i[:, fused.COASTED].astype(bool),
+            nis=f[:, fused.LOG_NIS],
             update_s=np.array(self.update_s),
             measurements=Innovations(
                 inn_i[:, 0].copy(),
@@ -255,27 +265,28 @@ def _grown(array, index):
 
 
 class _Run:
-    """Mutable state of one filter run (kept out of the public API)."""
+    """Mutable state of one filter run (kept out of the public API): the records the
+    compiled epochs take (:data:`inins.ekf.step.Ins`, :data:`~inins.ekf.fused.TightState`,
+    :data:`~inins.ekf.fused.TightModel`)."""
 
-    def __init__(self, config, initial, t0):
+    def __init__(self, config, initial, t0, keep):
         self.cfg = config
-        self.t_prev = t0  # the time the last epoch's state referred to
         n = self.n = len(config.layout)
         base = len(config.model.layout)  # 17 or 26; inter-system biases after them
-        self.x = np.zeros(n)
-        self.P = config.initial_sigma.covariance(base, n - base)
-        self.mats = np.zeros((7, n, n))  # slots step.F_ ... (F, Qc, Phi, Qd, store)
-        self.comp = np.zeros(15)
-        self.cum = np.zeros(9)
-        self.sens = _sensor_index(base)
-        self.bias_columns = config.bias_columns()
         self.nav = FreeInertial(initial)
-        self.home = np.zeros(8)  # Earth terms of the strapdown's fixed modes; unused (free)
-        self.rates = np.zeros((2, 3))  # omega_b, f_b at the last PPS (dither-filtered)
-        self.rates_sub = np.zeros((SUB_STEPS + 1, 2, 3))
-        # chi-square(1) quantile: P(chi2_1 <= threshold) = gate_probability
-        self.threshold = float(chi2_ppf(config.gate_probability, 1))
-        self.noise = np.concatenate(
+        home = np.zeros(8)  # Earth terms of the strapdown's fixed modes; unused (free)
+        self.ins = step.Ins(self.nav.quat, self.nav.vel, self.nav.lla, self.nav.prev, home)
+        self.state = fused.TightState(
+            x=np.zeros(n),
+            P=config.initial_sigma.covariance(base, n - base),
+            mats=np.zeros((7, n, n)),  # slots fused.F_ ... (F, Qc, Phi, Qd, store)
+            comp=np.zeros(15),
+            cum=np.zeros(NAV),
+            rates=np.zeros((2, 3)),  # omega_b, f_b at the last PPS (dither-filtered)
+            rates_sub=np.zeros((SUB_STEPS + 1, 2, 3)),
+            kept=np.zeros(n + 25),  # a smoother's store: x, INS state, compensation
+        )
+        noise = np.concatenate(
             [
                 config.arw,
                 config.vrw,
@@ -285,9 +296,22 @@ class _Run:
                 [config.system_bias_psd] * (n - base),
             ]
         )
-        self.lever = np.asarray(config.lever_arm, dtype=float)
-        self.limits = np.array([RATE_CHANGE, FORCE_CHANGE])
-        self.kept = np.zeros(n + 25)  # a smoother's store: x, INS state, compensation
+        self.model = fused.TightModel(
+            dt=float(config.dt),
+            window=int(config.dither_window),
+            noise=noise,
+            lever=np.asarray(config.lever_arm, dtype=float),
+            limits=np.array([RATE_CHANGE, FORCE_CHANGE]),
+            # chi-square(1) quantile: P(chi2_1 <= threshold) = gate_probability
+            threshold=float(chi2_ppf(config.gate_probability, 1)),
+            use_rr=bool(config.use_range_rate),
+            fb=config.coupling is Coupling.FB,
+            keep=keep,
+            sens=_sensor_index(config.model.layout),
+            bias_columns=config.bias_columns(),
+        )
+        # the records as plain tuples for the compiled call (fused.epochs names them)
+        self.packed = (tuple(self.ins), tuple(self.state), tuple(self.model))
 
 
 def _batches(epochs, size):
@@ -309,20 +333,21 @@ def _refuse_systems(gnss, bias_columns, systems):
     )
 
 
-def _store(store, row, mats, kept, n, sens, time, feedback):
-    """Hand a smoother's store the epoch's record (:func:`inins.ekf.step.epoch`, ``keep``)."""
-    store.predicted(mats[step.P_PRED], mats[step.PHI_K])
+def _store(store, row, run, time, feedback):
+    """Hand a smoother's store the epoch's record (:func:`inins.ekf.fused.epoch`, ``keep``)."""
+    mats, kept, n, sens = run.state.mats, run.state.kept, run.n, run.model.sens
+    store.predicted(mats[fused.P_PRED], mats[fused.PHI_K])
     store.updated(
         time,
         kept[:n],
-        mats[step.P_UPD],
-        np.r_[0:9, sens],
+        mats[fused.P_UPD],
+        np.r_[0:NAV, sens],
         feedback,
         (kept[n : n + 4], kept[n + 4 : n + 7], kept[n + 7 : n + 10]),
         (
-            row[step.LOG_QUAT : step.LOG_QUAT + 4],
-            row[step.LOG_VEL : step.LOG_VEL + 3],
-            row[step.LOG_LLA : step.LOG_LLA + 3],
+            row[fused.LOG_QUAT : fused.LOG_QUAT + 4],
+            row[fused.LOG_VEL : fused.LOG_VEL + 3],
+            row[fused.LOG_LLA : fused.LOG_LLA + 3],
         ),
         kept[n + 10 : n + 25],
     )
@@ -331,9 +356,9 @@ def _store(store, row, mats, kept, n, sens, time, feedback):
 def run_filter(config, initial, t0, epochs, true_sensor=None, store=None):
     """Run the tightly coupled filter over a stream of epochs (module docstring).
 
-    Each epoch is the compiled :func:`inins.ekf.step.epoch` (strapdown, propagation,
+    Each epoch is the compiled :func:`inins.ekf.fused.epoch` (strapdown, propagation,
     update, feedback and the epoch's log), :data:`BATCH` epochs per call of
-    :func:`inins.ekf.step.epochs`; this loop only gathers the epochs' fields, makes
+    :func:`inins.ekf.fused.epochs`; this loop only gathers the epochs' fields, makes
     room in the log and hands a smoother's store its record (then one epoch per call).
 
     Parameters
@@ -346,7 +371,8 @@ def run_filter(config, initial, t0, epochs, true_sensor=None, store=None):
     epochs : iterable of inins.ekf.config.EpochInput
         Consecutive chunks, PPS times increasing; consumed once (may be a generator).
         With truth (:class:`~inins.ekf.config.TruthEpoch`) the run is scored after
-        it (:func:`score`); with the naive pairing the truth needs its ``at_arrival``.
+        it (:func:`inins.ekf.scoring.truth_errors`); with the naive pairing the truth
+        needs its ``at_arrival``.
     true_sensor : inins.core.imu.SensorErrors, optional
         Constant true sensor errors, for the NEES of the sensor states when the
         epochs carry truth.
@@ -362,24 +388,73 @@ def run_filter(config, initial, t0, epochs, true_sensor=None, store=None):
     inins.exceptions.InputError
         If no epoch had a satellite (nothing to couple with).
     """
-    cfg, run = config, _Run(config, initial, t0)
-    fb = cfg.coupling is Coupling.FB
+    cfg = config
     keep = store is not None
-    pps, outages = cfg.pps_storage, bool(cfg.outages)
-    x, P, mats, kept, n, nav = run.x, run.P, run.mats, run.kept, run.n, run.nav
-    static = (nav.quat, nav.vel, nav.lla, nav.prev)  # the INS state, updated in place
-    model = (run.comp, run.cum, run.sens, run.rates, run.rates_sub, cfg.dt, cfg.dither_window)
-    model += (run.noise, run.lever, run.limits, run.threshold, cfg.use_range_rate, fb, keep)
-    log = _Log(n)
+    run = _Run(config, initial, t0, keep)
+    log = _Log(run.n)
     wall = 0.0  # the filter's own time: producing the epochs (simulation, file) is not counted
-    t_prev = t_end = t0
-    clock_ready = False
+    clock = _Clock(t0)
     # a smoother's store takes each epoch's record: one epoch per call
     for batch in _batches(epochs, 1 if keep else BATCH):
         start_wall = _time.perf_counter()
-        first, size = len(log.update_s), len(batch)
+        first = len(log.update_s)
+        b = _Batch(batch, cfg, clock, first)
+        if log.full(first + b.size - 1, 2 * b.sat_starts[-1], bool(b.truths)):
+            log.reserve(first + b.size - 1, 2 * b.sat_starts[-1], bool(b.truths))
+        tick = _time.perf_counter()
+        written = fused.epochs(
+            run.packed[0],
+            run.nav.count,
+            run.packed[1],
+            run.packed[2],
+            b.dtheta,
+            b.dv,
+            b.starts,
+            b.times,
+            b.flags,
+            b.sats,
+            b.sat_starts,
+            log.record(),
+            first,
+            log.rows,
+        )
+        if written < 0:
+            _refuse_systems(batch[-1 - written].gnss, run.model.bias_columns, cfg.systems)
+        log.update_s += [(_time.perf_counter() - tick) / b.size] * b.size
+        run.nav.count += b.starts[-1]
+        log.rows += written
+        log.truth += b.truths
+        if keep:
+            _store(store, log.flog[first], run, clock.t_prev, b.fed_back)
+        wall += _time.perf_counter() - start_wall
+    epochs_log = log.epochs()
+    if epochs_log.n_sats.size and epochs_log.n_sats.max() == 0:
+        raise InputError("no satellites above the mask in any epoch of the run", key="gnss")
+    result = EkfResult.from_log(cfg, epochs_log, clock.t_end - t0, wall)
+    if epochs_log.truth and len(epochs_log.truth) == epochs_log.time.size:
+        result = scoring.truth_errors(
+            result, epochs_log, true_sensor, pps_storage=cfg.pps_storage, systems=cfg.systems
+        )
+    return result
+
+
+class _Clock:
+    """The times a run carries from epoch to epoch: the last state's time, the last data
+    arrival, whether the receiver clock is set."""
+
+    def __init__(self, t0):
+        self.t_prev = self.t_end = t0
+        self.ready = False
+
+
+class _Batch:
+    """A batch of epochs gathered into the arrays :func:`inins.ekf.fused.epochs` takes."""
+
+    def __init__(self, batch, cfg, clock, first):
+        pps, outages = cfg.pps_storage, bool(cfg.outages)
         times, flags, samples, satellites, truths = [], [], [0], [0], []
         increments, satellite_arrays = ([], []), []
+        coasted = True
         for j, ep in enumerate(batch):
             gnss = ep.gnss
             t_k, arrival, k = gnss.time, gnss.arrival, gnss.prn.size
@@ -388,8 +463,8 @@ def run_filter(config, initial, t0, epochs, true_sensor=None, store=None):
             tau, t_state, p = (arrival - t_k, t_k, ep.pps_index) if pps else (0.0, arrival, length)
             coasted = k == 0 or (outages and cfg.in_outage(t_k))
             truth = ep.truth is not None
-            times += (t_state, t_k, t_state - t_prev, tau)
-            flags += (p, coasted, not clock_ready, truth)
+            times += (t_state, t_k, t_state - clock.t_prev, tau)
+            flags += (p, coasted, not clock.ready, truth)
             samples.append(samples[-1] + length)
             satellites.append(satellites[-1] + k)
             increments[0].append(ep.dtheta)
@@ -397,155 +472,23 @@ def run_filter(config, initial, t0, epochs, true_sensor=None, store=None):
             satellite_arrays.append(_GNSS_ARRAYS(gnss))
             if truth:
                 truths.append((first + j, ep.truth))
-            clock_ready = clock_ready or not coasted
-            t_prev, t_end = t_state, arrival
-        rows = 2 * satellites[-1]
-        if log.full(first + size - 1, rows, bool(truths)):
-            log.reserve(first + size - 1, rows, bool(truths))
-        tick = _time.perf_counter()
-        rows = step.epochs(
-            x,
-            P,
-            mats,
-            *static,
-            nav.count,
-            run.home,
-            *model,
-            *(np.concatenate(c, dtype=float) for c in increments),
-            np.array(samples),
-            np.array(times).reshape(size, 4),
-            np.array(flags, np.int64).reshape(size, 4),
-            *(np.concatenate(c) for c in zip(*satellite_arrays, strict=True)),
-            np.array(satellites),
-            run.bias_columns,
-            first,
-            log.flog,
-            log.ilog,
-            log.cov,
-            log.rows,
-            log.inn_f,
-            log.inn_i,
-            kept,
-        )
-        if rows < 0:
-            _refuse_systems(batch[-1 - rows].gnss, run.bias_columns, cfg.systems)
-        log.update_s += [(_time.perf_counter() - tick) / size] * size
-        nav.count += samples[-1]
-        log.rows += rows
-        log.truth += truths
-        if keep:
-            _store(store, log.flog[first], mats, kept, n, run.sens, t_prev, fb and not coasted)
-        wall += _time.perf_counter() - start_wall
-    epochs_log = log.epochs()
-    if epochs_log.n_sats.size and epochs_log.n_sats.max() == 0:
-        raise InputError("no satellites above the mask in any epoch of the run", key="gnss")
-    result = EkfResult.from_log(cfg, epochs_log, t_end - t0, wall)
-    if epochs_log.truth and len(epochs_log.truth) == epochs_log.time.size:
-        result = score(
-            result, epochs_log, true_sensor, pps_storage=cfg.pps_storage, systems=cfg.systems
-        )
-    return result
-
-
-def _bias_names(layout):
-    """The inter-system bias states of a layout (the last states)."""
-    return tuple(n for n in layout.names if n in error_model.SYSTEM_BIASES)
-
-
-def _true_biases(truths, names, systems):
-    """(m, 1 + len(names)) true biases: the reference system's (the clock carries it),
-    then each bias state's (its system's minus the reference's); None if no truth
-    carries a ``system_bias`` (one without counts as no bias)."""
-    if all(t.system_bias is None for t in truths):
-        return None
-    index = [LETTERS.index(systems[0])] + [LETTERS.index(n[-1]) for n in names]
-    zero = np.zeros(len(LETTERS))
-    b = np.array([zero if t.system_bias is None else t.system_bias for t in truths])
-    b = b.reshape(-1, len(LETTERS))[:, index]
-    b[:, 1:] -= b[:, :1]
-    return b
-
-
-def score(result, log, true_sensor=None, *, pps_storage=True, systems="G"):
-    """The result with its errors against truth: output error, heading error, NEES.
-
-    Vectorised over the epochs, after the run. The navigation truth is the one at
-    ``result.time`` (the PPS, or the arrival with the naive pairing: the truth's
-    ``at_arrival``); the clock truth the one at the measurement epoch.
-
-    Parameters
-    ----------
-    result : inins.ekf.result.EkfResult
-    log : EpochLog
-        With one :class:`~inins.ekf.config.TruthEpoch` and ``P`` per epoch.
-    true_sensor : inins.core.imu.SensorErrors, optional
-        Constant true sensor errors: with them the NEES of all states.
-    pps_storage : bool
-    systems : str
-        The filter's systems (:class:`~inins.ekf.config.FilterConfig`), the first the
-        reference of the inter-system biases.
-
-    Returns
-    -------
-    inins.ekf.result.EkfResult
-    """
-    truths = log.truth
-    if not pps_storage:
-        if any(t.at_arrival is None for t in truths):
-            raise ValueError("the naive pairing is scored with the truth at the data arrival")
-        nav = [t.at_arrival for t in truths]
-    else:
-        nav = [(t.mat_nb, t.vel_n, t.lla) for t in truths]
-    mat_true = np.array([v[0] for v in nav]).reshape(-1, 3, 3)
-    vel_true = np.array([v[1] for v in nav]).reshape(-1, 3)
-    lla_true = np.array([v[2] for v in nav]).reshape(-1, 3)
-    mat_est = rotation.mat_from_quat(result.quat_nb)
-    err = np.concatenate(
-        [
-            error_model.position_error_ned(result.lla, lla_true),
-            result.vel_n - vel_true,
-            error_model.attitude_error(mat_est, mat_true),
-        ],
-        axis=1,
-    )
-    heading = rotation.euler_from_mat(mat_est)[:, 2] - rotation.euler_from_mat(mat_true)[:, 2]
-    nees = np.zeros(0)
-    if true_sensor is not None:
-        n = result.state.shape[1]
-        clock = np.array([[t.clock_bias, t.clock_drift] for t in truths]).reshape(-1, 2)
-        base = n - len(_bias_names(result.layout))
-        biases = _true_biases(truths, _bias_names(result.layout), systems)
-        if biases is not None:
-            clock[:, 0] += biases[:, 0]  # the clock carries the reference system's bias
-        true = np.concatenate(
-            [
-                np.zeros((len(truths), 9)),
-                np.tile(
-                    np.concatenate([true_sensor.accel_bias, true_sensor.gyro_bias]),
-                    (len(truths), 1),
-                ),
-                clock,
-                np.tile(
-                    np.concatenate([true_sensor.accel_misalignment, true_sensor.gyro_misalignment]),
-                    (len(truths), 1),
-                ),
-            ],
-            axis=1,
-        )[:, :base]
-        if biases is not None:
-            true = np.concatenate([true, biases[:, 1:]], axis=1)
-        # the navigation states estimate the INS error: their estimation error is minus
-        # the output error; sensor and clock states estimate the quantity itself
-        e = result.state - true
-        e[:, :9] = -err
-        P = np.array(log.covariance)
-        nees = np.einsum("mi,mi->m", e, np.linalg.solve(P, e[..., None])[..., 0])
-    return result.with_truth(err, rotation.wrap_angle(heading), nees)
+            clock.ready = clock.ready or not coasted
+            clock.t_prev, clock.t_end = t_state, arrival
+        self.size = len(batch)
+        self.dtheta, self.dv = (np.concatenate(c, dtype=float) for c in increments)
+        self.starts = np.array(samples)
+        self.times = np.array(times).reshape(self.size, 4)
+        self.flags = np.array(flags, np.int64).reshape(self.size, 4)
+        # the fields of inins.ekf.rows.Satellites, a plain tuple (fused.epochs names it)
+        self.sats = tuple(np.concatenate(c) for c in zip(*satellite_arrays, strict=True))
+        self.sat_starts = np.array(satellites)
+        self.truths = truths
+        self.fed_back = cfg.coupling is Coupling.FB and not coasted  # (the last epoch)
 
 
 def warm_up():
     """Compile (or load from the on-disk cache) the fused epoch kernel
-    (:func:`inins.ekf.step.epochs`) with the argument types every run passes: two epochs
+    (:func:`inins.ekf.fused.epochs`) with the argument types every run passes: two epochs
     of four satellites."""
     from inins.core.strapdown import NavState
     from inins.ekf.config import EpochInput, FilterConfig, Model

@@ -1,4 +1,4 @@
-"""Compiled per-epoch filter numerics: error model, discretisation, measurements, update.
+"""Compiled per-epoch filter numerics: error model, discretisation, the scalar update.
 
 The filter runs these once per GPS epoch, where the numpy reference functions
 (:func:`inins.core.error_model.system_matrix`, :func:`~inins.core.error_model.noise_matrix`,
@@ -18,6 +18,7 @@ import math
 import numpy as np
 
 from inins.core import earth, jit
+from inins.core.error_model import EKF26, GROUPS
 
 _gravity_of_sin2 = jit.njit(cache=True)(earth.gravity_of_sin2)
 
@@ -55,10 +56,26 @@ def mm3(A, B):
     return out
 
 
-POS, VEL, ATT, BA, BG, CLK, MA, MG = 0, 3, 6, 9, 12, 15, 17, 20
-"""First index of each group in EKF26 (clock: bias then drift)."""
-_MA_PAIRS = ((1, 0), (2, 0), (2, 1))  # ma_yx, ma_zx, ma_zy
-_MG_PAIRS = ((0, 1), (0, 2), (1, 0), (1, 2), (2, 0), (2, 1))  # mg_xy ... mg_zy
+def _start(group):
+    return EKF26.slice(group).start
+
+
+POS, VEL, ATT = _start("position"), _start("velocity"), _start("attitude")
+BA, BG, CLK = _start("accel_bias"), _start("gyro_bias"), _start("clock")
+MA, MG = _start("accel_misalignment"), _start("gyro_misalignment")
+"""The named blocks of EKF26 (:data:`inins.core.error_model.EKF26`), each its group's first
+state (clock: bias, then drift); EKF17 is the first 17 states, so the same names serve
+both, and the loosely coupled filter's navigation and bias states (spec §6, §6b)."""
+NAV = ATT + 3
+"""The navigation states (position, velocity, attitude) are ``0:NAV``."""
+
+
+def _pairs(group):
+    return tuple(("xyz".index(n[-2]), "xyz".index(n[-1])) for n in GROUPS[group])
+
+
+_MA_PAIRS = _pairs("accel_misalignment")  # ma_yx, ma_zx, ma_zy: (i, j) of m_ij
+_MG_PAIRS = _pairs("gyro_misalignment")  # mg_xy ... mg_zy
 
 
 @jit.njit(cache=True, error_model="numpy")
@@ -261,66 +278,6 @@ def predict(x, P, Phi, Qd):
             v = 0.5 * (M[i, j] + M[j, i])
             P[i, j] = v
             P[j, i] = v
-
-
-@jit.njit(cache=True, error_model="numpy")
-def pseudorange_rows(r_ant, v_ant, mat_ne, j_v, lever_n, lever_vel_n, sat_pos, sat_vel, H, zhat):
-    """Predicted pseudorange and range rate and their rows of ``H`` (003 eq. 7, spec §6a).
-
-    Rows ``2 i`` (pseudorange) and ``2 i + 1`` (range rate) of satellite ``i``;
-    ``zhat`` without clock terms. ``H`` is ``dz / dx`` for the true measurement
-    ``z = h(nav (-) x)``: the navigation states are errors (estimate minus true), so
-    their columns are minus the sensitivity of ``h`` at the estimate; the clock
-    states are the clock values (+1). With ``e`` the unit line of sight (NED),
-    ``dv = v_sat - v_ant``, ``rho`` the range, ``l_n`` the lever arm,
-    ``u_n = mat_nb (omega_eb_b x l_b)`` its velocity and ``G = -dv^T (I - e e^T) / rho``,
-    the sensitivities at the estimate are::
-
-        rho   : pos -e^T,  att -e^T [l_n x]
-        rhodot: pos e^T [v_ant x] J_v + G,  vel -e^T,  att -e^T [u_n x] + G [l_n x]
-
-    from ``dr_ant = dr + [l_n x] phi`` and ``dv_ant = dv - [v_ant x] J_v dr + [u_n x] phi``
-    (the estimated NED frame is turned by ``J_v dr``).
-    """
-    H.fill(0.0)
-    va = mv3(mat_ne, v_ant)  # the antenna velocity (NED), the same for every satellite
-    l0, l1, l2 = lever_n[0], lever_n[1], lever_n[2]
-    u0, u1, u2 = lever_vel_n[0], lever_vel_n[1], lever_vel_n[2]
-    exv = np.empty(3)
-    for i in range(sat_pos.shape[0]):
-        d = sat_pos[i] - r_ant
-        rho = math.sqrt(d[0] ** 2 + d[1] ** 2 + d[2] ** 2)
-        e = mv3(mat_ne, d / rho)
-        dv = mv3(mat_ne, sat_vel[i] - v_ant)
-        edv = 0.0
-        for k in range(3):
-            edv += dv[k] * e[k]
-        zhat[2 * i], zhat[2 * i + 1] = rho, edv
-        e0, e1, e2 = e[0], e[1], e[2]
-        g0 = -(dv[0] - edv * e0) / rho
-        g1 = -(dv[1] - edv * e1) / rho
-        g2 = -(dv[2] - edv * e2) / rho
-        # a^T [b x] phi = a . (b x phi) = (a x b) . phi: the row of a^T [b x] is a x b
-        exv[0], exv[1], exv[2] = (
-            e1 * va[2] - e2 * va[1],
-            e2 * va[0] - e0 * va[2],
-            e0 * va[1] - e1 * va[0],
-        )
-        evj = mv3(j_v.T, exv)  # e^T [v x] J_v
-        pr, rr = H[2 * i], H[2 * i + 1]
-        pr[POS], pr[POS + 1], pr[POS + 2] = e0, e1, e2
-        # -e^T [l x] = l x e
-        pr[ATT] = -(l1 * e2 - l2 * e1)
-        pr[ATT + 1] = -(l2 * e0 - l0 * e2)
-        pr[ATT + 2] = -(l0 * e1 - l1 * e0)
-        pr[CLK] = 1.0
-        rr[POS], rr[POS + 1], rr[POS + 2] = -evj[0] - g0, -evj[1] - g1, -evj[2] - g2
-        rr[VEL], rr[VEL + 1], rr[VEL + 2] = e0, e1, e2
-        # -e^T [u x] + G [l x] = u x e + g x l
-        rr[ATT] = -((u1 * e2 - u2 * e1) + (g1 * l2 - g2 * l1))
-        rr[ATT + 1] = -((u2 * e0 - u0 * e2) + (g2 * l0 - g0 * l2))
-        rr[ATT + 2] = -((u0 * e1 - u1 * e0) + (g0 * l1 - g1 * l0))
-        rr[CLK + 1] = 1.0
 
 
 @jit.njit(cache=True, error_model="numpy")

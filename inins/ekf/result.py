@@ -92,7 +92,7 @@ class EkfResult:
         Sum of the accepted measurements' NIS per epoch.
     update_time : ndarray, shape (m,)
         Wall time of the epoch's compiled step (s): strapdown, propagation, update and
-        feedback (:func:`inins.ekf.step.epoch`). The epochs run in batches of
+        feedback (:func:`inins.ekf.fused.epoch`). The epochs run in batches of
         :data:`inins.ekf.filter.BATCH` per call, so this is the mean over the epoch's
         batch (every epoch's own time with a smoother's store: one epoch per call).
     innovations : Innovations

@@ -1,9 +1,9 @@
 """Rauch-Tung-Striebel smoothing of a stored forward run, in error-state form.
 
-Formulation. The forward filter (:mod:`inins.ekf.loose`) linearises about its INS
-trajectory. At epoch ``k`` it has the prediction ``x_k-`` with ``P_k-`` about the
-INS state ``N_k-`` before the update, the updated ``x_k`` with ``P_k``, and then
-resets by ``r_k`` (FB: ``r_k = x_k`` on the navigation and sensor states, the INS
+Formulation. The forward filter (:mod:`inins.ekf.loose`, or the tight filter's store)
+linearises about its INS trajectory. At epoch ``k`` it has the prediction ``x_k-``
+with ``P_k-`` about the INS state ``N_k-`` before the update, the updated ``x_k`` with
+``P_k``, and then resets by ``r_k`` (FB: ``r_k = x_k`` on the navigation and sensor states, the INS
 state becomes ``N_k+ = N_k- (-) r_k`` and the compensation ``comp + r``; FF:
 ``r_k = 0``, ``N_k+ = N_k-``). The reset is part of the model: about ``N_k+`` the
 estimate is ``e_k = x_k - r_k`` with the same ``P_k`` (to first order the reset
@@ -32,9 +32,66 @@ from dataclasses import dataclass
 import numpy as np
 
 from inins.core import jit
-from inins.ekf import loose
+from inins.ekf import step
+from inins.ekf.kernels import NAV
 
 BLOCK = 512
+
+
+def default_store(name, shape, dtype=float):
+    """The in-RAM store: a zero array (callers pass memory maps for long runs)."""
+    return np.zeros(shape, dtype)
+
+
+@dataclass(frozen=True, eq=False)
+class ForwardRecord:
+    """What the RTS pass reads of a forward run, per epoch (module docstring): the one
+    protocol of the loosely coupled run (:class:`inins.ekf.loose.LooseRun`) and the
+    tight filter's store (:class:`inins.ekf.tight_store.TightStore`).
+
+    ``time`` (m,) s; the INS state after the reset ``N_k+``: ``quat`` (m, 4), ``vel``
+    (m, 3), ``lla`` (m, 3); the sensor compensation after it ``comp`` (m, 15); ``x``,
+    ``r`` (m, n) the updated state and the reset; ``P``, ``P_pred``, ``Phi``
+    (m, n, n); ``n_sensors``: the states ``NAV:NAV + n_sensors`` are the sensor
+    estimates of ``comp[:, :n_sensors]``.
+    """
+
+    time: np.ndarray
+    quat: np.ndarray
+    vel: np.ndarray
+    lla: np.ndarray
+    comp: np.ndarray
+    x: np.ndarray
+    r: np.ndarray
+    P: np.ndarray
+    P_pred: np.ndarray
+    Phi: np.ndarray
+    n_sensors: int
+
+    def sensors(self, dx):
+        """Sensor estimates ``comp + dx`` (m, n_sensors) of errors ``dx`` (m, n) about N+."""
+        return self.comp[:, : self.n_sensors] + dx[:, NAV : NAV + self.n_sensors]
+
+
+def correct_many(quat, vel, lla, dx):
+    """``nav (-) dx`` of every epoch (:func:`inins.ekf.step.correct`): quat, vel, lla."""
+    oq, ov, ol = np.empty_like(quat), np.empty_like(vel), np.empty_like(lla)
+    _correct_all(
+        np.ascontiguousarray(quat),
+        np.ascontiguousarray(vel),
+        np.ascontiguousarray(lla),
+        np.ascontiguousarray(dx),
+        oq,
+        ov,
+        ol,
+    )
+    return oq, ov, ol
+
+
+@jit.njit(cache=True)
+def _correct_all(quat, vel, lla, dx, oq, ov, ol):
+    for k in range(quat.shape[0]):
+        step.correct(quat[k], vel[k], lla[k], dx[k], oq[k], ov[k], ol[k])
 
 
 @jit.njit(cache=True)
@@ -79,8 +136,8 @@ class Smoothed:
     sigma: np.ndarray
 
 
-def smooth(run, store=loose.default_store):
-    """RTS smoothing of a :class:`inins.ekf.loose.LooseRun` (module docstring)."""
+def smooth(run, store=default_store):
+    """RTS smoothing of a :class:`ForwardRecord` (module docstring)."""
     m, n = run.x.shape
     s_out = store("smooth_s", (m, n))
     Ps_out = store("smooth_P", (m, n, n))
@@ -107,8 +164,7 @@ def smooth(run, store=loose.default_store):
         s_out[lo:hi] = bs
         Ps_out[lo:hi] = bP
         hi = lo
-    quat, vel, lla = loose._correct_many(run.quat, run.vel, run.lla, np.asarray(s_out))
-    nb = run.config.n_base
-    sensors = run.comp[:, : nb - 9] + s_out[:, 9:nb]
+    quat, vel, lla = correct_many(run.quat, run.vel, run.lla, np.asarray(s_out))
+    sensors = run.sensors(np.asarray(s_out))
     sigma = np.sqrt(np.einsum("kii->ki", Ps_out))
     return Smoothed(run.time, s_out, Ps_out, quat, vel, lla, sensors, sigma)

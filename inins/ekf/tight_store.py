@@ -12,35 +12,13 @@ at the data's arrival, carried there by ``I + F tau`` (003 §2.1): about ``N_k+`
 the PPS instant that is the same reset to first order.
 
 Arrays grow in RAM lists (a tight run has one epoch a second: 1 h of 26 states is
-3600 x 3 x 26 x 26 doubles, 58 MB) and are handed over as a
-:class:`inins.ekf.loose.LooseRun`-shaped record by :meth:`TightStore.run`.
+3600 x 3 x 26 x 26 doubles, 58 MB) and are handed over as the smoother's
+:class:`~inins.ekf.smoother.ForwardRecord` by :meth:`TightStore.run`.
 """
-
-from dataclasses import dataclass
 
 import numpy as np
 
-
-@dataclass(frozen=True)
-class _Config:
-    n_base: int = 15  # the smoothed sensor estimates: accel and gyro biases (states 9-14)
-
-
-@dataclass(frozen=True, eq=False)
-class TightRun:
-    """The fields :func:`inins.ekf.smoother.smooth` reads (as :class:`inins.ekf.loose.LooseRun`)."""
-
-    config: object
-    time: np.ndarray
-    quat: np.ndarray
-    vel: np.ndarray
-    lla: np.ndarray
-    comp: np.ndarray
-    x: np.ndarray
-    r: np.ndarray
-    P: np.ndarray
-    P_pred: np.ndarray
-    Phi: np.ndarray
+from inins.ekf.smoother import ForwardRecord
 
 
 class TightStore:
@@ -81,5 +59,7 @@ class TightStore:
             self.rows[key].append(np.array(value, dtype=float, copy=True))
 
     def run(self):
-        """The record as a :class:`TightRun`."""
-        return TightRun(_Config(), **{k: np.array(v) for k, v in self.rows.items()})
+        """The record as a :class:`~inins.ekf.smoother.ForwardRecord` (the smoothed sensor
+        estimates: the accelerometer and gyro biases, which follow the navigation states
+        in both models)."""
+        return ForwardRecord(**{k: np.array(v) for k, v in self.rows.items()}, n_sensors=6)

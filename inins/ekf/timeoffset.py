@@ -58,6 +58,12 @@ class ClockFit:
             return t_imu + np.interp(t_imu, centre - lag, lag)
         return t_imu + self.offset + self.rate * (t_imu - self.t_ref)
 
+    def residual_rms(self):
+        """RMS (s) of the window lags about the mapping: each window centre mapped back
+        to the IMU axis by its own lag, then forward by the mapping."""
+        centre, lag = self.lags[:, 0], self.lags[:, 1]
+        return float(np.sqrt(np.mean((self.to_gnss(centre - lag) - centre) ** 2)))
+
 
 def _inliers(lag):
     """Windows whose lag is within 3 robust sigma of the median of it and its neighbours."""

@@ -19,10 +19,11 @@ pseudorange ``rho = |r_sat - r_ant| + c dt``; antenna ``r_ant = r + C_nb l_b``,
             ``dr_ant = dr + [(C_nb l_b) x] phi``; row ``-e_k^T`` on dr,
             ``-e_k^T [(C_nb l_b) x]`` on phi, ``+1`` on clock_bias.
 range rate  ``rho' = (v_sat - v_ant) . e_k + c dt'`` (positive when the range
-            grows); ``v_ant = v + C_nb (w_nb_b x l_b)`` with the INS forming
-            ``w_nb_b = w_ib_b - C_nb^T w_in``, so ``dv_ant = dv + ([(C_nb u) x]
-            - C_nb [l_b x] C_nb^T [w_in x]) phi - C_nb [l_b x] bg``,
-            ``u = w_nb_b x l_b``; row ``-e_k^T`` on that, ``+1`` on clock_drift.
+            grows); ``v_ant = v + C_nb (w_eb_b x l_b)``, the antenna's velocity over
+            the Earth, with the INS forming ``w_eb_b = w_ib_b - C_nb^T w_ie``, so
+            ``dv_ant = dv + ([(C_nb u) x] - C_nb [l_b x] C_nb^T [w_ie x]) phi
+            - C_nb [l_b x] bg``, ``u = w_eb_b x l_b``; row ``-e_k^T`` on that, ``+1``
+            on clock_drift (design.md §6b).
 """
 
 import enum
@@ -178,13 +179,11 @@ def _range_rows(layout, segment, measurement, los):
         clock = "clock_bias"
     else:
         H[:, _columns(layout, ("dv_N", "dv_E", "dv_D"), kind, key)] = -los
-        w_in = earth.rate_ie_n(segment.lla[0]) + earth.rate_en_n(
-            segment.lla[0], segment.lla[2], segment.vel_n
-        )
-        w_nb_b = segment.omega_ib_b - segment.mat_nb.T @ w_in
+        w_ie = earth.rate_ie_n(segment.lla[0])
+        w_eb_b = segment.omega_ib_b - segment.mat_nb.T @ w_ie
         lever_x = rotation.skew(measurement.lever_arm_b)
-        phi_term = rotation.skew(segment.mat_nb @ np.cross(w_nb_b, measurement.lever_arm_b)) - (
-            segment.mat_nb @ lever_x @ segment.mat_nb.T @ rotation.skew(w_in)
+        phi_term = rotation.skew(segment.mat_nb @ np.cross(w_eb_b, measurement.lever_arm_b)) - (
+            segment.mat_nb @ lever_x @ segment.mat_nb.T @ rotation.skew(w_ie)
         )
         if "bg_x" in layout.names:
             bg = _columns(layout, ("bg_x", "bg_y", "bg_z"), kind, key)

@@ -316,3 +316,23 @@ def interval_means(chunks, edges, dt):
         np.add.at(sums, owner[inside], rows[inside])
     span = np.maximum(np.diff(edges), 1)[:, None] * dt
     return sums[:, :3] / span, sums[:, 3:] / span
+
+
+TURN_ROLL = 10.0 * DEG
+"""A segment banked more than this is part of a turn."""
+
+
+def turns(segments):
+    """(start, end) times (s) of the turns: runs of segments banked beyond :data:`TURN_ROLL`."""
+    ends = np.cumsum([s.duration for s in segments])
+    banked = [abs(rotation.euler_from_mat(s.mat_nb)[0]) > TURN_ROLL for s in segments]
+    out, start = [], None
+    for j, b in enumerate(banked):
+        if b and start is None:
+            start = float(ends[j] - segments[j].duration)
+        if start is not None and not b:
+            out.append((start, float(ends[j - 1])))
+            start = None
+    if start is not None:
+        out.append((start, float(ends[-1])))
+    return out

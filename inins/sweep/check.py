@@ -21,6 +21,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from inins.exceptions import InputError
+from inins.sweep.executors import finished
 from inins.sweep.worker import STATUS_ERROR, STATUS_FAILED, PointTask
 
 
@@ -119,26 +120,15 @@ def collect(paths) -> tuple[list[CheckTarget], list[Path]]:
     return targets, skipped
 
 
-def run_checks(targets, executor, progress=None) -> list[CheckOutcome]:
-    """Run every target on ``executor`` (entered here); outcomes in target order."""
+def check_records(targets, ex):
+    """Run every target on the entered executor ``ex``; yield each worker record as it
+    finishes (its ``index`` the target's)."""
     tasks = [
-        PointTask(str(t.path), i, t.command, str(t.path.resolve()), (), None)
+        (PointTask(str(t.path), i, t.command, str(t.path.resolve()), (), None),)
         for i, t in enumerate(targets)
     ]
-    records = {}
-    with executor as ex:
-        pending = {ex.submit((task,)) for task in tasks}
-        while pending:
-            done, pending = ex.wait_any(pending)
-            for future in done:
-                batch, retry = ex.outcome(future)
-                if retry is not None:
-                    pending.add(retry)
-                    continue
-                records[batch[0]["index"]] = batch[0]
-                if progress:
-                    progress(len(records), len(tasks), 0)
-    return [CheckOutcome(t, records[i]) for i, t in enumerate(targets)]
+    for batch in finished(ex, tasks, len(tasks)):
+        yield batch[0]
 
 
 def failures(outcomes) -> list[str]:

@@ -50,6 +50,7 @@ from inins.sweep.aggregate import (
     format_aggregates,
     stats_columns,
 )
+from inins.sweep.executors import finished as finished_batches
 from inins.sweep.table import SweepTable, build_table, csv_columns, h5_groups, point_id
 from inins.sweep.worker import STATUS_ERROR, PointTask, is_check_name_error
 
@@ -299,31 +300,26 @@ def _dispatch(plan, tasks, ex, journal, finished, skipped, progress, room) -> in
         done, errors = done + 1, errors + (record["status"] == STATUS_ERROR)
         if progress:
             progress(done, total, errors)
-    slots = IN_FLIGHT_PER_WORKER * ex.slots
-    pending = set()
     ran = done - skipped
     recent = collections.deque(maxlen=16)  # run times of the last points (s)
-    while queue or pending:
-        while queue and len(pending) < slots:
+
+    def batches():
+        while queue:
             run_s = statistics.median(recent) if recent else 0.0
-            batch = batch_size(ex.batch_s, run_s, len(queue), ex.slots)
-            pending.add(ex.submit(tuple(queue.pop() for _ in range(min(batch, len(queue))))))
-        finished_now, pending = ex.wait_any(pending)
-        for future in finished_now:
-            records, retry = ex.outcome(future)
-            if retry is not None:
-                pending.add(retry)
-                continue
-            for record in records:
-                _stop_on_output_error(record)
-                journal.append(record)
-                room.measure(record, len(queue) + len(pending))
-                if math.isfinite(record["run_s"]):
-                    recent.append(record["run_s"])
-                ran, done = ran + 1, done + 1
-                errors += record["status"] == STATUS_ERROR
-            if progress:
-                progress(done, total, errors)
+            size = batch_size(ex.batch_s, run_s, len(queue), ex.slots)
+            yield tuple(queue.pop() for _ in range(min(size, len(queue))))
+
+    for records in finished_batches(ex, batches(), IN_FLIGHT_PER_WORKER * ex.slots):
+        for record in records:
+            _stop_on_output_error(record)
+            journal.append(record)
+            ran, done = ran + 1, done + 1
+            room.measure(record, len(tasks) - ran)
+            if math.isfinite(record["run_s"]):
+                recent.append(record["run_s"])
+            errors += record["status"] == STATUS_ERROR
+        if progress:
+            progress(done, total, errors)
     return ran
 
 
@@ -338,14 +334,7 @@ def batch_size(batch_s: float, run_s: float, remaining: int, slots: int) -> int:
 
 
 def _run_alone(ex, task) -> dict:
-    pending = {ex.submit((task,))}
-    while True:
-        done, pending = ex.wait_any(pending)
-        for future in done:
-            records, retry = ex.outcome(future)
-            if retry is None:
-                return records[0]
-            pending.add(retry)
+    return next(finished_batches(ex, [(task,)], 1))[0]
 
 
 def _probe(plan, record) -> None:

@@ -4,7 +4,9 @@ Both give the same interface (a context manager): ``submit(batch) -> future`` (a
 batch is a tuple of :class:`~inins.sweep.worker.PointTask`, run in order by one
 worker), ``wait_any(futures) -> (done, pending)``, ``outcome(future) -> (records,
 resubmitted future or None)``. ``outcome`` turns a lost worker into error records
-after the retries. ``batch_s`` is the run time a batch should last: 0 (one point a
+after the retries. :func:`finished` is the one loop over them that sweeps and
+``inins check`` share: submit, wait, resubmit, hand back each batch's records.
+``batch_s`` is the run time a batch should last: 0 (one point a
 task) locally, where dispatch costs well under a millisecond; 0.25 s on Dask, whose
 scheduler costs a few milliseconds a task.
 
@@ -90,6 +92,46 @@ def start_server(command: str | None = None):
         os.environ.setdefault(name, "1")
     forkserver.ensure_running()
     return ctx
+
+
+def finished(ex, batches, in_flight):
+    """Run ``batches`` on the entered executor ``ex``; yield each batch's records as it
+    finishes.
+
+    Parameters
+    ----------
+    ex : LocalExecutor or DaskExecutor
+        Entered (``with``).
+    batches : iterable of tuple of PointTask
+        Pulled one at a time as a slot frees (a generator may size the next batch on
+        the records seen so far).
+    in_flight : int
+        Batches submitted at a time.
+
+    Yields
+    ------
+    list of dict
+        The worker records of one batch, in its order (a batch whose worker was lost is
+        resubmitted by ``ex.outcome``; after the retries its records are errors).
+    """
+    source = iter(batches)
+    pending, more = set(), True
+    while True:
+        while more and len(pending) < in_flight:
+            batch = next(source, None)
+            if batch is None:
+                more = False
+            else:
+                pending.add(ex.submit(batch))
+        if not pending:
+            return
+        done, pending = ex.wait_any(pending)
+        for future in done:
+            records, retry = ex.outcome(future)
+            if retry is not None:
+                pending.add(retry)
+            else:
+                yield records
 
 
 class LocalExecutor:

@@ -130,13 +130,14 @@ def test_ekf26_along_the_paper003_flight_turn_by_turn():
     and mg_zx in the second, left one; ma_zy never (a coordinated turn keeps the body
     y specific force near zero) and the z gyro bias hardly (003's EKF1 confusion)."""
     from inins.commands import observability
+    from inins.observability.segments import turns
     from inins.scenario.observability import ObservabilityScenario
     from tests.helpers import shipped
 
     scenario = shipped(ObservabilityScenario, "observability/ekf26-bank-turns.yaml")
     result = observability.run(scenario, 0)
     r = result.results
-    spans = observability.turns(observability.build_segments(scenario, None))
+    spans = turns(observability.build_segments(scenario, None))
     assert r["rank"] == 26 and r["full_rank_after_s"] < spans[0][0]
     assert len(spans) == 6
     names = result.attrs["observability"]["states"]

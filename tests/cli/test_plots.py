@@ -7,8 +7,9 @@ import numpy as np
 import pytest
 
 from inins.commands import find_command
+from inins.commands.calibrate_bias_figures import _chosen_text
 from inins.commands.execute import execute
-from inins.commands.figures import _chosen_text, allan_deviation
+from inins.commands.import_log_figures import allan_deviation
 
 pytest.importorskip("matplotlib")
 ROOT = Path(__file__).resolve().parents[2]

@@ -1,7 +1,7 @@
 """The outage protocol in the tight mode (``filter.outages_s``: the filter coasts, no
 GNSS measurement used): per window the maximum horizontal / 3D drift against the
 simulated truth and the heading error at its end, the RMS of the maxima, forward and
-RTS-smoothed (:func:`inins.commands.run_ekf_post.tight_outages`)."""
+RTS-smoothed (:func:`inins.commands.run_ekf_report.tight_outages`)."""
 
 import json
 

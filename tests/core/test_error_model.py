@@ -9,6 +9,7 @@ from inins.core import earth, error_model, trajectory
 from inins.core import rotation as rot
 from inins.core.strapdown import NavState, integrate
 from inins.core.units import ARCMIN, ARCSEC, DEG, DPH, UG
+from tests.jacobian import assert_jacobian, column_tolerance, error_rate, sensor_matrices
 
 LAT, LON, HEIGHT = np.radians(37.5), np.radians(127.0), 120.0
 
@@ -79,53 +80,11 @@ def test_lla_offset_inverts_position_error():
 # ------------------------------------------------------------------ F is the exact Jacobian
 
 
-def _nav_rates(lla, vel_n, mat_nb, f_b, w_en=None):
-    """Right-hand side of the nonlinear NED mechanisation (latitude, longitude, height).
-
-    ``w_en`` is computed from ``lla``, ``vel_n`` unless given.
-    """
-    lat, _, h = lla
-    rn, re = earth.principal_radii(lat)
-    lla_dot = np.array([vel_n[0] / (rn + h), vel_n[1] / ((re + h) * np.cos(lat)), -vel_n[2]])
-    w_ie = earth.rate_ie_n(lat)
-    w_en = earth.rate_en_n(lat, h, vel_n) if w_en is None else w_en
-    vel_dot = mat_nb @ f_b - np.cross(2 * w_ie + w_en, vel_n) + earth.gravity_n(lat, h)
-    return lla_dot, vel_dot, w_ie + w_en
-
-
-def _flow(lla, vel_n, mat_nb, f_b, omega_ib_b, u, w_en=None):
-    """State after a short time u (s), to O(u^2): C(u) = exp(-u [w_in x]) C exp(u [w_ib x])."""
-    lla_dot, vel_dot, w_in = _nav_rates(lla, vel_n, mat_nb, f_b, w_en)
-    mat = expm(-u * rot.skew(w_in)) @ mat_nb @ expm(u * rot.skew(omega_ib_b))
-    return lla + u * lla_dot, vel_n + u * vel_dot, mat
-
-
-def _nav_error(est, true):
-    return np.concatenate(
-        [
-            error_model.position_error_ned(est[0], true[0]),
-            est[1] - true[1],
-            error_model.attitude_error(est[2], true[2]),
-        ]
-    )
-
-
-def _sensor_matrices(layout, x):
-    """Sensor-error matrices E_a, E_g with measured = (I + E) true + bias."""
-    val = dict(zip(layout.names, x, strict=True))
-    mats = []
-    for s in "ag":
-        m = np.diag([val[f"s{s}_{k}"] for k in "xyz"])
-        for i, j in ((i, j) for i in range(3) for j in range(3) if i != j):
-            m[i, j] = val.get(f"m{s}_{'xyz'[i]}{'xyz'[j]}", 0.0)
-        mats.append(m)
-    return mats
-
-
 @pytest.mark.parametrize("transport_from_estimate", [True, False])
 def test_system_matrix_is_the_jacobian_of_the_nonlinear_error_dynamics(transport_from_estimate):
     # every state the library knows, at a moving, rotating operating point; the INS
     # computes w_en from its own velocity and position, or is given the true one
+    # (the one finite-difference harness of tests/jacobian.py)
     layout = error_model.FULL
     lla = np.array([LAT, LON, 3000.0])
     vel_n = np.array([150.0, -80.0, 5.0])
@@ -141,42 +100,21 @@ def test_system_matrix_is_the_jacobian_of_the_nonlinear_error_dynamics(transport
         omega_ib_b,
         transport_from_estimate=transport_from_estimate,
     )
-    w_en_given = None if transport_from_estimate else earth.rate_en_n(lla[0], lla[2], vel_n)
-
-    def error_rate(x, tau=0.05):
-        """d/dt (estimated - true) from the two nonlinear mechanisations (central difference)."""
-        e_a, e_g = _sensor_matrices(layout, x)
-        s = layout.slice
-        f_meas = f_b + x[s("accel_bias")] + e_a @ f_b
-        w_meas = omega_ib_b + x[s("gyro_bias")] + e_g @ omega_ib_b
-        est = (
-            error_model.lla_offset(lla, x[s("position")]),
-            vel_n + x[s("velocity")],
-            rot.mat_from_rotvec(-x[s("attitude")]) @ mat_nb,
-        )
-        true = (lla, vel_n, mat_nb, f_b, omega_ib_b)
-        ends = [
-            _nav_error(_flow(*est, f_meas, w_meas, u, w_en_given), _flow(*true, u, w_en_given))
-            for u in (tau, -tau)
-        ]
-        rate = np.zeros(len(layout))
-        rate[:9] = (ends[0] - ends[1]) / (2 * tau)
-        rate[layout.index("clock_bias")] = x[layout.index("clock_drift")]
-        return rate
-
+    point = (lla, vel_n, mat_nb, f_b, omega_ib_b)
     # perturbation sizes in physical units; central differences cancel 2nd order terms
-    steps = {"position": 100.0, "velocity": 0.1, "gyro_bias": 1e-6, "clock": 1.0}
-    step_of = {
-        n: steps.get(group, 1e-3) for group, names in error_model.GROUPS.items() for n in names
-    }
-    for name in layout.names:
-        i = layout.index(name)
-        dx = np.zeros(len(layout))
-        dx[i] = step_of[name]
-        column = (error_rate(dx) - error_rate(-dx)) / (2 * dx[i])
-        np.testing.assert_allclose(
-            column, F[:, i], rtol=0, atol=2e-5 * np.abs(F[:, i]).max(), err_msg=f"column {name}"
-        )
+    steps = {"position": 100.0, "velocity": 0.1, "attitude": 1e-3, "accel_bias": 1e-3}
+    steps |= {"gyro_bias": 1e-6, "accel_scale": 1e-3, "gyro_scale": 1e-3}
+    steps |= {"accel_misalignment": 1e-3, "gyro_misalignment": 1e-3}
+    assert_jacobian(
+        F,
+        lambda x: error_rate(layout, point, x, transport_from_estimate=transport_from_estimate),
+        np.zeros(len(layout)),
+        layout,
+        "FULL",
+        atol=column_tolerance(F, layout, 2e-5),
+        rtol=0.0,
+        steps=steps,
+    )
 
 
 def test_layouts_are_sub_blocks_and_stacks_broadcast():
@@ -350,7 +288,7 @@ def _strapdown_errors(traj, values, duration, rate_hz, *, fixed_position=False):
     dt = 1.0 / rate_hz
     dtheta, dv = trajectory.ideal_increments(traj, np.arange(round(duration * rate_hz) + 1) * dt)
     x = np.array([values.get(n, 0.0) for n in error_model.FULL.names])
-    e_a, e_g = _sensor_matrices(error_model.FULL, x)
+    e_a, e_g = sensor_matrices(error_model.FULL.names, x)
     dtheta = dtheta @ (np.eye(3) + e_g).T + _group(values, "gyro_bias") * dt
     dv = dv @ (np.eye(3) + e_a).T + _group(values, "accel_bias") * dt
     mat_nb, vel_n, lla = (a[0] for a in traj.state(np.zeros(1)))

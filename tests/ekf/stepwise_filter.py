@@ -1,7 +1,7 @@
 """The filter loop as it was before the fused epoch kernel: one Python step per kernel.
 
 A frozen copy of ``inins.ekf.filter.run_filter`` (and its ``_Run``, ``EpochLog``) as
-of the commit before :func:`inins.ekf.step.epoch` replaced the per-epoch Python glue:
+of the commit before :func:`inins.ekf.fused.epoch` replaced the per-epoch Python glue:
 it calls the building blocks one by one from Python, with the list-based log: the
 kernels of :mod:`inins.ekf.step` the fused epoch composes (compensate, the strapdown,
 mean rates, correct, feedback) and ``propagate`` and ``update`` of ``kernels``: the
@@ -23,13 +23,44 @@ from inins.core.satellites import LETTERS
 from inins.core.stats import chi2_ppf
 from inins.core.strapdown import FreeInertial
 from inins.ekf import filter as ekf_filter
-from inins.ekf import step
+from inins.ekf import fused, rows, scoring, step
 from inins.ekf.config import Coupling
 from inins.ekf.result import EkfResult, Innovations
 from inins.exceptions import InputError
 
 _NAV = slice(0, 9)
 SUB_STEPS = ekf_filter.SUB_STEPS
+
+
+class package_kernels:
+    """The package's ``propagate`` and ``update`` (:mod:`inins.ekf.step`) behind the
+    argument lists of ``frozen_kernels``: the update's satellites and settings packed
+    as :data:`inins.ekf.rows.Satellites` and :data:`inins.ekf.fused.TightModel`."""
+
+    propagate = staticmethod(step.propagate)
+
+    @staticmethod
+    def update(x, P, quat, vel, lla, omega_b, lever_b, *args):
+        """``frozen_kernels.update``'s arguments: the satellites' nine arrays (the order
+        of :data:`inins.ekf.rows.Satellites` after its ``prn``), then
+        ``bias_col, threshold, use_rr, init_clock, acc, y, s``."""
+        bias_col, threshold, use_rr, init_clock, acc, y, s = args[9:]
+        model = fused.TightModel(
+            dt=0.0,
+            window=1,
+            noise=np.zeros(14),
+            lever=lever_b,
+            limits=np.zeros(2),
+            threshold=float(threshold),
+            use_rr=bool(use_rr),
+            fb=False,
+            keep=False,
+            sens=np.zeros(0, np.int64),
+            bias_columns=np.zeros(1, np.int64),
+        )
+        sats = rows.Satellites(np.zeros(len(args[2]), np.int64), *args[:9])
+        nav = (quat, vel, lla)
+        return step.update(x, P, nav, omega_b, model, sats, bias_col, init_clock, (acc, y, s))
 
 
 def _sensor_index(n):
@@ -267,7 +298,7 @@ def run_stepwise(config, initial, t0, epochs, true_sensor=None, store=None, kern
         Records what an RTS smoother needs per epoch.
     kernels : module
         Its ``propagate`` and ``update`` are called (``frozen_kernels`` or
-        :mod:`inins.ekf.step`).
+        :class:`package_kernels`).
 
     Returns
     -------
@@ -350,7 +381,7 @@ def run_stepwise(config, initial, t0, epochs, true_sensor=None, store=None, kern
         raise InputError("no satellites above the mask in any epoch of the run", key="gnss")
     result = EkfResult.from_log(cfg, log, t_end - t0, wall)
     if log.truth and len(log.truth) == len(log.time):
-        result = ekf_filter.score(
+        result = scoring.truth_errors(
             result, log, true_sensor, pps_storage=cfg.pps_storage, systems=cfg.systems
         )
     return result, run.splits

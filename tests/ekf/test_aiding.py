@@ -100,6 +100,11 @@ def test_stationary_detector_statistic():
     w[250:, 2] += 2 * DEG  # turning in the 3rd
     flags = aiding.stationary(w * dt, f * dt, dt, ends, 50)
     assert list(flags) == [True, False, False]
+    # each window on its own samples: at rest after a turn and an acceleration is at rest
+    f[150:200, 0] = f[0:50, 0]
+    w[:, 2] = w[::-1, 2]  # the turn first (samples 0-49), then at rest
+    flags = aiding.stationary(w * dt, f * dt, dt, np.array([50, 100, 300]), 50)
+    assert list(flags) == [False, True, True]
 
 
 def test_odometer_bounds_along_track_drift_in_outages():

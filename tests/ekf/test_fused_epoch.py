@@ -1,5 +1,5 @@
-"""The fused epoch kernel (:func:`inins.ekf.step.epoch`, run in batches by
-:func:`inins.ekf.step.epochs`) against the filter loop it replaced
+"""The fused epoch kernel (:func:`inins.ekf.fused.epoch`, run in batches by
+:func:`inins.ekf.fused.epochs`) against the filter loop it replaced
 (``stepwise_filter.run_stepwise``: the Python loop as it was, calling the
 building-block kernels one by one): EKF2-FB with a GPS outage, an epoch without
 satellites and a bank turn whose roll-in and roll-out split the propagation; EKF1-FF
@@ -23,11 +23,10 @@ from dataclasses import replace
 import numpy as np
 import pytest
 from ekf_sim import Receiver, epoch_stream
-from stepwise_filter import run_stepwise
+from stepwise_filter import package_kernels, run_stepwise
 
 from inins.core import imu, strapdown
 from inins.core.units import ARCSEC, DEG, DEG_RTH, DPH, UG
-from inins.ekf import step
 from inins.ekf.config import Coupling, FilterConfig, InitialSigma, Model
 from inins.ekf.filter import run_filter
 from inins.ekf.flight import (
@@ -150,7 +149,7 @@ def _assert_results_agree(got, want):
 
 def test_ekf2_fb_with_outage_empty_epoch_and_split_propagation(flight):
     config, initial, epochs = flight
-    want, splits = run_stepwise(config, initial, 0.0, epochs, ERRORS, kernels=step)
+    want, splits = run_stepwise(config, initial, 0.0, epochs, ERRORS, kernels=package_kernels)
     got = run_filter(config, initial, 0.0, epochs, ERRORS)
     assert splits >= 1  # the interval of the roll was propagated in sub-intervals
     assert want.coasted[EMPTY_EPOCH] and want.n_sats[EMPTY_EPOCH] == 0
@@ -162,7 +161,7 @@ def test_ekf2_fb_with_outage_empty_epoch_and_split_propagation(flight):
 def test_ekf1_ff_pseudoranges_alone(flight):
     config, initial, epochs = flight
     config = replace(config, model=Model.EKF1, coupling=Coupling.FF, use_range_rate=False)
-    want, _ = run_stepwise(config, initial, 0.0, epochs, ERRORS, kernels=step)
+    want, _ = run_stepwise(config, initial, 0.0, epochs, ERRORS, kernels=package_kernels)
     got = run_filter(config, initial, 0.0, epochs, ERRORS)
     assert want.state.shape[1] == 17 and not np.any(want.innovations.kind)
     _assert_results_agree(got, want)
@@ -171,7 +170,7 @@ def test_ekf1_ff_pseudoranges_alone(flight):
 def test_naive_pairing(flight):
     config, initial, epochs = flight
     config = replace(config, pps_storage=False)
-    want, _ = run_stepwise(config, initial, 0.0, epochs, ERRORS, kernels=step)
+    want, _ = run_stepwise(config, initial, 0.0, epochs, ERRORS, kernels=package_kernels)
     got = run_filter(config, initial, 0.0, epochs, ERRORS)
     assert np.all(want.time > want.gnss_time)  # the state at the arrival
     _assert_results_agree(got, want)
@@ -182,7 +181,9 @@ def test_smoother_store(flight, coupling):
     config, initial, epochs = flight
     config = replace(config, coupling=coupling)
     store_want, store_got = TightStore(), TightStore()
-    want, splits = run_stepwise(config, initial, 0.0, epochs, store=store_want, kernels=step)
+    want, splits = run_stepwise(
+        config, initial, 0.0, epochs, store=store_want, kernels=package_kernels
+    )
     got = run_filter(config, initial, 0.0, epochs, store=store_got)
     assert splits >= 1  # a Phi_k the product over sub-intervals
     _assert_results_agree(got, want)
@@ -215,8 +216,13 @@ def test_the_rewritten_arithmetic_agrees_with_its_first_form(flight):
     """Each output column within 1e-6 of its largest magnitude over the run (measured:
     1e-9 to 1e-12; the position estimates follow pseudoranges of 2e7 m whose last bit is
     4e-9 m). A wrong term of the rewritten propagation or update (a row the model moves
-    left out, a sign, a missing half of ``F Qc + Qc F^T``) changes them by 1e-3 or more."""
+    left out, a sign, a missing half of ``F Qc + Qc F^T``) changes them by 1e-3 or more.
+
+    The filter is run without its lever arm: the first form's range-rate rows had no
+    share of the Earth rate and the gyro bias in the lever arm's velocity, which the
+    package's rows carry (design.md §6b; ``tests/ekf/test_jacobians.py``)."""
     config, initial, epochs = flight
+    config = replace(config, lever_arm=np.zeros(3))
     want, _ = run_stepwise(config, initial, 0.0, epochs, ERRORS)
     got = run_filter(config, initial, 0.0, epochs, ERRORS)
     for name in ("quat_nb", "vel_n", "lla", "state", "sigma", "cumulative", "nav_error", "nis"):

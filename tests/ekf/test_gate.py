@@ -25,7 +25,7 @@ P0, R0 = 3.0, 1.0  # prior variance of the one state, measurement noise: s = 4, 
 def _threshold(p):
     config = FilterConfig(Model.EKF1, Coupling.FB, 0.005, gate_probability=p)
     initial = strapdown.NavState.from_attitude([0.0, 0.0, 0.0], [0.0, 0.0, 0.0], [0.6, 2.0, 0.0])
-    return _Run(config, initial, 0.0).threshold
+    return _Run(config, initial, 0.0, keep=False).model.threshold
 
 
 def _rejected(y0, threshold):

@@ -74,67 +74,21 @@ def test_tight_smoothed_beats_forward(coupling):
 @pytest.mark.slow
 def test_psins_tc_drive_smoothed():
     """The PSINS tc drive (real MEMS, 136 s, no reference) through the shipped scenario's
-    tight EKF1-FB with the store, then smoothed. No truth: the figures are the smoothed
-    1-sigma against the forward one and the forward-smoothed difference. Measured:
-    median horizontal 1-sigma forward 0.162 m, smoothed 0.090 m; heading 1-sigma at the
-    start forward 5.0 deg (the initial), smoothed 0.52 deg; the largest horizontal
-    difference forward-smoothed 0.46 m. Asserted: median horizontal smoothed < 0.8 of
-    forward, heading at the start < 1 deg, the difference < 1.5 m."""
+    tight EKF1-FB with the store, then smoothed: the command's own run with
+    ``filter.smoother: rts``. No truth: the figures are the smoothed 1-sigma against the
+    forward one and the forward-smoothed difference. Measured: median horizontal 1-sigma
+    forward 0.162 m, smoothed 0.090 m; heading 1-sigma at the start forward 5.0 deg (the
+    initial), smoothed 0.52 deg; the largest horizontal difference forward-smoothed
+    0.46 m. Asserted: median horizontal smoothed < 0.8 of forward, heading at the start
+    < 1 deg, the difference < 1.5 m."""
     from inins.commands import run_ekf
-    from inins.ekf import recorded, sources
-    from inins.gnss import measurements
-    from inins.io.psins_tc import read_psins_tc
     from inins.scenario.base import load_scenario
     from tests.helpers import CONFIGS
 
     path = CONFIGS / "run-ekf" / "psins-tc.yaml"
-    scenario, _, _ = load_scenario(run_ekf.SCENARIO_MODEL, path, [], path)
-    d, f = scenario.data, scenario.filter
-    rec = read_psins_tc(d.file)
-    imu = rec.imu
-    dt = float(np.median(np.diff(imu.time)))
-    sources.check_imu_time(imu.time, dt, str(d.file))
-    start = recorded.prepare(
-        imu.time,
-        imu.dtheta,
-        imu.dv,
-        dt,
-        measurements.from_record(rec.gnss),
-        rec.ephemeris,
-        rec.imu_t0_sow,
-        mask=d.mask_deg * DEG,
-        klobuchar=None if rec.iono_alpha is None else (rec.iono_alpha, rec.iono_beta),
-        static_window=d.static_window_s,
-        motion_speed=d.motion_speed_mps,
-        lever_arm=np.asarray(d.lever_arm_m, float),
-        source=str(d.file),
-    )
-    config = run_ekf.filter_config(f, dt, d.lever_arm_m, 1)
-    stream = recorded.epoch_stream(
-        start,
-        imu.time,
-        imu.dtheta,
-        imu.dv,
-        d.latency_s,
-        f.pseudorange_sigma_m,
-        f.range_rate_sigma_mps,
-    )
-    store = TightStore()
-    result = run_filter(config, start.initial, start.t_start, stream, store=store)
-    sm = smoother.smooth(store.run())
-    fwd_h = np.hypot(result.sigma[:, 0], result.sigma[:, 1])
-    sm_h = np.hypot(sm.sigma[:, 0], sm.sigma[:, 1])
-    diff = error_model.position_error_ned(result.lla, sm.lla)
-    print(
-        "tc sigma h median",
-        np.median(fwd_h),
-        np.median(sm_h),
-        "heading start",
-        result.sigma[0, 8] / DEG,
-        sm.sigma[0, 8] / DEG,
-        "diff max",
-        np.abs(diff[:, :2]).max(),
-    )
-    assert np.median(sm_h) < 0.8 * np.median(fwd_h)
-    assert sm.sigma[0, 8] < 1.0 * DEG
-    assert np.hypot(diff[:, 0], diff[:, 1]).max() < 1.5
+    scenario, _, _ = load_scenario(run_ekf.SCENARIO_MODEL, path, ["filter.smoother=rts"], path)
+    r = run_ekf.run(scenario, 0).results
+    print(r["forward_hor_sigma_median_m"], r["smoothed_hor_sigma_median_m"])
+    assert r["smoothed_hor_sigma_median_m"] < 0.8 * r["forward_hor_sigma_median_m"]
+    assert r["smoothed_heading_sigma_start_deg"] < 1.0
+    assert r["smoothed_forward_hor_diff_max_m"] < 1.5

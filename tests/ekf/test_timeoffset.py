@@ -32,6 +32,18 @@ def test_clock_fit_recovers_offset_and_rate():
     assert abs(fit.rate + 400e-6) < 20e-6
 
 
+def test_course_rate_is_clockwise_from_north():
+    """A velocity turning from north towards east at 0.1 rad/s (the heading's sense, spec
+    §2): course rate +0.1 rad/s; below ``min_speed`` zero."""
+    t = np.arange(0.0, 20.0, 0.5)
+    course = 0.3 + 0.1 * t
+    speed = np.where(t < 5.0, 1.0, 10.0)
+    vel = np.stack([speed * np.cos(course), speed * np.sin(course), np.zeros_like(t)], -1)
+    rate = timeoffset.course_rate(t, vel, min_speed=3.0)
+    np.testing.assert_allclose(rate[t > 6.0], 0.1, rtol=1e-9)
+    assert not rate[t < 5.0].any()
+
+
 @pytest.mark.slow
 def test_psins_tc_time_offset():
     """The PSINS tc drive (136 s, real MEMS at 200 Hz): its SPP fixes (0.3 m position

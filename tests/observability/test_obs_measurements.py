@@ -97,10 +97,9 @@ def test_pseudorange_row_is_the_derivative_of_the_range_with_lever_arm():
 
 def test_range_rate_row_is_the_derivative_with_the_lever_arm_velocity():
     lever_b = np.array([1.2, -0.4, -2.5])
-    omega_nb_b = np.array([0.05, -0.02, 0.1])  # a turning body
-    seg = _segment()
-    w_in = earth.rate_ie_n(LLA[0]) + earth.rate_en_n(LLA[0], LLA[2], seg.vel_n)
-    seg = _segment(omega_ib_b=omega_nb_b + MAT_NB.T @ w_in)
+    omega_eb_b = np.array([0.05, -0.02, 0.1])  # a turning body
+    w_ie = earth.rate_ie_n(LLA[0])  # the antenna's velocity over the Earth
+    seg = _segment(omega_ib_b=omega_eb_b + MAT_NB.T @ w_ie)
     m = meas.Measurement("range_rate", 0.05, lever_arm_b=lever_b, los_n=LOS)
     layout = error_model.EKF17
     H, _ = meas.rows(layout, seg, m)
@@ -108,8 +107,8 @@ def test_range_rate_row_is_the_derivative_with_the_lever_arm_velocity():
     def rate(x):
         """INS-predicted range rate minus the true one (satellite velocity cancels)."""
         c_est = _perturbed(MAT_NB, x[6:9])
-        w_nb = seg.omega_ib_b + x[12:15] - c_est.T @ w_in
-        v_ant = x[3:6] + c_est @ np.cross(w_nb, lever_b)  # true v_n cancels: left out
+        w_eb = seg.omega_ib_b + x[12:15] - c_est.T @ w_ie
+        v_ant = x[3:6] + c_est @ np.cross(w_eb, lever_b)  # true v_n cancels: left out
         return -LOS @ v_ant + x[16]
 
     for name in (

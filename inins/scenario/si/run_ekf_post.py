@@ -1,10 +1,11 @@
 """A run-ekf ``post:`` section in SI: the loosely coupled filter's configuration
-(:class:`inins.ekf.loose.LooseConfig`)."""
+(:class:`inins.ekf.loose.LooseConfig`) and its post-processing settings
+(:class:`inins.ekf.post.PostSettings`)."""
 
 import numpy as np
 
 from inins.core.units import DEG, UG
-from inins.ekf import loose
+from inins.ekf import loose, post
 
 
 def loose_config(p, dt, lever):
@@ -49,3 +50,35 @@ def loose_config(p, dt, lever):
         stationary_window=p.aiding.stationary.window_s,
     )
     return cfg
+
+
+def post_settings(p):
+    """:class:`~inins.ekf.post.PostSettings` (SI) of the ``post:`` section ``p``."""
+    t, o = p.time, p.outages
+    return post.PostSettings(
+        dt=1.0 / p.imu.rate_hz,
+        q_flags=tuple(p.gnss.q_flags),
+        sigma_scale={int(q): float(v) for q, v in p.gnss.sigma_scale.items()},
+        use_velocity=p.gnss.use_velocity,
+        time=post.TimeSettings(
+            fit=t.fit == "turn_rate",
+            window=t.window_s,
+            search=t.search_s,
+            piecewise=t.model == "piecewise",
+            offset=t.offset_s,
+            state=t.state,
+        ),
+        static_window=tuple(p.static_window_s),
+        motion_speed=p.motion_speed_mps,
+        init_reference=p.init == "reference",
+        init_heading_error=p.init_heading_error_deg * DEG,
+        lever_arm=np.asarray(p.lever_arm_m, float),
+        outages=post.OutageSettings(o.every_s, o.length_s, o.first_s, tuple(o.windows)),
+        stationary_windows=None
+        if p.aiding.stationary_windows_s is None
+        else tuple(p.aiding.stationary_windows_s),
+        odometer=p.aiding.odometer_sigma_mps > 0,
+        reference_q=p.reference_q,
+        score_from=p.score_from_s,
+        smooth=p.smoother == "rts",
+    )
