@@ -13,7 +13,6 @@ track, and the error against a known position when the scenario gives one.
 import numpy as np
 
 from inins.commands import figures
-from inins.commands.run_ekf_post import read_post_gnss, read_post_imu
 from inins.core import earth
 from inins.core.units import DEG
 from inins.exceptions import InputError
@@ -24,7 +23,6 @@ from inins.gnss.systems import LETTERS, NAMES, rinex_name
 from inins.io import flight_layout, imu_units, solution_layout
 from inins.io.flight_checks import checked_flight
 from inins.io.flight_layout import ImuRecord, RecordedFlight
-from inins.io.psins_tc import read_psins_tc
 from inins.io.rinex_nav import read_nav, read_navigation
 from inins.io.rinex_obs import observable, read_obs, system_observable
 from inins.io.rinex_text import read_track
@@ -95,6 +93,9 @@ def run_solution(scenario):
     maps it to GNSS time, as from the source files. Refused: IMU and GNSS spans that
     cannot overlap (the IMU log shorter than a tenth of the GNSS span, or the other way,
     so no mapping of the IMU tick onto GNSS time would cover the drive)."""
+    # imported here: the RINEX path (the default) needs neither, nor what they import
+    from inins.commands.run_ekf_post import read_post_gnss, read_post_imu
+
     sol = read_post_gnss(scenario.solution_gnss)
     imu = read_post_imu(scenario.solution_imu)
     imu_units.check_against_gnss(imu, sol, scenario.solution_imu.axes)
@@ -185,6 +186,8 @@ def read_recording(scenario):
     """The :class:`RecordedFlight` of the scenario's files, and the RINEX header position
     (NaN for the PSINS file)."""
     if scenario.format == "psins-tc":
+        from inins.io.psins_tc import read_psins_tc  # scipy.io only for this format
+
         return read_psins_tc(scenario.file), np.full(3, np.nan)
     if scenario.systems != "G" or scenario.extra_nav_files:
         return _read_multi(scenario)
