@@ -13,7 +13,7 @@ from inins.io.rinex_nav import read_navigation
 DATA = Path(__file__).resolve().parents[2] / "data" / "smartloc"
 
 
-def test_numpy_and_compiled_states_agree_for_every_kepler_system():
+def test_numpy_and_compiled_states_agree_for_every_kepler_system(monkeypatch):
     mixed = read_navigation(DATA / "BRDC00WRD_U_20161580000_01D_MN.rnx.gz", leap_seconds=17)
     eph = broadcast.from_records(mixed.records, mixed.glonass).kepler
     geo = [k for k, p in enumerate(eph.prn.tolist()) if orbit._is_geo(p)]
@@ -22,17 +22,20 @@ def test_numpy_and_compiled_states_agree_for_every_kepler_system():
     index = np.repeat(np.arange(len(eph.prn)), 40)
     sow = eph.toe[index] + rng.uniform(-7200.0, 7200.0, index.size)
     args = (index, eph.week.astype(np.int64)[index], sow)
-    states = {}
-    for label, limit in (("numpy", 10**9), ("compiled", -1)):
-        saved, orbit.NUMPY_STATES = orbit.NUMPY_STATES, limit
-        try:
-            states[label] = orbit.satellite_states(eph, *args, tgd=True)
-        finally:
-            orbit.NUMPY_STATES = saved
-    a, b = states["numpy"], states["compiled"]
+    states = []
+    for numpy_path in (True, False):
+        monkeypatch.setattr(orbit, "_use_numpy", lambda count, path=numpy_path: path)
+        states.append(orbit.satellite_states(eph, *args, tgd=True))
+    a, b = states
     np.testing.assert_allclose(a.pos, b.pos, rtol=0, atol=1e-6)  # m
     np.testing.assert_allclose(a.vel, b.vel, rtol=0, atol=1e-9)  # m/s
     np.testing.assert_allclose(a.clock, b.clock, rtol=0, atol=1e-6)  # m (3 fs)
     np.testing.assert_allclose(a.drift, b.drift, rtol=0, atol=1e-9)  # m/s
-    moved = np.linalg.norm(a.pos - b.pos, axis=1)
-    assert np.isfinite(moved).all() and np.linalg.norm(a.pos, axis=1).min() > 2e7
+    assert np.linalg.norm(a.pos, axis=1).min() > 2e7
+
+
+def test_the_numpy_path_serves_small_requests_while_numba_is_not_loaded(monkeypatch):
+    monkeypatch.setitem(orbit.sys.modules, "numba", None)
+    assert orbit._use_numpy(orbit.NUMPY_STATES) and not orbit._use_numpy(orbit.NUMPY_STATES + 1)
+    monkeypatch.setitem(orbit.sys.modules, "numba", object())
+    assert not orbit._use_numpy(10)
