@@ -17,7 +17,6 @@ rotation: the orbit is computed in an inertial-aligned frame (node without
 :mod:`inins.gnss.glonass`.
 """
 
-import sys
 from dataclasses import dataclass
 
 import numpy as np
@@ -269,7 +268,9 @@ request; the two agree to 1 um."""
 
 def _use_numpy(count):
     """True where ``count`` states are computed by numpy (:data:`NUMPY_STATES`)."""
-    return count <= NUMPY_STATES and sys.modules.get("numba") is None
+    # before numba is loaded the kernel is inins.core.jit's lazy Kernel; once loaded
+    # (by any kernel's first call) its dispatcher stands in this module's globals
+    return count <= NUMPY_STATES and isinstance(_states_kernel, jit.Kernel)
 
 
 def _states_numpy(index, week, sow, par, consts, eph_week, tgd):

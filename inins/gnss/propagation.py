@@ -44,7 +44,11 @@ def sagnac_rotate(vec_e, travel_time):
     ang = OMEGA_E * np.asarray(travel_time, dtype=float)
     ca, sa = np.cos(ang), np.sin(ang)
     x, y = vec_e[..., 0], vec_e[..., 1]
-    return np.stack([ca * x + sa * y, -sa * x + ca * y, vec_e[..., 2]], axis=-1)
+    out = np.empty(np.broadcast_shapes(vec_e.shape, (*ang.shape, 3)))
+    out[..., 0] = ca * x + sa * y
+    out[..., 1] = -sa * x + ca * y
+    out[..., 2] = vec_e[..., 2]
+    return out
 
 
 def geometry(sat_pos, sat_vel, rx_pos, rx_vel=None):

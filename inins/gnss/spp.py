@@ -172,9 +172,14 @@ def padded_rows(start):
 
 
 def _model_terms(los, rx_pos, sow, signal, options, scale=1.0):
-    """Elevation, azimuth, troposphere and ionosphere (m) per padded row; ``rx_pos`` (n, 1, 3)."""
-    el, az = propagation.elevation_azimuth(los, rx_pos)
+    """Elevation, azimuth, troposphere and ionosphere (m) per padded row; ``rx_pos`` (n, 1, 3).
+
+    The elevation and azimuth of :func:`inins.gnss.propagation.elevation_azimuth`, with
+    the receiver's geodetic position computed once per epoch for both."""
     lla = earth.llh_from_ecef(rx_pos[:, 0, :])
+    los_n = np.einsum("nji,nkj->nki", earth.mat_en(lla[:, 0], lla[:, 1]), los)
+    el = np.arcsin(np.clip(-los_n[..., 2], -1.0, 1.0))
+    az = np.mod(np.arctan2(los_n[..., 1], los_n[..., 0]), 2.0 * np.pi)
     delay = np.zeros_like(el)
     if options.troposphere:
         delay += propagation.troposphere_saastamoinen(lla[:, 2:3], lla[:, 0:1], el)
@@ -273,7 +278,7 @@ def _pad(epochs, rows, options):
     obs = epochs.obs
     pr = np.where(have, obs.pseudorange[r], np.nan)
     system = systems.system_of(obs.prn)
-    present = np.unique(system)
+    present = np.flatnonzero(np.bincount(system, minlength=1))  # systems observed, sorted
     column = np.full(systems.SBAS + 1, -1, np.int64)
     column[present[1:]] = np.arange(len(present) - 1)
     mask = np.full(systems.SBAS + 1, options.mask_rad)
@@ -359,15 +364,19 @@ def _iterate(x, m, options):
     """Gauss-Newton on all epochs at once, from ``x`` (n, 4 + j), on the padded
     measurements ``m``. The returned residuals are evaluated at the final ``x``."""
     done = np.zeros(len(x), bool)
+    todo = np.arange(len(x))  # epochs still iterated: neither converged nor short of rows
+    x = x.copy()
     for _ in range(options.max_iterations):
-        v, w, ok, _, _, h, near, active = _linearize(x, m, options)
+        sub = m.take(todo)
+        v, w, ok, _, _, h, near, active = _linearize(x[todo], sub, options)
         nmat, rhs = _normal(h, np.where(np.isfinite(v), w, 0.0), np.nan_to_num(v))
         enough = ok.sum(axis=1) >= 4 + active.sum(axis=1)
         dx = _solve_normal(nmat, rhs, active, enough)
-        dx[done] = 0.0
-        x = x + dx
-        done |= (np.abs(dx).max(axis=1) < 1e-4) & near
-        if done[enough].all():
+        x[todo] = x[todo] + dx
+        converged = (np.abs(dx).max(axis=1) < 1e-4) & near
+        done[todo] = converged
+        todo = todo[enough & ~converged]
+        if not todo.size:
             break
     v, w, ok, el, az, h, _, active = _linearize(x, m, options)
     return _Fit(x, v, w, ok, el, az, h, done, active)
@@ -448,7 +457,7 @@ def solve(epochs, options=SppOptions(), initial=None):
         excluded_prn=excluded,
         n_excluded=n_excluded,
         isb=np.where(fit.active & ~no_fix[:, None], x[:, 4:], np.nan),
-        isb_systems=tuple(np.unique(systems.system_of(obs.prn)).tolist()[1:]),
+        isb_systems=tuple(np.flatnonzero(np.bincount(systems.system_of(obs.prn))).tolist()[1:]),
         used=used,
         **per_row,
     )

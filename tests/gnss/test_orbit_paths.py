@@ -3,10 +3,13 @@ arithmetic for small requests (no numba loaded), the compiled loop for large one
 compute the same expressions in the same order, so they agree to the rounding of the
 trigonometric functions: well below a micrometre and a femtosecond."""
 
+import subprocess
+import sys
 from pathlib import Path
 
 import numpy as np
 
+from inins.core import jit
 from inins.gnss import broadcast, orbit, systems
 from inins.io.rinex_nav import read_navigation
 
@@ -35,7 +38,20 @@ def test_numpy_and_compiled_states_agree_for_every_kepler_system(monkeypatch):
 
 
 def test_the_numpy_path_serves_small_requests_while_numba_is_not_loaded(monkeypatch):
-    monkeypatch.setitem(orbit.sys.modules, "numba", None)
+    lazy = jit.Kernel(orbit._states_kernel.py_func, {})
+    monkeypatch.setattr(orbit, "_states_kernel", lazy)
     assert orbit._use_numpy(orbit.NUMPY_STATES) and not orbit._use_numpy(orbit.NUMPY_STATES + 1)
-    monkeypatch.setitem(orbit.sys.modules, "numba", object())
+    monkeypatch.setattr(orbit, "_states_kernel", jit.activate().njit(lazy.py_func))
     assert not orbit._use_numpy(10)
+
+
+def test_import_flight_on_rinex_loads_no_kernel(tmp_path):
+    """The default import-flight (RINEX, GPS) runs without numba, scipy or rich (stdout
+    not a terminal)."""
+    code = (
+        "import sys\nfrom inins.cli import main\nsys.argv = ['inins', 'import-flight', '-o', "
+        f"{str(tmp_path)!r}]\ntry:\n    main()\nexcept SystemExit:\n    pass\n"
+        "print(sorted(m for m in ('numba', 'scipy', 'rich') if m in sys.modules))"
+    )
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
+    assert out.stdout.strip().splitlines()[-1] == "[]"
