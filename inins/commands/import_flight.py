@@ -72,7 +72,7 @@ def run(scenario, seed, *, sink=None, progress=None):
         for path, (value, unit, description) in flight_layout.flight_arrays(flight).items()
     }
     datasets.update(check.datasets())
-    used = "".join(LETTERS[k] for k in np.unique(epochs.obs.prn[solution.used] // 100).tolist())
+    used = "".join(LETTERS[k] for k in _systems(epochs.obs.prn[solution.used]))
     systems = {"systems_asked": scenario.systems, "systems_used": used}
     return CommandResult(
         command="import-flight",
@@ -256,6 +256,12 @@ def _gnss_record(obs, carrier):
     )
 
 
+def _systems(prn):
+    """System indices present among satellite numbers, ascending (a count per system:
+    ``np.unique`` would import numpy.ma for this)."""
+    return np.flatnonzero(np.bincount(np.asarray(prn, np.int64) // 100)).tolist()
+
+
 def imu_from_log(path, progress=None):
     """The IMU increments of an import-log scenario's log (body axes, SI) as an
     :class:`inins.io.flight_layout.ImuRecord`; time is the end of each sample interval
@@ -385,7 +391,7 @@ def _read_multi(scenario):
     channel = broadcast.glonass_channels(nav, obs_file.prn)
     for slot, k in obs_file.glonass_channels.items():
         channel[obs_file.prn == 100 + slot] = k
-    observed = {LETTERS[s] for s in np.unique(obs_file.prn // 100).tolist()}
+    observed = {LETTERS[s] for s in _systems(obs_file.prn)}
     doppler = system_observable(obs_file, "D1")
     lost = (obs_file.prn // 100 == 1) & np.isnan(channel) & np.isfinite(doppler)
     if lost.any():
@@ -631,7 +637,7 @@ def report(scenario, flight, epochs, check, iono):
     s = check.sol
     g = flight.gnss
     span = (s.time[-1] - s.time[0]) if len(s.time) else 0.0
-    used = "".join(LETTERS[k] for k in np.unique(epochs.obs.prn[s.used] // 100).tolist())
+    used = "".join(LETTERS[k] for k in _systems(epochs.obs.prn[s.used]))
     lines = [
         f"source: {flight.source}",
         f"systems: asked {scenario.systems}, used by the fixes {used or 'none'}",
@@ -693,7 +699,7 @@ def report(scenario, flight, epochs, check, iono):
         )
         used = epochs.obs.prn[s.used] // 100
         count = ", ".join(
-            f"{NAMES[k]} {np.count_nonzero(used == k)}" for k in np.unique(epochs.obs.prn // 100)
+            f"{NAMES[k]} {np.count_nonzero(used == k)}" for k in _systems(epochs.obs.prn)
         )
         lines.append(f"inter-system biases (median, against the first system): {per}")
         lines.append(f"measurements used per system: {count}")

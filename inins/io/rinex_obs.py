@@ -478,8 +478,8 @@ def _build(path, about, body, union, columns):
         where = {"source": str(path), "line": int(body.line[i])}
         raise InputError(f"unreadable satellite {body.ids[i].decode()!r}", **where)
     letters = np.where(ids[:, 0] == b" ", b"G", ids[:, 0])
-    number = np.char.replace(np.ascontiguousarray(ids[:, 1:3]).view("S2").ravel(), b" ", b"0")
-    number = number.astype(np.int64)
+    raw = body.ids.view(np.uint8).reshape(-1, 3).astype(np.int64)  # the two digits checked
+    number = np.where(raw[:, 1] == 32, 0, raw[:, 1] - 48) * 10 + raw[:, 2] - 48
     code = np.zeros(len(number), np.int64)
     for i, letter in enumerate(LETTERS):
         code[letters == letter.encode()] = i
