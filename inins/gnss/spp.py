@@ -177,7 +177,7 @@ def _model_terms(los, rx_pos, sow, signal, options, scale=1.0):
     The elevation and azimuth of :func:`inins.gnss.propagation.elevation_azimuth`, with
     the receiver's geodetic position computed once per epoch for both."""
     lla = earth.llh_from_ecef(rx_pos[:, 0, :])
-    los_n = np.einsum("nji,nkj->nki", earth.mat_en(lla[:, 0], lla[:, 1]), los)
+    los_n = los @ earth.mat_en(lla[:, 0], lla[:, 1])  # mat_en^T los per epoch
     el = np.arcsin(np.clip(-los_n[..., 2], -1.0, 1.0))
     az = np.mod(np.arctan2(los_n[..., 1], los_n[..., 0]), 2.0 * np.pi)
     delay = np.zeros_like(el)
@@ -202,7 +202,8 @@ def _weights(el, near, m, options):
 
 def _normal(h, w, v):
     hw = h * w[..., None]
-    return np.einsum("nki,nkj->nij", hw, h), np.einsum("nki,nk->ni", hw, v)
+    hw_t = hw.transpose(0, 2, 1)
+    return hw_t @ h, (hw_t @ v[..., None])[..., 0]
 
 
 @dataclass(frozen=True)
@@ -331,7 +332,7 @@ def _linearize(x, m, options):
     """Residuals, weights, used slots, elevation, azimuth, design matrix and active bias
     columns at ``x`` (n, 4 + j)."""
     rx = x[:, None, :3]
-    rng, _, los, _ = propagation.geometry(m.sat_pos, np.zeros_like(m.sat_pos), rx)
+    rng, los, _ = propagation.range_los(m.sat_pos, rx)
     near = np.linalg.norm(x[:, :3], axis=1) > NEAR_EARTH_M
     el, az, delay = _model_terms(los, rx, m.sow, m.signal, options, m.iono)
     delay = np.where(near[:, None], delay, 0.0)
@@ -387,7 +388,7 @@ def _w_test(h, w, v, ok, active):
     nmat, _ = _normal(h, w, v)
     free = np.concatenate([np.zeros((len(nmat), 4), bool), ~active], axis=1)
     ninv = np.linalg.inv(nmat + free[:, :, None] * np.eye(nmat.shape[-1]))
-    hq = np.einsum("nki,nij,nkj->nk", h, ninv, h)
+    hq = np.sum((h @ ninv) * h, axis=-1)
     qvv = np.where(ok, 1.0 / np.where(w > 0, w, 1.0) - hq, np.inf)
     return np.where(ok & (qvv > 1e-12), np.abs(v) / np.sqrt(np.abs(qvv)), 0.0)
 
