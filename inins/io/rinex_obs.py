@@ -470,25 +470,24 @@ def _build(path, about, body, union, columns):
     and of both readers)."""
     version, marker, pos, interval, per_system, channels = about
     parsed = body.values
-    ids = body.ids.view("S1").reshape(-1, 3)
-    digits = np.isin(ids[:, 1:], [bytes([c]) for c in b" 0123456789"]).all(axis=1)
-    digits &= ids[:, 2] != b" "
+    raw = body.ids.view(np.uint8).reshape(-1, 3)
+    tens, ones = raw[:, 1], raw[:, 2]
+    digits = ((tens == 32) | (tens - np.uint8(48) < 10)) & (ones - np.uint8(48) < 10)
     if not digits.all():
         i = int(np.flatnonzero(~digits)[0])
         where = {"source": str(path), "line": int(body.line[i])}
         raise InputError(f"unreadable satellite {body.ids[i].decode()!r}", **where)
-    letters = np.where(ids[:, 0] == b" ", b"G", ids[:, 0])
-    raw = body.ids.view(np.uint8).reshape(-1, 3).astype(np.int64)  # the two digits checked
-    number = np.where(raw[:, 1] == 32, 0, raw[:, 1] - 48) * 10 + raw[:, 2] - 48
-    code = np.zeros(len(number), np.int64)
-    for i, letter in enumerate(LETTERS):
-        code[letters == letter.encode()] = i
+    number = np.where(tens == 32, 0, tens.astype(np.int64) - 48) * 10 + ones - 48
+    letters = np.where(raw[:, 0] == 32, ord("G"), raw[:, 0])  # RINEX 2: blank is GPS
+    index = np.zeros(256, np.int64)
+    index[[ord(letter) for letter in LETTERS]] = np.arange(len(LETTERS))
+    code = index[letters]
     if columns is None:
         values = parsed
     else:
         values = np.full((len(number), len(union)), np.nan)
         for s, cols in columns.items():
-            rows = np.flatnonzero(letters == s.encode())
+            rows = np.flatnonzero(letters == ord(s))
             values[np.ix_(rows, cols)] = parsed[rows][:, : len(cols)]
     cal = body.cal
     week, sow = gps_week_sow(*cal[:, :5].astype(np.int64).T, cal[:, 5])
