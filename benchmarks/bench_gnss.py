@@ -72,8 +72,9 @@ def _spp(obs_file, eph):
     return work
 
 
-def run():
-    """Figures of the three GNSS hot paths (seconds, and items per second)."""
+def run(quick=False):
+    """Figures of the GNSS hot paths (seconds, and items per second); ``quick``: without
+    the 24-h 1-Hz file."""
     obs_file = read_obs(DATA / "abpo0080.15o.gz")
     eph = ephemeris.from_columns(read_nav(DATA / "abpo0080.15n.gz").records)
     figures = {}
@@ -84,7 +85,8 @@ def run():
     wall, cpu = _best(lambda: read_obs(DATA / "abpo0080.15o.gz"))
     figures.update(read_obs_abpo_s=wall, read_obs_cpu_s=cpu)
     figures.update(run_multi())
-    figures.update(run_1hz())
+    if not quick:
+        figures.update(run_1hz())
     return figures
 
 

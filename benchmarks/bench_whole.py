@@ -243,8 +243,9 @@ class _Captured(Exception):
     """Stops the command once its epochs are captured."""
 
 
-def run(runs=5):
-    """Both rows (flat dict)."""
+def run(quick=False, runs=None):
+    """Both rows (flat dict); ``quick``: 3 rounds, else 5."""
+    runs = runs or (3 if quick else 5)
     return {**spp_vs_rtklib(runs), **run_ekf_vs_floor(runs)}
 
 
@@ -259,4 +260,4 @@ if __name__ == "__main__":
     if args.floor:
         floor(args.floor)
     else:
-        print(json.dumps(run(args.runs), indent=1))
+        print(json.dumps(run(runs=args.runs), indent=1))
