@@ -10,10 +10,12 @@ letters no RINEX version defines, are counted (:attr:`ObservationFile.skipped`) 
 the report says so. An epoch more than :data:`MAX_EPOCH_STEP_S` after the one before
 (a year or month field wrong) is refused, as is one before it.
 
-The file is read a bounded line at a time (:mod:`inins.io.textlines`) and each epoch
-checked as it comes, so junk is refused at its first line; the numbers of all
-satellite records are converted in one numpy call (fixed-width fields), which keeps a
-3 MB day file well under half a second.
+The body is first read by array operations a block of bytes at a time
+(:mod:`inins.io.rinex_scan`: every line, epoch and record of a block at once), which
+takes only a body in the strict layout; anything else (bad input among it) is read
+again here a bounded line at a time (:mod:`inins.io.textlines`), each epoch checked as
+it comes, so junk is refused at its first line with the file, line and reason. Both
+readers build the same :class:`ObservationFile` (:func:`_build`).
 
 :func:`observable` gives a column under its RINEX 2 name (GPS files; RINEX 3 codes
 ``C1C`` -> C1, ``C1W``/``C1P``/``C1Y`` -> P1, ``C2W``/``C2P``/``C2Y``/``C2D`` -> P2,
