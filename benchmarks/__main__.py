@@ -26,7 +26,15 @@ SLOW_MODULES = ("bench_compile",)
 FIXED_COST = "bench_fixed_cost"
 """Whole-process figures of the default commands (``--quick``: 3 runs, no first run)."""
 """Left out by ``--quick``."""
-QUICK_AWARE = ("bench_ekf", "bench_sweep", "bench_imu", "bench_noise", "bench_ekf_post")
+QUICK_AWARE = (
+    "bench_ekf",
+    "bench_sweep",
+    "bench_imu",
+    "bench_noise",
+    "bench_ekf_post",
+    "bench_gnss",
+    "bench_whole",
+)
 """Modules whose ``run(quick=True)`` drops their long parts (the 4-h EKF stream, the
 sweep throughput runs, the chunked sensor-error pass)."""
 TARGETS = (  # (figure path, relation, target, what)
@@ -105,6 +113,9 @@ TARGETS = (  # (figure path, relation, target, what)
     ("bench_ekf_post.hour_tight_total_s", "<", 2.0, "tight EKF2-FB + RTS one hour, s"),
     ("commands.calibrate_imu_1h_1khz.warm_s", "<", 2.0, "calibrate-imu 24-pos + rates 1 h, s"),
     ("commands.calibrate_imu_xsens.warm_s", "<", 1.0, "calibrate-imu table-free Xsens, s"),
+    ("bench_whole.spp_cpu_over_rnx2rtkp", "<=", 1.0, "ABPO SPP process CPU / rnx2rtkp's"),
+    ("bench_whole.run_ekf_1h_cpu_over_floor", "<=", 1.5, "run-ekf 1-h process CPU / floor"),
+    ("bench_gnss.read_obs_24h_1hz_values_per_s", ">=", 1e6, "24-h 1-Hz RINEX 3 read, values/s"),
 )
 MODULES = (
     "bench_strapdown",
@@ -116,6 +127,7 @@ MODULES = (
     "bench_sweep",
     "bench_noise",
     "bench_ekf_post",
+    "bench_whole",
 )
 
 
@@ -316,7 +328,7 @@ def targets_table(figures):
         if value is None:
             rows.append(f"{what:44s} {'n/a':>12s} {relation:2s} {target:10.4g}  -")
             continue
-        ok = value >= target if relation == ">=" else value < target
+        ok = {">=": value >= target, "<=": value <= target}.get(relation, value < target)
         rows.append(
             f"{what:44s} {value:12.4g} {relation:2s} {target:10.4g}  {'yes' if ok else 'NO'}"
         )

@@ -15,7 +15,11 @@ cache load), wall time and process CPU time (the machine may be shared):
   static receiver in Berlin, every satellite above 5 deg, eight codes per system:
   61,433 satellite rows, 8 MB; target < 0.5 s);
 - ``spp_mixed_*``: satellite states and SPP of that day (2,880 epochs, one clock
-  and three inter-system biases; target < 1 s).
+  and three inter-system biases; target < 1 s);
+- ``read_obs_24h_1hz_*`` (issue 34): that day at every second (each 30-s epoch's
+  satellites for the 30 seconds from it; 1.8 M satellite records, 14.7 M values,
+  240 MB), read with :func:`inins.io.rinex_obs.read_obs`: values (observations: one
+  code of one satellite at one epoch; target >= 1 M/s) and records per second.
 """
 
 import time
@@ -68,8 +72,9 @@ def _spp(obs_file, eph):
     return work
 
 
-def run():
-    """Figures of the three GNSS hot paths (seconds, and items per second)."""
+def run(quick=False):
+    """Figures of the GNSS hot paths (seconds, and items per second); ``quick``: without
+    the 24-h 1-Hz file."""
     obs_file = read_obs(DATA / "abpo0080.15o.gz")
     eph = ephemeris.from_columns(read_nav(DATA / "abpo0080.15n.gz").records)
     figures = {}
@@ -80,6 +85,8 @@ def run():
     wall, cpu = _best(lambda: read_obs(DATA / "abpo0080.15o.gz"))
     figures.update(read_obs_abpo_s=wall, read_obs_cpu_s=cpu)
     figures.update(run_multi())
+    if not quick:
+        figures.update(run_1hz())
     return figures
 
 
@@ -210,3 +217,105 @@ def run_multi():
     wall, cpu = _best(lambda: spp.solve(measurements.attach_satellites(obs, nav)))
     figures.update(spp_mixed_day_s=wall, spp_mixed_cpu_s=cpu, spp_mixed_epochs=obs.n_epochs)
     return figures
+
+
+# --------------------------------------------------------------------------------------
+# Issue 34: a 24-h 1-Hz four-system observation file (the synthetic day at every second)
+
+CODES_1HZ = {
+    "G": ("C1C", "L1C", "D1C", "S1C", "C2W", "L2W", "D2W", "S2W"),
+    "R": ("C1C", "L1C", "D1C", "S1C", "C2P", "L2P", "D2P", "S2P"),
+    "E": ("C1C", "L1C", "D1C", "S1C", "C5Q", "L5Q", "D5Q", "S5Q"),
+    "C": ("C2I", "L2I", "D2I", "S2I", "C7I", "L7I", "D7I", "S7I"),
+}
+
+
+def _f14_3(values):
+    """(n, 14) bytes of ``values`` written ``%14.3f`` (|value| < 1e9; the thousandths
+    rounded half to even)."""
+    k = np.round(np.abs(values) * 1000.0).astype(np.int64)
+    digits = (k[:, None] // 10 ** np.arange(12, -1, -1, dtype=np.int64)) % 10
+    out = np.full((len(k), 14), 32, np.uint8)
+    out[:, :10] = digits[:, :10] + 48
+    out[:, 10] = 46
+    out[:, 11:] = digits[:, 10:] + 48
+    lead = np.cumsum(digits[:, :9] != 0, axis=1) == 0  # zeros before the first digit
+    out[:, :9][lead] = 32
+    sign = np.clip(lead.sum(axis=1) - 1, 0, 8)  # the column before the first digit
+    negative = values < 0
+    out[np.flatnonzero(negative), sign[negative]] = 45
+    return out
+
+
+def write_1hz_day(obs30, path, block=3600):
+    """Write ``obs30`` (the 30-s synthetic day) as a RINEX 3.04 file at 1 Hz: each 30-s
+    epoch's satellites at the 30 seconds from it, their values growing by 0.01 a
+    second; eight codes per system. Returns (records, values written (m, 8))."""
+    letters = np.array([ord(s) for s in "GRECJ"], np.uint8)
+    header = [f"{'3.04':>9}{'':11}{'OBSERVATION DATA':20}{'M':20}RINEX VERSION / TYPE"]
+    for letter, codes in CODES_1HZ.items():
+        header.append(
+            f"{letter}  {len(codes):3d}{''.join(' ' + c for c in codes):54}SYS / # / OBS TYPES"
+        )
+    header.append(f"{'':60}END OF HEADER")
+    counts30 = np.diff(obs30.start)
+    base = obs30.pseudorange[:, None] + np.array([0, 1e7, -1234.5, 45, 3, 1e7 + 3, -999.25, 40])
+    total = 0
+    with open(path, "wb") as f:
+        f.write(("\n".join(header) + "\n").encode())
+        for lo in range(0, 86400, block):
+            sec = np.arange(lo, lo + block)
+            k30 = sec // 30
+            counts = counts30[k30]
+            rows = np.concatenate([np.arange(obs30.start[k], obs30.start[k + 1]) for k in k30])
+            offset = np.repeat(sec % 30, counts) * 0.01
+            values = base[rows] + offset[:, None]
+            fields = _f14_3(values.ravel()).reshape(len(rows), 8, 14)
+            text = np.full((len(rows), 132), 32, np.uint8)
+            text[:, 0] = letters[obs30.prn[rows] // 100]
+            text[:, 1] = 48 + obs30.prn[rows] % 100 // 10
+            text[:, 2] = 48 + obs30.prn[rows] % 10
+            text[:, 3:131].reshape(-1, 8, 16)[:, :, :14] = fields
+            text[:, 131] = 10
+            body = text.tobytes()
+            ends = np.cumsum(counts) * 132
+            parts = []
+            for s, c, a, b in zip(sec.tolist(), counts.tolist(), (ends - counts * 132).tolist(),
+                                  ends.tolist(), strict=True):  # fmt: skip
+                epoch = f"> 2016 06 06 {s // 3600:02d} {s // 60 % 60:02d}{s % 60:11.7f}  0{c:3d}\n"
+                parts += [epoch.encode(), body[a:b]]
+            f.write(b"".join(parts))
+            total += len(rows)
+    return total
+
+
+def run_1hz():
+    """Reading a 24-h 1-Hz four-system RINEX 3 file (1.8 M satellite records, 14.7 M
+    values, 8 codes per system): wall and CPU (best of two), records and values (the
+    observations: one code of one satellite at one epoch) per second."""
+    import tempfile
+
+    from inins.io.rinex_obs import read_obs
+
+    obs30 = synthetic_day(_mixed_nav())
+    with tempfile.TemporaryDirectory() as tmp:
+        path = Path(tmp) / "BERL00DEU_R_20161580000_01D_01S_MO.rnx"
+        records = write_1hz_day(obs30, path)
+        walls, cpus = [], []
+        for _ in range(2):
+            w, c = time.perf_counter(), time.process_time()
+            got = read_obs(path, "GREC")
+            walls.append(time.perf_counter() - w)
+            cpus.append(time.process_time() - c)
+        size = path.stat().st_size
+    if len(got.prn) != records or len(got.time) != 86400:
+        raise RuntimeError(f"read {len(got.prn)} records of {records}")
+    values = records * 8
+    return {
+        "read_obs_24h_1hz_s": min(walls),
+        "read_obs_24h_1hz_cpu_s": min(cpus),
+        "read_obs_24h_1hz_records": records,
+        "read_obs_24h_1hz_mb": size / 1e6,
+        "read_obs_24h_1hz_values_per_s": values / min(walls),
+        "read_obs_24h_1hz_records_per_s": records / min(walls),
+    }

@@ -19,10 +19,9 @@ from inins.gnss import broadcast, ephemeris, glonass, gpstime, measurements, spp
 from inins.gnss import systems as systems_mod
 from inins.gnss.spp_check import SppCheck
 from inins.gnss.systems import LETTERS, NAMES, rinex_name
-from inins.io import flight_layout, imu_units, post_inputs, solution_layout
+from inins.io import flight_layout, imu_units, solution_layout
 from inins.io.flight_checks import checked_flight
 from inins.io.flight_layout import ImuRecord, RecordedFlight
-from inins.io.psins_tc import read_psins_tc
 from inins.io.rinex_nav import read_nav, read_navigation
 from inins.io.rinex_obs import observable, read_obs, system_observable
 from inins.io.rinex_text import read_track
@@ -80,7 +79,7 @@ def run(scenario, seed, *, sink=None, progress=None):
         for path, (value, unit, description) in flight_layout.flight_arrays(flight).items()
     }
     datasets.update(_spp_datasets(check))
-    used = "".join(LETTERS[k] for k in np.unique(epochs.obs.prn[solution.used] // 100).tolist())
+    used = "".join(LETTERS[k] for k in _systems(epochs.obs.prn[solution.used]))
     systems = {"systems_asked": scenario.systems, "systems_used": used}
     return CommandResult(
         command="import-flight",
@@ -101,6 +100,10 @@ def run_solution(scenario):
     maps it to GNSS time, as from the source files. Refused: IMU and GNSS spans that
     cannot overlap (the IMU log shorter than a tenth of the GNSS span, or the other way,
     so no mapping of the IMU tick onto GNSS time would cover the drive)."""
+    # imported here: the RINEX path (the default) needs neither these readers nor what
+    # they import
+    from inins.io import post_inputs
+
     sol = post_inputs.read_gnss(scenario.solution_gnss)
     imu = post_inputs.read_imu(scenario.solution_imu)
     imu_units.check_against_gnss(imu, sol, scenario.solution_imu.axes)
@@ -191,6 +194,8 @@ def read_recording(scenario):
     """The :class:`RecordedFlight` of the scenario's files, and the RINEX header position
     (NaN for the PSINS file)."""
     if scenario.format == "psins-tc":
+        from inins.io.psins_tc import read_psins_tc  # scipy.io only for this format
+
         return read_psins_tc(scenario.file), np.full(3, np.nan)
     if scenario.systems != "G" or scenario.extra_nav_files:
         return _read_multi(scenario)
@@ -257,6 +262,12 @@ def _gnss_record(obs, carrier):
         snr=obs.snr,
         carrier=carrier,
     )
+
+
+def _systems(prn):
+    """System indices present among satellite numbers, ascending (a count per system:
+    ``np.unique`` would import numpy.ma for this)."""
+    return np.flatnonzero(np.bincount(np.asarray(prn, np.int64) // 100)).tolist()
 
 
 def imu_from_log(path, progress=None):
@@ -388,7 +399,7 @@ def _read_multi(scenario):
     channel = broadcast.glonass_channels(nav, obs_file.prn)
     for slot, k in obs_file.glonass_channels.items():
         channel[obs_file.prn == 100 + slot] = k
-    observed = {LETTERS[s] for s in np.unique(obs_file.prn // 100).tolist()}
+    observed = {LETTERS[s] for s in _systems(obs_file.prn)}
     doppler = system_observable(obs_file, "D1")
     lost = (obs_file.prn // 100 == 1) & np.isnan(channel) & np.isfinite(doppler)
     if lost.any():
@@ -510,7 +521,7 @@ def report(scenario, flight, epochs, check, iono):
     s = check.sol
     g = flight.gnss
     span = (s.time[-1] - s.time[0]) if len(s.time) else 0.0
-    used = "".join(LETTERS[k] for k in np.unique(epochs.obs.prn[s.used] // 100).tolist())
+    used = "".join(LETTERS[k] for k in _systems(epochs.obs.prn[s.used]))
     lines = [
         f"source: {flight.source}",
         f"systems: asked {scenario.systems}, used by the fixes {used or 'none'}",
@@ -572,7 +583,7 @@ def report(scenario, flight, epochs, check, iono):
         )
         used = epochs.obs.prn[s.used] // 100
         count = ", ".join(
-            f"{NAMES[k]} {np.count_nonzero(used == k)}" for k in np.unique(epochs.obs.prn // 100)
+            f"{NAMES[k]} {np.count_nonzero(used == k)}" for k in _systems(epochs.obs.prn)
         )
         lines.append(f"inter-system biases (median, against the first system): {per}")
         lines.append(f"measurements used per system: {count}")

@@ -118,7 +118,8 @@ def llh_from_ecef(r_e):
     """Geodetic latitude, longitude (rad) and height (m) from ECEF (m), shape (..., 3).
 
     Iterates the latitude fixed point to machine precision (converges in a few
-    steps for any terrestrial or orbital height).
+    steps for any terrestrial or orbital height), at most eight steps, stopping
+    early once a step changes no latitude (the next steps would repeat it).
     """
     r_e = np.asarray(r_e, dtype=float)
     x, y, z = r_e[..., 0], r_e[..., 1], r_e[..., 2]
@@ -127,7 +128,10 @@ def llh_from_ecef(r_e):
     lat = np.arctan2(z, p * (1.0 - E2))
     for _ in range(8):
         _, re = principal_radii(lat)
-        lat = np.arctan2(z + E2 * re * np.sin(lat), p)
+        step = np.arctan2(z + E2 * re * np.sin(lat), p)
+        if np.array_equal(step, lat, equal_nan=True):
+            break
+        lat = step
     _, re = principal_radii(lat)
     cl, sl = np.cos(lat), np.sin(lat)
     # height along the normal, stable at all latitudes

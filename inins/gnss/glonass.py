@@ -143,9 +143,12 @@ def satellite_states(eph, index, week, sow):
     flat = np.array(index, np.int64).ravel()
     dt = gpstime.time_diff(week.ravel(), sow.ravel(), eph.week[flat], eph.toe[flat])
     state = np.concatenate([eph.pos, eph.vel, eph.acc], axis=1)
-    pos = np.empty((flat.size, 3))
-    vel = np.empty((flat.size, 3))
-    _rk4_kernel(flat, np.asarray(dt, float), state, STEP_S, pos, vel)
+    if _use_numpy(flat.size):
+        pos, vel = _rk4_numpy(flat, np.asarray(dt, float), state, STEP_S)
+    else:
+        pos = np.empty((flat.size, 3))
+        vel = np.empty((flat.size, 3))
+        _rk4_kernel(flat, np.asarray(dt, float), state, STEP_S, pos, vel)
     clock = C * (eph.clock_bias[flat] + eph.gamma[flat] * dt)
     return SatelliteStates(
         pos=pos.reshape(*shape, 3),
@@ -197,6 +200,56 @@ def _rk4_kernel(index, dt, state, max_step, pos, vel):
         for i in range(3):
             pos[k, i] = x[i]
             vel[k, i] = x[3 + i]
+
+
+NUMPY_STATES = 100_000
+"""Most states integrated by numpy array arithmetic (:func:`_rk4_numpy`) while numba is
+not loaded (as :data:`inins.gnss.orbit.NUMPY_STATES`: a GPS + GLONASS SPP of a drive
+then loads no numba); the compiled loop once it is loaded."""
+
+
+def _use_numpy(count):
+    """True where ``count`` states are integrated by numpy (:data:`NUMPY_STATES`)."""
+    return count <= NUMPY_STATES and isinstance(_rk4_kernel, jit.Kernel)
+
+
+def _deriv_numpy(x, acc):
+    """:func:`_deriv` of states (6, m) with accelerations (3, m): the same expressions."""
+    r2 = x[0] * x[0] + x[1] * x[1] + x[2] * x[2]
+    r = np.sqrt(r2)
+    mu_r3 = GM / (r2 * r)
+    j = 1.5 * J2 * GM * AE * AE / (r2 * r2 * r)
+    zz = 5.0 * x[2] * x[2] / r2
+    w2 = OMEGA_E * OMEGA_E
+    return np.stack(
+        [
+            x[3],
+            x[4],
+            x[5],
+            -mu_r3 * x[0] + j * x[0] * (zz - 1.0) + w2 * x[0] + 2.0 * OMEGA_E * x[4] + acc[0],
+            -mu_r3 * x[1] + j * x[1] * (zz - 1.0) + w2 * x[1] - 2.0 * OMEGA_E * x[3] + acc[1],
+            -mu_r3 * x[2] + j * x[2] * (zz - 3.0) + acc[2],
+        ]
+    )
+
+
+def _rk4_numpy(index, dt, state, max_step):
+    """:func:`_rk4_kernel` over all states at once: step ``j`` taken by the states that
+    need more than ``j`` steps, each with the kernel's arithmetic. Returns (pos, vel),
+    (m, 3) each."""
+    x = state[index, :6].T.copy()
+    acc = state[index, 6:9].T
+    n = np.ceil(np.abs(dt) / max_step).astype(np.int64)
+    h = np.where(n > 0, dt / np.maximum(n, 1), 0.0)
+    for step in range(int(n.max(initial=0))):
+        k = np.flatnonzero(n > step)
+        xs, a, hk = x[:, k], acc[:, k], h[k]
+        k1 = _deriv_numpy(xs, a)
+        k2 = _deriv_numpy(xs + 0.5 * hk * k1, a)
+        k3 = _deriv_numpy(xs + 0.5 * hk * k2, a)
+        k4 = _deriv_numpy(xs + hk * k3, a)
+        x[:, k] = xs + hk / 6.0 * (k1 + 2.0 * k2 + 2.0 * k3 + k4)
+    return x[:3].T.copy(), x[3:].T.copy()
 
 
 def warm_up():

@@ -100,11 +100,7 @@ def satellite_states(eph, index, week, sow, *, tgd=False):
         ],
         axis=1,
     )
-    pos = np.empty((index.size, 3))
-    vel = np.empty((index.size, 3))
-    clock = np.empty(index.size)
-    drift = np.empty(index.size)
-    _states_kernel(
+    args = (
         np.array(index, np.int64).ravel(),
         np.array(week, np.int64).ravel(),
         np.array(sow, float).ravel(),
@@ -112,11 +108,15 @@ def satellite_states(eph, index, week, sow, *, tgd=False):
         consts,
         eph.week.astype(np.int64),
         bool(tgd),
-        pos,
-        vel,
-        clock,
-        drift,
     )
+    if _use_numpy(index.size):
+        pos, vel, clock, drift = _states_numpy(*args)
+    else:
+        pos = np.empty((index.size, 3))
+        vel = np.empty((index.size, 3))
+        clock = np.empty(index.size)
+        drift = np.empty(index.size)
+        _states_kernel(*args, pos, vel, clock, drift)
     return SatelliteStates(
         pos=pos.reshape(*shape, 3),
         vel=vel.reshape(*shape, 3),
@@ -255,6 +255,102 @@ def _states_kernel(index, week, sow, par, consts, eph_week, tgd, pos, vel, clock
             clk -= group_delay
         clock[k] = C * clk
         drift[k] = C * (af1 + 2.0 * af2 * tc + f_rel * e * sqrt_a * cos_e * ecc_dot)
+
+
+NUMPY_STATES = 300_000
+"""Most states computed by numpy array arithmetic (:func:`_states_numpy`) rather than
+the compiled loop while numba is not loaded: below it numpy takes at most some 0.2 s,
+less than loading numba and the kernel from its cache (0.3-0.5 s of CPU) for a run that
+needs no other kernel (a day of SPP at 30 s is some 10^5 states). Once numba is loaded
+(a run that uses other kernels) the compiled loop, five times faster, does every
+request; the two agree to 1 um."""
+
+
+def _use_numpy(count):
+    """True where ``count`` states are computed by numpy (:data:`NUMPY_STATES`)."""
+    # before numba is loaded the kernel is inins.core.jit's lazy Kernel; once loaded
+    # (by any kernel's first call) its dispatcher stands in this module's globals
+    return count <= NUMPY_STATES and isinstance(_states_kernel, jit.Kernel)
+
+
+def _states_numpy(index, week, sow, par, consts, eph_week, tgd):
+    """:func:`_states_kernel` over all states at once in numpy: the same expressions in
+    the same order (the Newton steps on Kepler's equation per state until its own step
+    is below 1e-9 rad), so the two agree to the rounding of ``sin`` and ``cos``.
+    Returns (pos (n, 3), vel (n, 3), clock (n,), drift (n,))."""
+    mu, omega_e, f_rel, geo = consts[index].T
+    (sqrt_a, delta_n, m0, e, omega, cuc, cus, crc, crs, cic, cis, i0, idot, omega0,
+     omega_dot, toe, toc, af0, af1, af2, group_delay) = par[index].T  # fmt: skip
+    weeks = (week - eph_week[index]).astype(float) * WEEK
+    tk = _wrap_numpy(weeks + sow - toe)
+    a = sqrt_a * sqrt_a
+    n = np.sqrt(mu / (a * a * a)) + delta_n
+    mean = m0 + n * tk
+    ecc = mean + e * np.sin(mean)
+    sin_e, cos_e = np.sin(ecc), np.cos(ecc)
+    todo = np.arange(len(ecc))
+    for _ in range(KEPLER_ITERATIONS):
+        ek, sk, ck = ecc[todo], sin_e[todo], cos_e[todo]
+        step = (ek - e[todo] * sk - mean[todo]) / (1.0 - e[todo] * ck)
+        ek = ek - step
+        ecc[todo] = ek
+        done = np.abs(step) < 1e-9
+        sin_e[todo] = np.where(done, sk - ck * step, np.sin(ek))
+        cos_e[todo] = np.where(done, ck + sk * step, np.cos(ek))
+        todo = todo[~done]
+        if not todo.size:
+            break
+    one_minus = 1.0 - e * cos_e
+    ecc_dot = n / one_minus
+    beta = np.sqrt(1.0 - e * e)
+    phi = np.arctan2(beta * sin_e, cos_e - e) + omega
+    nu_dot = beta * ecc_dot / one_minus
+    sin_p, cos_p = np.sin(phi), np.cos(phi)
+    s2, c2 = 2.0 * sin_p * cos_p, cos_p * cos_p - sin_p * sin_p
+    du = cuc * c2 + cus * s2
+    du2 = du * du
+    sin_du = du * (1.0 - du2 / 6.0 * (1.0 - du2 / 20.0))
+    cos_du = 1.0 - du2 / 2.0 * (1.0 - du2 / 12.0)
+    su, cu = sin_p * cos_du + cos_p * sin_du, cos_p * cos_du - sin_p * sin_du
+    r = a * one_minus + crc * c2 + crs * s2
+    inc = i0 + idot * tk + cic * c2 + cis * s2
+    u_dot = nu_dot * (1.0 + 2.0 * (cus * c2 - cuc * s2))
+    r_dot = a * e * sin_e * ecc_dot + 2.0 * nu_dot * (crs * c2 - crc * s2)
+    inc_dot = idot + 2.0 * nu_dot * (cis * c2 - cic * s2)
+    node_dot = np.where(geo == 0.0, omega_dot - omega_e, omega_dot)
+    node = omega0 + node_dot * tk - omega_e * toe
+    x_p, y_p = r * cu, r * su
+    xp_dot = r_dot * cu - r * su * u_dot
+    yp_dot = r_dot * su + r * cu * u_dot
+    sn, cn = np.sin(node), np.cos(node)
+    si, ci = np.sin(inc), np.cos(inc)
+    x = x_p * cn - y_p * ci * sn
+    y = x_p * sn + y_p * ci * cn
+    z = y_p * si
+    vx = xp_dot * cn - yp_dot * ci * sn + y_p * si * sn * inc_dot - y * node_dot
+    vy = xp_dot * sn + yp_dot * ci * cn - y_p * si * cn * inc_dot + x * node_dot
+    vz = yp_dot * si + y_p * ci * inc_dot
+    pos, vel = np.stack([x, y, z], axis=1), np.stack([vx, vy, vz], axis=1)
+    g = np.flatnonzero(geo != 0.0)
+    if g.size:  # BDS-SIS-ICD 5.2.4.12: R_Z(omega_e tk) R_X(-5 deg)
+        x, y, z, vx, vy, vz = x[g], y[g], z[g], vx[g], vy[g], vz[g]
+        yg, zg = _COS_5 * y + _SIN_5 * z, -_SIN_5 * y + _COS_5 * z
+        vyg, vzg = _COS_5 * vy + _SIN_5 * vz, -_SIN_5 * vy + _COS_5 * vz
+        w = omega_e[g]
+        se, ce = np.sin(w * tk[g]), np.cos(w * tk[g])
+        x, y = ce * x + se * yg, -se * x + ce * yg
+        pos[g] = np.stack([x, y, zg], axis=1)
+        vel[g] = np.stack([ce * vx + se * vyg + w * y, -se * vx + ce * vyg - w * x, vzg], axis=1)
+    tc = _wrap_numpy(weeks + sow - toc)
+    clk = af0 + af1 * tc + af2 * tc * tc + f_rel * e * sqrt_a * sin_e
+    if tgd:
+        clk = clk - group_delay
+    drift = C * (af1 + 2.0 * af2 * tc + f_rel * e * sqrt_a * cos_e * ecc_dot)
+    return pos, vel, C * clk, drift
+
+
+def _wrap_numpy(dt):
+    return dt - WEEK * np.floor((dt + 0.5 * WEEK) / WEEK)
 
 
 def warm_up():

@@ -44,7 +44,11 @@ def sagnac_rotate(vec_e, travel_time):
     ang = OMEGA_E * np.asarray(travel_time, dtype=float)
     ca, sa = np.cos(ang), np.sin(ang)
     x, y = vec_e[..., 0], vec_e[..., 1]
-    return np.stack([ca * x + sa * y, -sa * x + ca * y, vec_e[..., 2]], axis=-1)
+    out = np.empty(np.broadcast_shapes(vec_e.shape, (*ang.shape, 3)))
+    out[..., 0] = ca * x + sa * y
+    out[..., 1] = -sa * x + ca * y
+    out[..., 2] = vec_e[..., 2]
+    return out
 
 
 def geometry(sat_pos, sat_vel, rx_pos, rx_vel=None):
@@ -73,17 +77,47 @@ def geometry(sat_pos, sat_vel, rx_pos, rx_vel=None):
     scale : ndarray, shape (...)
         ``1 / (1 + (A - B) / c)``: ``d rate / d v_rx = -scale * los``.
     """
-    rng = np.linalg.norm(sat_pos - rx_pos, axis=-1)
-    for _ in range(2):
-        pos = sagnac_rotate(sat_pos, rng / C)
-        rng = np.linalg.norm(pos - rx_pos, axis=-1)
-    los = (pos - rx_pos) / rng[..., None]
+    rng, los, pos = range_los(sat_pos, rx_pos)
     vel = sagnac_rotate(sat_vel, rng / C)
-    a = np.einsum("...i,...i->...", vel, los)
+    a = _dot(vel, los)
     b = OMEGA_E * (los[..., 0] * pos[..., 1] - los[..., 1] * pos[..., 0])
     scale = 1.0 / (1.0 + (a - b) / C)
-    rx_rate = 0.0 if rx_vel is None else np.einsum("...i,...i->...", rx_vel, los)
+    rx_rate = 0.0 if rx_vel is None else _dot(rx_vel, los)
     return rng, (a - rx_rate) * scale, los, scale
+
+
+def range_los(sat_pos, rx_pos):
+    """Range (m), line of sight and satellite position of :func:`geometry` (receive-time
+    ECEF), without the range rate: ``rho = |R(omega_e tau) r_sat - r_rx|``, two
+    fixed-point steps in ``tau = rho / c``.
+
+    Returns
+    -------
+    rng : ndarray, shape (...), m
+    los : ndarray, shape (..., 3)
+    pos : ndarray, shape (..., 3), m, the satellite rotated into the receive-time frame
+    """
+    rng = _norm(sat_pos - rx_pos)
+    for _ in range(2):
+        pos = sagnac_rotate(sat_pos, rng / C)
+        rng = _norm(pos - rx_pos)
+    return rng, (pos - rx_pos) / rng[..., None], pos
+
+
+def _norm(vec):
+    return np.sqrt(_dot(vec, vec))
+
+
+def _dot(a, b):
+    """Dot product over the last axis (of three): written out, as numpy's einsum costs
+    several times more on these sizes."""
+    return a[..., 0] * b[..., 0] + a[..., 1] * b[..., 1] + a[..., 2] * b[..., 2]
+
+
+def ned_of_ecef(mat_en, vec_e):
+    """``mat_en^T vec_e``: ECEF vectors (..., 3) in the NED frames ``mat_en`` (..., 3, 3)
+    (broadcast: one frame per receiver, (n, 1, 3, 3), for its satellites), by matmul."""
+    return (vec_e[..., None, :] @ mat_en)[..., 0, :]
 
 
 def elevation_azimuth(los, rx_pos):
@@ -102,7 +136,7 @@ def elevation_azimuth(los, rx_pos):
     azimuth : ndarray, shape (...), rad, clockwise from north, in [0, 2 pi)
     """
     lla = earth.llh_from_ecef(rx_pos)
-    los_n = np.einsum("...ji,...j->...i", earth.mat_en(lla[..., 0], lla[..., 1]), los)
+    los_n = ned_of_ecef(earth.mat_en(lla[..., 0], lla[..., 1]), los)
     elevation = np.arcsin(np.clip(-los_n[..., 2], -1.0, 1.0))
     azimuth = np.mod(np.arctan2(los_n[..., 1], los_n[..., 0]), 2.0 * np.pi)
     return elevation, azimuth

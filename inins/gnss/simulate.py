@@ -153,7 +153,7 @@ def _delays(los, lla, mat_en, sow, options, sat=None):
     vectors) from receivers at ``lla`` with NED-to-ECEF ``mat_en``: the elevation and
     azimuth of :func:`inins.gnss.propagation.elevation_azimuth` with the receiver's
     geodetic position and frame computed once per epoch, not per satellite."""
-    los_n = np.einsum("...ji,...j->...i", mat_en, los)
+    los_n = propagation.ned_of_ecef(mat_en, los)
     el = np.arcsin(np.clip(-los_n[..., 2], -1.0, 1.0))
     delay = np.zeros_like(el)
     if options.troposphere:

@@ -1,8 +1,9 @@
 """Single-point positioning: weighted least squares per epoch, batched over epochs.
 
 Pseudorange model (spec §6a): ``P = |R(omega_e tau) r_sat - r_rx| + b - c dt_sv
-+ T + I + e`` with ``b = c dt_rx`` (m). Gauss-Newton from the Earth's centre
-(or a given start) on all epochs at once: the normal equations of every epoch
++ T + I + e`` with ``b = c dt_rx`` (m). Gauss-Newton from Bancroft's closed-form
+solution of each epoch (:func:`bancroft`; the Earth's centre where it has none near the
+Earth's surface, or a given start) on all epochs at once: the normal equations of every epoch
 are stacked, ``(n, 4, 4)``, and solved together, so the cost per iteration is a
 few numpy calls whatever the number of epochs. Weights ``sin^2(el) / sigma^2``
 (elevation-dependent variance ``sigma^2 / sin^2 el``).
@@ -171,10 +172,76 @@ def padded_rows(start):
     return np.where(col < counts[:, None], start[:-1, None] + col, -1)
 
 
+BANCROFT_SURFACE_M = (6.25e6, 6.5e6)
+"""Distances from the Earth's centre (m) within which a closed-form solution starts the
+iteration (the surface, 6357-6378 km, from 120 km below to 120 km above); outside,
+the iteration starts from the Earth's centre."""
+
+
+def bancroft(sat_pos, rho, use):
+    """Closed-form receiver position and clock of each epoch (Bancroft 1985).
+
+    With ``a_i = (s_i, rho_i)`` and the Lorentz product ``<p, q> = p1 q1 + p2 q2 +
+    p3 q3 - p4 q4``, every row gives ``<a_i, y> = <a_i, a_i> / 2 + L`` for ``y = (r, b)``,
+    ``L = <y, y> / 2``: the weighted least-squares ``u = B+ 1``, ``v = B+ alpha`` give
+    ``y = M (v + L u)`` and ``<u, u> L^2 / 2 + (<u, v> - 1) L + <v, v> / 2 = 0`` (two
+    roots: the one whose ``|r|`` lies within :data:`BANCROFT_SURFACE_M` and that sees its
+    satellites highest, the mean cosine of their zenith angles above zero). No Earth
+    rotation, troposphere or ionosphere: a start for the Gauss-Newton iteration, tens
+    of metres from the solution.
+
+    Parameters
+    ----------
+    sat_pos : ndarray, shape (n, k, 3), m
+    rho : ndarray, shape (n, k), m, pseudorange plus satellite clock ``P + c dt_sv``
+    use : ndarray of bool, shape (n, k)
+
+    Returns
+    -------
+    ndarray, shape (n, 4), [x, y, z, c dt_rx] (m); zeros (the Earth's centre) for an
+    epoch of fewer than four rows or without a root near the surface.
+    """
+    lor = np.array([1.0, 1.0, 1.0, -1.0])
+    a = np.where(use[..., None], np.concatenate([sat_pos, rho[..., None]], axis=-1), 0.0)
+    alpha = 0.5 * np.sum(a * a * lor, axis=-1)
+    enough = use.sum(axis=1) >= 4
+    nmat = a.transpose(0, 2, 1) @ a
+    nmat[~enough] = np.eye(4)
+    rhs = np.stack([a.sum(axis=1), (a * alpha[..., None]).sum(axis=1)], axis=-1)
+    sol = np.linalg.solve(nmat, rhs)
+    u, v = sol[..., 0], sol[..., 1]
+    qa = 0.5 * np.sum(u * u * lor, axis=-1)
+    qb = np.sum(u * v * lor, axis=-1) - 1.0
+    qc = 0.5 * np.sum(v * v * lor, axis=-1)
+    disc = qb * qb - 4.0 * qa * qc
+    ok = enough & (disc >= 0.0) & (qa != 0.0)
+    root = np.sqrt(np.where(ok, disc, 0.0))
+    out, best = np.zeros((len(rho), 4)), np.zeros(len(rho))
+    low, high = BANCROFT_SURFACE_M
+    for sign in (1.0, -1.0):
+        lam = (-qb + sign * root) / np.where(ok, 2.0 * qa, 1.0)
+        y = (v + lam[:, None] * u) * lor
+        radius = np.sqrt(np.sum(y[:, :3] ** 2, axis=1))
+        # the satellites above the horizon (the other root can be the Earth's far side)
+        sight = sat_pos - y[:, None, :3]
+        up = np.sum(sight * y[:, None, :3], axis=-1) / (
+            np.sqrt(np.sum(sight**2, axis=-1)) * np.where(radius > 0.0, radius, 1.0)[:, None]
+        )
+        score = np.sum(np.where(use, up, 0.0), axis=1) / np.maximum(use.sum(axis=1), 1)
+        take = ok & (radius > low) & (radius < high) & (score > best)
+        out[take], best[take] = y[take], score[take]
+    return out
+
+
 def _model_terms(los, rx_pos, sow, signal, options, scale=1.0):
-    """Elevation, azimuth, troposphere and ionosphere (m) per padded row; ``rx_pos`` (n, 1, 3)."""
-    el, az = propagation.elevation_azimuth(los, rx_pos)
+    """Elevation, azimuth, troposphere and ionosphere (m) per padded row; ``rx_pos`` (n, 1, 3).
+
+    The elevation and azimuth of :func:`inins.gnss.propagation.elevation_azimuth`, with
+    the receiver's geodetic position computed once per epoch for both."""
     lla = earth.llh_from_ecef(rx_pos[:, 0, :])
+    los_n = los @ earth.mat_en(lla[:, 0], lla[:, 1])  # mat_en^T los per epoch
+    el = np.arcsin(np.clip(-los_n[..., 2], -1.0, 1.0))
+    az = np.mod(np.arctan2(los_n[..., 1], los_n[..., 0]), 2.0 * np.pi)
     delay = np.zeros_like(el)
     if options.troposphere:
         delay += propagation.troposphere_saastamoinen(lla[:, 2:3], lla[:, 0:1], el)
@@ -197,7 +264,8 @@ def _weights(el, near, m, options):
 
 def _normal(h, w, v):
     hw = h * w[..., None]
-    return np.einsum("nki,nkj->nij", hw, h), np.einsum("nki,nk->ni", hw, v)
+    hw_t = hw.transpose(0, 2, 1)
+    return hw_t @ h, (hw_t @ v[..., None])[..., 0]
 
 
 @dataclass(frozen=True)
@@ -273,7 +341,7 @@ def _pad(epochs, rows, options):
     obs = epochs.obs
     pr = np.where(have, obs.pseudorange[r], np.nan)
     system = systems.system_of(obs.prn)
-    present = np.unique(system)
+    present = np.flatnonzero(np.bincount(system, minlength=1))  # systems observed, sorted
     column = np.full(systems.SBAS + 1, -1, np.int64)
     column[present[1:]] = np.arange(len(present) - 1)
     mask = np.full(systems.SBAS + 1, options.mask_rad)
@@ -326,7 +394,7 @@ def _linearize(x, m, options):
     """Residuals, weights, used slots, elevation, azimuth, design matrix and active bias
     columns at ``x`` (n, 4 + j)."""
     rx = x[:, None, :3]
-    rng, _, los, _ = propagation.geometry(m.sat_pos, np.zeros_like(m.sat_pos), rx)
+    rng, los, _ = propagation.range_los(m.sat_pos, rx)
     near = np.linalg.norm(x[:, :3], axis=1) > NEAR_EARTH_M
     el, az, delay = _model_terms(los, rx, m.sow, m.signal, options, m.iono)
     delay = np.where(near[:, None], delay, 0.0)
@@ -359,15 +427,19 @@ def _iterate(x, m, options):
     """Gauss-Newton on all epochs at once, from ``x`` (n, 4 + j), on the padded
     measurements ``m``. The returned residuals are evaluated at the final ``x``."""
     done = np.zeros(len(x), bool)
+    todo = np.arange(len(x))  # epochs still iterated: neither converged nor short of rows
+    x = x.copy()
     for _ in range(options.max_iterations):
-        v, w, ok, _, _, h, near, active = _linearize(x, m, options)
+        sub = m.take(todo)
+        v, w, ok, _, _, h, near, active = _linearize(x[todo], sub, options)
         nmat, rhs = _normal(h, np.where(np.isfinite(v), w, 0.0), np.nan_to_num(v))
         enough = ok.sum(axis=1) >= 4 + active.sum(axis=1)
         dx = _solve_normal(nmat, rhs, active, enough)
-        dx[done] = 0.0
-        x = x + dx
-        done |= (np.abs(dx).max(axis=1) < 1e-4) & near
-        if done[enough].all():
+        x[todo] = x[todo] + dx
+        converged = (np.abs(dx).max(axis=1) < 1e-4) & near
+        done[todo] = converged
+        todo = todo[enough & ~converged]
+        if not todo.size:
             break
     v, w, ok, el, az, h, _, active = _linearize(x, m, options)
     return _Fit(x, v, w, ok, el, az, h, done, active)
@@ -378,7 +450,7 @@ def _w_test(h, w, v, ok, active):
     nmat, _ = _normal(h, w, v)
     free = np.concatenate([np.zeros((len(nmat), 4), bool), ~active], axis=1)
     ninv = np.linalg.inv(nmat + free[:, :, None] * np.eye(nmat.shape[-1]))
-    hq = np.einsum("nki,nij,nkj->nk", h, ninv, h)
+    hq = np.sum((h @ ninv) * h, axis=-1)
     qvv = np.where(ok, 1.0 / np.where(w > 0, w, 1.0) - hq, np.inf)
     return np.where(ok & (qvv > 1e-12), np.abs(v) / np.sqrt(np.abs(qvv)), 0.0)
 
@@ -411,6 +483,8 @@ def solve(epochs, options=SppOptions(), initial=None):
     x0 = np.zeros((n, 4 + padded.n_isb))
     if initial is not None:
         x0[:, :3] = initial
+    else:  # the iteration converges to the same point from either, in fewer steps
+        x0[:, :4] = bancroft(padded.sat_pos, padded.pr + padded.clk, padded.use)
     fit = _iterate(x0, padded, options)
     status = np.where(fit.done, FixStatus.FIX, FixStatus.NOT_CONVERGED).astype(np.int8)
     excluded = np.zeros(n, np.int64)
@@ -448,7 +522,7 @@ def solve(epochs, options=SppOptions(), initial=None):
         excluded_prn=excluded,
         n_excluded=n_excluded,
         isb=np.where(fit.active & ~no_fix[:, None], x[:, 4:], np.nan),
-        isb_systems=tuple(np.unique(systems.system_of(obs.prn)).tolist()[1:]),
+        isb_systems=tuple(np.flatnonzero(np.bincount(systems.system_of(obs.prn))).tolist()[1:]),
         used=used,
         **per_row,
     )

@@ -80,7 +80,17 @@ def axis_map(axes):
 
 
 def _parse_block(block, width, path):
-    """(k, width) floats of ``[(line, text), ...]``; the first bad line named."""
+    """(k, width) floats of ``[(line, text), ...]``; the first bad line named.
+
+    numpy's compiled text reader first (``numpy.loadtxt``: each field read as ``float``
+    reads it, or refused: it takes a subset of what ``float`` takes, no comments, no
+    quotes); a block it refuses is read again field by field, which names the line."""
+    try:
+        a = np.loadtxt([text for _, text in block], delimiter=",", comments=None, ndmin=2)
+        if a.shape[1] == width:
+            return a
+    except ValueError:
+        pass
     try:
         a = np.array([text.split(",") for _, text in block], dtype=float)
         if a.ndim == 2 and a.shape[1] == width:

@@ -20,7 +20,6 @@ structure :func:`~inins.io.flight_layout.read_flight` returns.
 from pathlib import Path
 
 import numpy as np
-import scipy.io
 
 from inins.exceptions import InputError
 from inins.io.flight_layout import EPHEMERIS_FIELDS, GnssRecord, ImuRecord, RecordedFlight
@@ -154,6 +153,8 @@ def read_psins_tc(path):
         Not a MATLAB file, an array missing, of the wrong shape or not numbers (named),
         or data breaking the rules of :mod:`inins.io.flight_checks` (row named).
     """
+    import scipy.io  # scipy.io (and scipy.sparse under it) only where a .mat is read
+
     from inins.io.flight_checks import checked_flight
 
     path = Path(path)

@@ -10,10 +10,12 @@ letters no RINEX version defines, are counted (:attr:`ObservationFile.skipped`) 
 the report says so. An epoch more than :data:`MAX_EPOCH_STEP_S` after the one before
 (a year or month field wrong) is refused, as is one before it.
 
-The file is read a bounded line at a time (:mod:`inins.io.textlines`) and each epoch
-checked as it comes, so junk is refused at its first line; the numbers of all
-satellite records are converted in one numpy call (fixed-width fields), which keeps a
-3 MB day file well under half a second.
+The body is first read by array operations a block of bytes at a time
+(:mod:`inins.io.rinex_scan`: every line, epoch and record of a block at once), which
+takes only a body in the strict layout; anything else (bad input among it) is read
+again here a bounded line at a time (:mod:`inins.io.textlines`), each epoch checked as
+it comes, so junk is refused at its first line with the file, line and reason. Both
+readers build the same :class:`ObservationFile` (:func:`_build`).
 
 :func:`observable` gives a column under its RINEX 2 name (GPS files; RINEX 3 codes
 ``C1C`` -> C1, ``C1W``/``C1P``/``C1Y`` -> P1, ``C2W``/``C2P``/``C2Y``/``C2D`` -> P2,
@@ -29,6 +31,7 @@ import numpy as np
 
 from inins.core.satellites import LETTERS
 from inins.exceptions import InputError
+from inins.io import rinex_scan
 from inins.io.rinex_text import (
     calendar_problem,
     gps_week_sow,
@@ -366,20 +369,20 @@ def _check_epoch_times(t, epoch_line, path):
         i = int(back[0]) + 1
         said = "repeats" if step[i - 1] == 0 else "comes before"
         raise InputError(
-            f"this epoch {said} the epoch at line {epoch_line[i - 1]}: epochs duplicated "
+            f"this epoch {said} the epoch at line {int(epoch_line[i - 1])}: epochs duplicated "
             "or out of order",
             source=str(path),
-            line=epoch_line[i],
+            line=int(epoch_line[i]),
         )
     jump = np.flatnonzero(step > MAX_EPOCH_STEP_S)
     if jump.size:
         i = int(jump[0]) + 1
         raise InputError(
             f"this epoch is {step[i - 1] / 86400.0:.6g} days after the epoch at line "
-            f"{epoch_line[i - 1]}: a year, month or day field wrong (epochs of one file are "
-            f"at most {MAX_EPOCH_STEP_S / 86400.0:g} days apart)",
+            f"{int(epoch_line[i - 1])}: a year, month or day field wrong (epochs of one file "
+            f"are at most {MAX_EPOCH_STEP_S / 86400.0:g} days apart)",
             source=str(path),
-            line=epoch_line[i],
+            line=int(epoch_line[i]),
         )
 
 
@@ -420,16 +423,30 @@ def read_obs(path, systems="G"):
                 line=1,
             )
         per_system, marker, interval, pos, channels = _header_info(header, version, path, systems)
-        if version < 3:
-            keep = systems + (" " if "G" in systems else "")
-            types = per_system[next(iter(per_system))]
-            body, width, offsets = _scan_v2(reader, len(types), path, keep)
-            union, columns = tuple(types), None
-        else:
-            n_max = max(len(t) for t in per_system.values())
-            body, width, offsets = _scan_v3(reader, n_max, path, "".join(per_system))
-            union = tuple(dict.fromkeys(c for t in per_system.values() for c in t))
-            columns = {s: [union.index(c) for c in t] for s, t in per_system.items()}
+        header_lines = reader.number
+    if version < 3:
+        keep = systems + (" " if "G" in systems else "")
+        types = per_system[next(iter(per_system))]
+        n_types, union, columns = len(types), tuple(types), None
+    else:
+        keep = "".join(per_system)
+        n_types = max(len(t) for t in per_system.values())
+        union = tuple(dict.fromkeys(c for t in per_system.values() for c in t))
+        columns = {s: [union.index(c) for c in t] for s, t in per_system.items()}
+    body = rinex_scan.scan(path, header_lines, version, n_types, keep, RINEX_LETTERS)
+    if body is None:  # not in the strict layout: line by line, bad input named
+        body = _read_lines(path, version, n_types, keep)
+    about = (version, marker, pos, interval, per_system, channels)
+    return _build(path, about, body, union, columns)
+
+
+def _read_lines(path, version, n_types, keep):
+    """The :class:`~inins.io.rinex_scan.Scanned` body read a line at a time (the reader
+    of any body the fast path gave up on; refuses bad input with its line)."""
+    with open_rinex(path) as reader:
+        read_header(reader)
+        scan = _scan_v2 if version < 3 else _scan_v3
+        body, width, offsets = scan(reader, n_types, path, keep)
         end = reader.number
     if not body.cal:
         raise InputError(
@@ -437,35 +454,44 @@ def read_obs(path, systems="G"):
             source=str(path),
             line=end,
         )
-    return _build(path, version, marker, pos, interval, per_system, channels, body, width,
-                  offsets, union, columns)  # fmt: skip
+    return rinex_scan.Scanned(
+        cal=np.array(body.cal, dtype=float).reshape(-1, 6),
+        flag=np.array(body.flag, np.int64),
+        count=np.array(body.count, np.int64),
+        epoch_line=np.array(body.epoch_line, np.int64),
+        ids=np.array(body.prn, dtype="S3"),
+        values=_numbers(body, width, offsets, path),
+        line=np.array(body.line, np.int64),
+        skipped=dict(body.skipped),
+        events=dict(body.events),
+    )
 
 
-def _build(path, version, marker, pos, interval, per_system, channels, body, width, offsets,
-           union, columns):  # fmt: skip
-    """The :class:`ObservationFile` of a scanned body (the one builder of both versions)."""
-    parsed = _numbers(body, width, offsets, path)
-    ids = np.array(body.prn, dtype="S3").view("S1").reshape(-1, 3)
-    digits = np.isin(ids[:, 1:], [bytes([c]) for c in b" 0123456789"]).all(axis=1)
-    digits &= ids[:, 2] != b" "
+def _build(path, about, body, union, columns):
+    """The :class:`ObservationFile` of a scanned body (the one builder of both versions
+    and of both readers)."""
+    version, marker, pos, interval, per_system, channels = about
+    parsed = body.values
+    raw = body.ids.view(np.uint8).reshape(-1, 3)
+    tens, ones = raw[:, 1], raw[:, 2]
+    digits = ((tens == 32) | (tens - np.uint8(48) < 10)) & (ones - np.uint8(48) < 10)
     if not digits.all():
         i = int(np.flatnonzero(~digits)[0])
-        where = {"source": str(path), "line": body.line[i]}
-        raise InputError(f"unreadable satellite {body.prn[i]!r}", **where)
-    letters = np.where(ids[:, 0] == b" ", b"G", ids[:, 0])
-    number = np.char.replace(np.ascontiguousarray(ids[:, 1:3]).view("S2").ravel(), b" ", b"0")
-    number = number.astype(np.int64)
-    code = np.zeros(len(number), np.int64)
-    for i, letter in enumerate(LETTERS):
-        code[letters == letter.encode()] = i
+        where = {"source": str(path), "line": int(body.line[i])}
+        raise InputError(f"unreadable satellite {body.ids[i].decode()!r}", **where)
+    number = np.where(tens == 32, 0, tens.astype(np.int64) - 48) * 10 + ones - 48
+    letters = np.where(raw[:, 0] == 32, ord("G"), raw[:, 0])  # RINEX 2: blank is GPS
+    index = np.zeros(256, np.int64)
+    index[[ord(letter) for letter in LETTERS]] = np.arange(len(LETTERS))
+    code = index[letters]
     if columns is None:
         values = parsed
     else:
         values = np.full((len(number), len(union)), np.nan)
         for s, cols in columns.items():
-            rows = np.flatnonzero(letters == s.encode())
+            rows = np.flatnonzero(letters == ord(s))
             values[np.ix_(rows, cols)] = parsed[rows][:, : len(cols)]
-    cal = np.array(body.cal, dtype=float).reshape(-1, 6)
+    cal = body.cal
     week, sow = gps_week_sow(*cal[:, :5].astype(np.int64).T, cal[:, 5])
     _check_epoch_times(np.asarray(week, float) * 604800.0 + sow, body.epoch_line, path)
     return ObservationFile(
@@ -483,7 +509,7 @@ def _build(path, version, marker, pos, interval, per_system, channels, body, wid
         start=np.concatenate([[0], np.cumsum(body.count, dtype=np.int64)]),
         prn=code * 100 + number % 100,
         values=values,
-        line=np.array(body.line, np.int64),
+        line=np.asarray(body.line, np.int64),
         skipped=dict(body.skipped),
         events=dict(body.events),
     )
