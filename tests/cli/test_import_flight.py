@@ -110,7 +110,7 @@ def test_sky_plot_names_each_satellite_by_its_system(tmp_path, monkeypatch):
     """GLONASS slot 1 (satellite number 101) is labelled R01, not G101; GPS 5 is G05."""
     import matplotlib.axes
 
-    from inins.commands import figures
+    from inins.commands import import_flight_figures
     from inins.results import Series
 
     labels = []
@@ -127,6 +127,6 @@ def test_sky_plot_names_each_satellite_by_its_system(tmp_path, monkeypatch):
         "spp/row_azimuth": Series(np.radians([10.0, 11, 100, 101, 200, 300]), "rad", "", ""),
         "spp/row_prn": Series(prn, "1", "", ""),
     }
-    figures.import_flight_sky(result, tmp_path / "sky.png")
+    import_flight_figures.import_flight_sky(result, tmp_path / "sky.png")
     assert sorted(labels) == ["E12", "G05", "R01", "R21"]
     assert (tmp_path / "sky.png").stat().st_size > 0
