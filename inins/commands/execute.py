@@ -299,7 +299,8 @@ def _write_all(command, module, loaded, seed, group, makers, progress, current):
             group[name].discard()
             del group.files[name]
             group.stale.add(name)
-            notes.append(f"figure {name} not drawn: {reason}")
+            if reason:
+                notes.append(f"figure {name} not drawn: {reason}")
     for name, text in getattr(module, "FILES", {}).items():
         current[0] = group[name].path
         group[name].tmp.write_text(text(result), encoding="utf-8")
@@ -353,16 +354,19 @@ def _key_path(key: str) -> tuple:
 def _draw(make, result, path, data) -> str | None:
     """Call a figure function with the results file if it takes one (see
     :mod:`inins.commands.figures`); the reason if it declined to draw (nothing to
-    show: :class:`~inins.commands.figures.Skipped`), else None."""
+    show: :class:`~inins.commands.figures.Skipped`; an empty reason for a figure of
+    another kind of run, :class:`~inins.commands.figures.NotThisRun`), else None."""
     import inspect
 
-    from inins.commands.figures import Skipped
+    from inins.commands.figures import NotThisRun, Skipped
 
     try:
         if len(inspect.signature(make).parameters) >= 3:
             make(result, path, data)
         else:
             make(result, path)
+    except NotThisRun:
+        return ""
     except Skipped as exc:
         return str(exc)
     return None

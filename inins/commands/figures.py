@@ -4,7 +4,8 @@ A figure function is ``f(result, path)``, or ``f(result, path, data)`` where ``d
 is the run's results file (still under its temporary name) for the series streamed
 there rather than kept in the result; each command draws its own in
 ``<command>_figures.py`` and lists them in its ``FIGURES``. A function that declines
-to draw raises :class:`Skipped` with the reason.
+to draw raises :class:`Skipped` with the reason, one that belongs to another kind of
+run of the command :class:`NotThisRun` (no file, no note).
 """
 
 
@@ -34,3 +35,8 @@ def note_figure(path, text):
 class Skipped(Exception):
     """A figure not drawn, with the reason (all zero, nothing to show): the run writes no
     file for it and says why in its report."""
+
+
+class NotThisRun(Skipped):
+    """A figure of another kind of run of the command (run-ekf's tight figures in a
+    ``post:`` run and the other way): no file, and nothing to say in the report."""

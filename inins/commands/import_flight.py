@@ -488,6 +488,10 @@ def _spp_datasets(check):
         "spp/n_excluded": Series(s.n_excluded, "1", "", "satellites excluded in the epoch"),
         "spp/distance": Series(check.track.distance, "m", "", "path length so far"),
     }
+    if check.track_reference is not None:
+        out["spp/reference_pos_e"] = Series(
+            check.track_reference, "m", "e", "reference trajectory at each epoch (NaN: outside)"
+        )
     if s.isb_systems:
         out["spp/isb_m"] = Series(
             s.isb,

@@ -23,17 +23,24 @@ def _track_ned(result):
     centre = ref if np.all(np.isfinite(ref)) else pos[fixed][0]
     lla = earth.llh_from_ecef(centre)
     ned = (pos - centre) @ earth.mat_en(lla[0], lla[1])
-    return ned, origin, fixed
+    ref = ds["spp/reference_pos_e"].data if "spp/reference_pos_e" in ds else None
+    ref_ned = None if ref is None else (ref - centre) @ earth.mat_en(lla[0], lla[1])
+    return ned, origin, fixed, ref_ned
 
 
 def import_flight_track(result, path):
     """import-flight: the SPP track (north / east from the reference or the first fix)
-    coloured by time, and the height change."""
-    ned, origin, fixed = _track_ned(result)
+    coloured by time, and the height change; the scenario's reference trajectory (grey)
+    where it gives one."""
+    ned, origin, fixed, ref = _track_ned(result)
     plt = pyplot()
     time = result.datasets["spp/time"].data
     t = time - time[0]
     fig, (left, right) = plt.subplots(1, 2, figsize=(11, 4.5), layout="constrained")
+    if ref is not None:
+        left.plot(ref[:, 1], ref[:, 0], "-", color="0.45", lw=1.2, label="reference trajectory")
+        right.plot(t, -ref[:, 2], "-", color="0.45", lw=1.2, label="reference trajectory")
+        left.legend(fontsize=8, loc="best")
     dots = left.scatter(ned[fixed, 1], ned[fixed, 0], c=t[fixed], s=4, cmap="viridis")
     fig.colorbar(dots, ax=left, label="time from the first epoch (s)")
     left.set_xlabel("east (m)")

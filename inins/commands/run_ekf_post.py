@@ -132,7 +132,7 @@ def run(scenario, seed, *, sink=None, progress=None):
     return CommandResult(
         command="run-ekf",
         results=out,
-        datasets=_datasets(p, gnss, prepared, done, scores),
+        datasets=_datasets(p, gnss, prepared, done, scores, attitude),
         attrs={"post": {"states": config.n, "coupling_mode": p.coupling_mode}},
         report=report,
     )
@@ -193,7 +193,7 @@ def _solution_series(key, s, what):
     }
 
 
-def _datasets(p, gnss, prepared, done, scores):
+def _datasets(p, gnss, prepared, done, scores, attitude):
     """The HDF5 datasets of a run."""
     t0, wins = prepared.t0, prepared.outages
     ref_sel = gnss.q == p.reference_q
@@ -222,6 +222,12 @@ def _datasets(p, gnss, prepared, done, scores):
     d["post/outage_windows"] = Series(
         np.asarray(wins, float).reshape(-1, 2), "s", "", "outage windows [start, end)"
     )
+    for name, a in attitude.items():
+        key = {"fwd": "forward", "sm": "smoothed"}[name]
+        d[f"post/{key}/attitude_time"] = Series(a.time, "s", "", "epochs scored on attitude")
+        d[f"post/{key}/attitude_minus_reference"] = Series(
+            a.euler, "rad", "", "roll, pitch, heading minus the reference attitude"
+        )
     for key, sc in scores.items():
         d[f"post/outages/{key}/window"] = Series(sc.window - t0, "s", "", "from run start")
         d[f"post/outages/{key}/max_horizontal"] = Series(sc.max_horizontal, "m", "", "")

@@ -115,11 +115,15 @@ def outage_scores(time, solutions, lever_arm, ref_time, ref_lla, windows, t0=0.0
 @dataclass(frozen=True)
 class AttitudeDifference:
     """Attitude minus the reference over the scored epochs (rad): heading mean and
-    standard deviation, and the larger of the mean roll and pitch differences."""
+    standard deviation, and the larger of the mean roll and pitch differences; ``time``
+    (k,) s and ``euler`` (k, 3) rad the roll, pitch and heading differences at each
+    scored epoch."""
 
     heading_mean: float
     heading_std: float
     tilt_mean_max: float
+    time: np.ndarray
+    euler: np.ndarray
 
 
 def attitude_differences(time, quats, ref_time, ref_mat_nb, t_from):
@@ -150,7 +154,9 @@ def attitude_differences(time, quats, ref_time, ref_mat_nb, t_from):
         e = np.array([rotation.euler_from_mat(m) for m in rotation.mat_from_quat(q[ok])]) - ref
         e = (e + math.pi) % (2 * math.pi) - math.pi
         tilt = float(np.abs(e[:, :2].mean(0)).max())
-        out[name] = AttitudeDifference(float(e[:, 2].mean()), float(e[:, 2].std()), tilt)
+        out[name] = AttitudeDifference(
+            float(e[:, 2].mean()), float(e[:, 2].std()), tilt, time[ok], e
+        )
     return out
 
 

@@ -66,13 +66,15 @@ class SppCheck:
         self.single_frequency_dropped = 0
         self.track_error_h = None
         self.track_inside = 0
+        self.track_reference = None
         if not self.fixed.any():
             self.warnings = ("no epoch has four satellites above the mask: no fix at all",)
 
     def score_track(self, time, pos, offset_s):
         """Horizontal errors of the accepted fixes against a reference trajectory whose time
         is GPS seconds of week minus ``offset_s`` (linear interpolation; epochs outside it
-        are not scored)."""
+        are not scored). Keeps the reference at each epoch (ECEF, m; NaN outside it) in
+        ``track_reference``."""
         t = self.sol.time - offset_s
         inside = (t >= time[0]) & (t <= time[-1])
         ref = np.stack([np.interp(t, time, pos[:, i]) for i in range(3)], axis=1)
@@ -81,6 +83,7 @@ class SppCheck:
         err = np.hypot(ned[:, 0], ned[:, 1])
         self.track_error_h = np.where(inside & self.accepted, err, np.nan)
         self.track_inside = int(inside.sum())
+        self.track_reference = np.where(inside[:, None], ref, np.nan)
 
     @property
     def accepted(self):

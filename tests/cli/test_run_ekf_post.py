@@ -183,23 +183,35 @@ def test_bad_input_exit_2_nothing_written(tmp_path, kind, expect):
 
 @pytest.mark.slow
 def test_plot_post_and_tight(lc15, tmp_path):
-    """--plot draws every run-ekf figure name for a post run (its own figures) and for a
-    tight run (the new trajectory map beside the tight figures)."""
+    """--plot: a post run draws its own figures, each named for what it shows, and none
+    of the tight ones (nor a note about them); a tight run the tight ones and none of
+    the post ones."""
     pytest.importorskip("matplotlib")
-    names = {
-        "run-ekf-heading-error.png",
-        "run-ekf-gyro-bias.png",
-        "run-ekf-misalignment.png",
-        "run-ekf-fb-corrections.png",
-        "run-ekf-trajectory.png",
+    post = {
+        "run-ekf-post-trajectory.png",
+        "run-ekf-post-horizontal-error.png",
+        "run-ekf-post-gyro-bias.png",
+        "run-ekf-post-accel-bias.png",
+        "run-ekf-post-innovations.png",
     }
-    for name in names:  # the post run of the lc15 fixture, with --plot
+    drawn = {p.name for p in lc15.glob("*.png")}
+    assert drawn == post  # no reference attitude in the lc-drive: no attitude figure
+    for name in post:  # the post run of the lc15 fixture, with --plot
         assert (lc15 / name).stat().st_size > 2000
+    report = (lc15 / "run-ekf.txt").read_text()
+    assert "run-ekf-post-attitude.png not drawn: no reference attitude" in report
+    assert "run-ekf-heading-error.png" not in report
     res = run(RUN / "psins-tc.yaml", "-o", tmp_path / "tc", "--plot")
     assert res.exit_code in (0, 1), res.output
     # a tight EKF1 run skips the misalignment figure (no such states)
-    for name in ("run-ekf-trajectory.png", "run-ekf-heading-error.png"):
-        assert (tmp_path / "tc" / name).stat().st_size > 2000
+    tight = {p.name for p in (tmp_path / "tc").glob("*.png")}
+    assert tight == {
+        "run-ekf-trajectory.png",
+        "run-ekf-heading-error.png",
+        "run-ekf-gyro-bias.png",
+        "run-ekf-fb-corrections.png",
+    }
+    assert "run-ekf-post" not in (tmp_path / "tc" / "run-ekf.txt").read_text()
 
 
 SHORT = (
