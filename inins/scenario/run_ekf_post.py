@@ -130,6 +130,12 @@ class GnssFile(Section):
     time_scale_s: PositiveFloat = Field(
         1.0, description="csv: seconds per unit of the time column (s)"
     )
+    time_system: Literal["gps", "utc", "unix"] = Field(
+        "gps",
+        description="csv, mat: what the time column counts: gps seconds since 1980-01-06 "
+        "(GPS time); utc seconds on that grid; unix: UTC seconds since 1970-01-01 (UTC: the "
+        "leap seconds of the date added; a .pos file says UTC in its header) (s)",
+    )
     q_flags: list[int] = Field(
         [1, 2], min_length=1, description="quality flags used (RTKLIB 1 fix, 2 float, 5 single)"
     )
@@ -161,6 +167,10 @@ class GnssFile(Section):
                     raise KeyPathError(("columns", role), "csv: a column name of the header")
         elif self.columns:
             raise KeyPathError(("columns",), f"format {self.format}: no columns to map")
+        if self.time_system != "gps" and self.format not in ("csv", "mat"):
+            raise KeyPathError(
+                ("time_system",), f"format {self.format}: its time system is in the file"
+            )
         if self.attitude_columns is not None:
             if self.format != "mat":
                 raise KeyPathError(("attitude_columns",), "only a .mat array has them")
@@ -175,18 +185,28 @@ class GnssFile(Section):
 
 
 class TimeMapping(Section):
-    """IMU time -> GNSS time: a line fitted to the turn-rate lag, then a state."""
+    """IMU time -> GNSS time: a constant offset fitted to the turn-rate lag (a rate only
+    when the data demand it), then a residual offset state."""
 
     fit: Literal["none", "turn_rate"] = Field(
         "turn_rate",
         description="turn_rate: lag of the IMU yaw rate against the GNSS course rate in "
-        "windows, a line (offset, rate) through them; none: IMU time is GNSS time minus "
-        "the first GNSS epoch plus offset_s",
+        "windows, the mapping fitted through them (model); none: IMU time is GNSS time "
+        "minus the first GNSS epoch plus offset_s",
     )
-    model: Literal["line", "piecewise"] = Field(
-        "line",
-        description="turn_rate: a line through the window lags, or the lags interpolated "
-        "(outlier windows dropped) for a mapping that steps",
+    model: Literal["auto", "constant", "line", "piecewise"] = Field(
+        "auto",
+        description="turn_rate: auto: a constant offset unless the line's clock rate "
+        "passes its t test at rate_false_alarm; constant; line (offset and rate); "
+        "piecewise: the window lags interpolated (outlier windows dropped) for a mapping "
+        "that steps",
+    )
+    rate_false_alarm: float = Field(
+        0.01,
+        gt=0.0,
+        lt=0.5,
+        description="model auto: probability that a zero clock rate is taken for one "
+        "(two-sided t test of the fitted rate) (1)",
     )
     offset_s: float = Field(
         0.0, description="fit none: GNSS time (from the first epoch) of IMU time 0 (s)"
@@ -195,6 +215,14 @@ class TimeMapping(Section):
     search_s: PositiveFloat = Field(10.0, le=600.0, description="turn_rate: lags searched, +-(s)")
     state: bool = Field(True, description="estimate a residual constant offset as a state")
     state_sigma_s: PositiveFloat = Field(0.05, le=10.0, description="its initial 1-sigma (s)")
+    state_walk_s_rts: NonNegFloat = Field(
+        1e-3,
+        lt=1.0,
+        description="its random-walk density: how far it may wander, 1e-3 is 22 ms over "
+        "500 s (on the lc-drive the estimates of the four scenarios then spread by 6 ms "
+        "std against an 8 ms 1-sigma; 1e-6, a constant, gave 35 ms against 1.8 ms) "
+        "(s/sqrt(s))",
+    )
 
 
 class Outages(Section):
