@@ -18,6 +18,8 @@ from inins.scenario.validation import KeyPathError
 AxisName = Literal["x", "-x", "y", "-y", "z", "-z"]
 Column = Annotated[int, Field(ge=0)]
 """A 0-based column index."""
+ColumnRef = Column | Annotated[str, Field(min_length=1)]
+"""A 0-based column index, or a CSV header row's column name."""
 _AXIS_MATRIX = {"x": (0, 1), "-x": (0, -1), "y": (1, 1), "-y": (1, -1), "z": (2, 1), "-z": (2, -1)}
 
 
@@ -38,8 +40,9 @@ def _axes_problem(axes):
 
 
 class ImuLog(Section):
-    """IMU log: a CSV of rates, one sample a row, no header (columns by 0-based index), or
-    a 2-D array of increments in a .mat file."""
+    """IMU log: a CSV of rates, one sample a row (columns by 0-based index, or by name
+    from the header row the file then starts with), or a 2-D array of increments in a
+    .mat file."""
 
     file: InputFile = Field(description="IMU file (.csv, .csv.gz or .mat), relative to this file")
     format: Literal["csv", "mat", "recorded"] = Field(
@@ -49,13 +52,17 @@ class ImuLog(Section):
         "file (import-flight format: solution; columns, units and axes already applied)",
     )
     mat_variable: str = Field("mimu", description="mat: the array's name")
-    accel_columns: tuple[Column, Column, Column] = Field(
-        (0, 1, 2), description="0-based columns of the accelerometer x, y, z"
+    accel_columns: tuple[ColumnRef, ColumnRef, ColumnRef] = Field(
+        (0, 1, 2),
+        description="columns of the accelerometer x, y, z: 0-based indices, or csv header "
+        "names (column)",
     )
-    gyro_columns: tuple[Column, Column, Column] = Field(
-        (3, 4, 5), description="0-based columns of the gyro x, y, z"
+    gyro_columns: tuple[ColumnRef, ColumnRef, ColumnRef] = Field(
+        (3, 4, 5), description="columns of the gyro x, y, z: 0-based or header names (column)"
     )
-    time_column: int = Field(6, ge=0, description="0-based column of the sample time")
+    time_column: ColumnRef = Field(
+        6, description="column of the sample time: 0-based or a header name (column)"
+    )
     time_scale_s: PositiveFloat = Field(
         1e-3, description="seconds per unit of the time column (s); 1e-3 for a millisecond tick"
     )
@@ -70,8 +77,10 @@ class ImuLog(Section):
     rate_hz: PositiveFloat = Field(
         100.0, le=2000.0, description="uniform rate the rates are resampled to (Hz)"
     )
-    odometer_column: int | None = Field(
-        None, ge=0, description="0-based column of a wheel-odometer forward speed, if any"
+    odometer_column: ColumnRef | None = Field(
+        None,
+        description="column of a wheel-odometer forward speed, if any: 0-based or a header "
+        "name (column)",
     )
     odometer_scale_mps: PositiveFloat = Field(
         1.0, description="speed per unit of the odometer column (m/s)"
@@ -82,6 +91,13 @@ class ImuLog(Section):
         problem = _axes_problem(self.axes)
         if problem:
             raise KeyPathError(("axes",), problem)
+        if self.format == "mat":
+            for key in ("accel_columns", "gyro_columns", "time_column"):
+                value = getattr(self, key)
+                if any(
+                    isinstance(c, str) for c in (value if isinstance(value, tuple) else [value])
+                ):
+                    raise KeyPathError((key,), "mat: 0-based column indices, no names")
         used = {}
         named = [("accel_columns", c) for c in self.accel_columns]
         named += [("gyro_columns", c) for c in self.gyro_columns]
@@ -358,6 +374,12 @@ class PostProcess(Section):
     outages: Outages = Field(default_factory=Outages)
     reference_q: int = Field(
         1, description="quality flag of the epochs the outages are scored against (1: fix)"
+    )
+    export: list[Literal["csv", "pos", "geojson"]] = Field(
+        [],
+        description="trajectory files written beside the results, forward and smoothed with "
+        "their 1-sigma, on GNSS time: csv (GPS week/seconds and UTC columns), pos (RTKLIB), "
+        "geojson (a LineString per solution) (file formats)",
     )
 
     @model_validator(mode="after")

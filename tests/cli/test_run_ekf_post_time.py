@@ -1,6 +1,6 @@
 """run-ekf ``post:`` on GNSS time: the shipped lc-drive-15s scenario's outputs read as
 labelled against the RTK fixes, the absolute start, the time-mapping model chosen by its
-test, UTC time tags."""
+test, UTC time tags, and the trajectory exports (CSV, RTKLIB .pos read back, GeoJSON)."""
 
 import gzip
 import json
@@ -29,9 +29,9 @@ def run(*args):
 
 @pytest.fixture(scope="module")
 def lc15(tmp_path_factory):
-    """lc-drive-15s.yaml."""
+    """lc-drive-15s.yaml with every export."""
     path = tmp_path_factory.mktemp("lc15-time")
-    out = run(RUN / "lc-drive-15s.yaml", "-o", path)
+    out = run(RUN / "lc-drive-15s.yaml", "-o", path, "--set", "post.export=[csv,pos,geojson]")
     assert out.exit_code == 0, out.output
     return path
 
@@ -98,6 +98,47 @@ def a_utc(path):
         return str(f["post"].attrs["time_origin_utc"])
 
 
+def test_exports_csv_pos_geojson(lc15):
+    """Each export holds the HDF5 solution: the CSV's named columns (lat/lon to 1e-9 deg,
+    heading in 0..360 or -180..180 as euler gives it); the .pos read back by inins' own
+    reader (time to 1 ms, position to 1e-9 deg = 0.1 mm, sigma to 1e-4 m, velocity to
+    1e-5 m/s); one GeoJSON LineString per solution in [lon, lat, h] order; every file
+    listed in the report's Files section."""
+    with h5py.File(lc15 / "run-ekf.h5") as f:
+        t = f["post/time"][:]
+        week = int(f["post"].attrs["time_origin_gps_week"])
+        sow = float(f["post"].attrs["time_origin_gps_sow"])
+        sol = {
+            k: {n: f[f"post/{k}/{n}"][:] for n in ("lla", "vel_n", "sigma")}
+            for k in ("forward", "smoothed")
+        }
+    report = (lc15 / "run-ekf.txt").read_text()
+    for k in ("forward", "smoothed"):
+        lla, vel, sig = sol[k]["lla"], sol[k]["vel_n"], sol[k]["sigma"]
+        text = (lc15 / f"run-ekf-{k}.csv").read_text().splitlines()
+        head = text[0].split(",")
+        assert head[:6] == ["gps_week", "gps_sow_s", "utc", "lat_deg", "lon_deg", "height_m"]
+        assert "sigma_heading_deg" in head and len(text) == t.size + 1
+        rows = [r.split(",") for r in (text[1], text[-1])]
+        assert int(rows[0][0]) == week and float(rows[0][1]) == pytest.approx(sow + t[0], abs=1e-3)
+        assert rows[0][2].endswith("Z")
+        assert float(rows[-1][3]) == pytest.approx(np.degrees(lla[-1, 0]), abs=1e-9)
+        back = solution_files.read_rtklib_pos(lc15 / f"run-ekf-{k}.pos")
+        np.testing.assert_allclose(back.time, week * 604800 + sow + t, atol=1e-3)
+        np.testing.assert_allclose(np.degrees(back.lla[:, :2]), np.degrees(lla[:, :2]), atol=1e-9)
+        np.testing.assert_allclose(back.lla[:, 2], lla[:, 2], atol=1e-4)
+        np.testing.assert_allclose(back.sigma_ned, sig[:, :3], atol=1e-4)
+        np.testing.assert_allclose(back.vel_ned, vel, atol=1e-5)
+        assert f"run-ekf-{k}.csv" in report and f"run-ekf-{k}.pos" in report
+    g = json.loads((lc15 / "run-ekf.geojson").read_text())
+    assert [f["properties"]["solution"] for f in g["features"]] == ["forward", "smoothed"]
+    line = g["features"][1]["geometry"]
+    assert line["type"] == "LineString" and len(line["coordinates"]) == t.size
+    lon, lat, _ = line["coordinates"][0]
+    assert (lat, lon) == pytest.approx(np.degrees(sol["smoothed"]["lla"][0, :2]), abs=1e-8)
+    assert "run-ekf.geojson" in report
+
+
 def test_utc_time_tags_give_the_same_run(tmp_path, lc15):
     """The .pos with its times written in UTC (18 s earlier, header UTC) is read back on
     GPS time (the leap seconds of its date): the same start and the same drift scores."""
@@ -148,3 +189,46 @@ def test_csv_solution_in_unix_time_gets_the_leap_seconds(tmp_path):
     with pytest.raises(InputError) as info:
         solution_on_gps_time(solution_files.read_solution_csv(path, cols, time_system="unix"))
     assert info.value.line == 2 and info.value.key == "post.gnss.time_system"
+
+
+def test_imu_csv_with_a_header_row_and_named_columns(tmp_path, lc15):
+    """The lc-drive IMU log with a header row, its columns named in the scenario: the
+    same run as by index (every drift score equal); an unknown name is bad input (exit
+    2) naming the file, its header line and the key."""
+    names = "ax,ay,az,gx,gy,gz,tick"
+    imu = tmp_path / "imu.csv"
+    imu.write_text(names + "\n" + gzip.open(DATA / "imu_1934.csv.gz", "rt").read())
+    text = (RUN / "lc-drive-15s.yaml").read_text()
+    text = text.replace("../../data/lc-drive/imu_1934.csv.gz", str(imu))
+    text = text.replace(
+        "../../data/lc-drive/gnss_1934_sf.pos.gz", str(DATA / "gnss_1934_sf.pos.gz")
+    )
+    text = text.replace("accel_columns: [0, 1, 2]", "accel_columns: [ax, ay, az]")
+    text = text.replace("gyro_columns: [3, 4, 5]", "gyro_columns: [gx, gy, gz]")
+    text = text.replace("time_column: 6", "time_column: tick")
+    assert text.count("tick\n") == 1
+    (tmp_path / "s.yaml").write_text(text)
+    res = run(tmp_path / "s.yaml", "-o", tmp_path / "out")
+    assert res.exit_code == 0, res.output
+    got = json.loads((tmp_path / "out" / "summary.json").read_text())["results"]
+    want = json.loads((lc15 / "summary.json").read_text())["results"]
+    for k in ("post_epochs", "post_fwd_drift_hor_rms_m", "post_sm_drift_hor_rms_m"):
+        assert got[k] == want[k], k
+    (tmp_path / "s.yaml").write_text(text.replace("time_column: tick", "time_column: tock"))
+    res = run(tmp_path / "s.yaml", "-o", tmp_path / "bad")
+    assert res.exit_code == 2, res.output
+    assert "imu.csv:1" in res.output and "time_column" in res.output and "'tock'" in res.output
+    assert not (tmp_path / "bad" / "summary.json").exists()
+
+
+def test_a_run_without_an_export_removes_the_earlier_exports(tmp_path):
+    """A folder holds one run's files: exports of an earlier run that this one does not
+    write are removed when it commits, the ones it writes replaced."""
+    scenario = RUN / "lc-drive-15s.yaml"
+    assert run(scenario, "-o", tmp_path, "--set", "post.export=[pos,geojson]").exit_code == 0
+    assert (tmp_path / "run-ekf-smoothed.pos").exists()
+    assert run(scenario, "-o", tmp_path, "--set", "post.export=[csv]").exit_code == 0
+    names = sorted(p.name for p in tmp_path.iterdir())
+    assert names == sorted(
+        ["run-ekf-forward.csv", "run-ekf-smoothed.csv", "run-ekf.h5", "run-ekf.txt", "summary.json"]
+    )
