@@ -239,6 +239,11 @@ def summarize(command, loaded, seed, result, module=None):
     from inins.io.summary import build_summary
 
     checks = evaluate_checks(loaded, result, declared_names(module, loaded))
+    built_in = getattr(module, "built_in_checks", None)
+    if built_in is not None:  # the command's own verdicts, e.g. an alignment gone wrong
+        from inins.scenario.checks import evaluate_checks as evaluate
+
+        checks += evaluate(built_in(loaded.model, result.results), result.results, result.truth)
     return build_summary(
         command, inins.__version__, loaded.source, seed, result.results, result.truth, checks
     )

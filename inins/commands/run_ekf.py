@@ -40,6 +40,7 @@ FIGURES = run_ekf_figures.FIGURES
 FILES = run_ekf_post_export.files
 """The exports a ``post:`` section asks for (``post.export``)."""
 OPTIONAL_FILES = run_ekf_post_export.OPTIONAL_FILES
+built_in_checks = run_ekf_post.built_in_checks
 
 
 def run(scenario, seed, *, sink=None, progress=None):

@@ -22,7 +22,7 @@ from inins.calibration.imu_model import compensate
 from inins.commands import run_ekf_post_report
 from inins.commands._compensation import scenario_terms
 from inins.core.units import DEG, UG
-from inins.ekf import gnss_time, post, scoring
+from inins.ekf import gnss_time, motion_check, post, scoring
 from inins.io import imu_units, post_inputs, scratch
 from inins.results import CommandResult, Series
 from inins.scenario.si.run_ekf_post import loose_config, post_settings
@@ -66,6 +66,8 @@ RESULT_NAMES = (
     "post_smoother_wall_s",
     "post_start_gps_week",
     "post_start_gps_sow_s",
+    "post_motion_heading_course_deg",
+    "post_motion_heading_course_max_deg",
 )
 """Results of a ``post:`` run (null where not applicable)."""
 
@@ -135,6 +137,9 @@ def run(scenario, seed, *, sink=None, progress=None):
     done = filter_and_smooth(prepared, config, settings.smooth)
     scores, attitude = score(gnss, prepared, done, settings)
     out = _results(prepared, done, scores, attitude)
+    warnings = ()
+    if p.init == "motion":
+        out, warnings = _motion_heading(p, settings, prepared, done, config, out)
     start = gnss_time.absolute_start(float(gnss.time[0]))
     attrs = {"states": config.n, "coupling_mode": p.coupling_mode}
     if start is not None:
@@ -150,6 +155,45 @@ def run(scenario, seed, *, sink=None, progress=None):
         datasets=_datasets(p, gnss, prepared, done, scores),
         attrs={"post": attrs},
         report=report,
+        warnings=warnings,
+    )
+
+
+def built_in_checks(scenario, results):
+    """The run's own verdict (a failed one exits 1 like a scenario check): after an
+    alignment from the motion, the forward heading within ``motion_heading_bound_deg``
+    of the GNSS course (:mod:`inins.ekf.motion_check`)."""
+    p = scenario.post
+    if p is None or results.get("post_motion_heading_course_deg") is None:
+        return []
+    return [f"post_motion_heading_course_deg < {p.motion_heading_bound_deg:g}"]
+
+
+def _motion_heading(p, settings, prepared, done, config, out):
+    """The heading-course check of the first minute of motion: results and a warning
+    with the figures when it fails."""
+    start = prepared.t0 + settings.static_window[1]
+    forward_b = config.c_vb().T @ np.array([1.0, 0.0, 0.0])
+    sol = prepared.solution
+    hc = motion_check.heading_course(
+        done.time, done.forward.quat, forward_b, sol.time, sol.lla, settings.motion_speed, start
+    )
+    if hc is None:
+        return out, ()
+    out = out | {
+        "post_motion_heading_course_deg": hc.median / DEG,
+        "post_motion_heading_course_max_deg": hc.max / DEG,
+    }
+    if hc.median / DEG < p.motion_heading_bound_deg:
+        return out, ()
+    a, b = (v - prepared.t0 for v in hc.window)
+    return out, (
+        f"the alignment from the motion failed: the forward heading is {hc.median / DEG:.1f} "
+        f"deg (median; largest {hc.max / DEG:.1f} deg) from the GNSS course over the "
+        f"{hc.epochs} epochs faster than {p.motion_speed_mps:g} m/s in {a:.0f}-{b:.0f} s "
+        f"from the run start, above the bound motion_heading_bound_deg "
+        f"{p.motion_heading_bound_deg:g} deg (a start in motion? wrong imu.axes or "
+        "mounting_deg?)",
     )
 
 

@@ -356,6 +356,13 @@ class PostProcess(Section):
         description="motion: level on static_window_s, heading from the first motion; "
         "reference: attitude and velocity of the file's first epoch (gnss.attitude_columns)",
     )
+    motion_heading_bound_deg: PositiveFloat = Field(
+        10.0,
+        le=180.0,
+        description="init motion: the forward heading may differ from the GNSS course by "
+        "this much (median over the first minute faster than motion_speed_mps after the "
+        "static window) before the run fails its check, exit 1 (deg)",
+    )
     init_heading_error_deg: float = Field(
         0.0, description="reference init: heading error added on purpose (deg), a convergence test"
     )

@@ -232,3 +232,24 @@ def test_a_run_without_an_export_removes_the_earlier_exports(tmp_path):
     assert names == sorted(
         ["run-ekf-forward.csv", "run-ekf-smoothed.csv", "run-ekf.h5", "run-ekf.txt", "summary.json"]
     )
+
+
+def test_alignment_from_the_motion_checked_against_the_course(tmp_path, lc15):
+    """After ``init: motion`` the forward heading against the GNSS course over the
+    first minute of motion: 4.5 deg median on lc-drive-15s (its IMU yawed 5.35 deg in
+    the car, no mounting given), 0.15 deg with the mounting (15s-aided). The IMU's x
+    and y axes mapped reversed (the vehicle's forward axis backwards, an alignment that
+    went wrong without a word before): 175 deg, the run's own check fails, exit 1, the
+    figures in the report; the outputs are written."""
+    r = json.loads((lc15 / "summary.json").read_text())
+    assert 3.0 < r["results"]["post_motion_heading_course_deg"] < 6.0
+    assert r["checks"][-1]["name"] == "post_motion_heading_course_deg < 10"
+    out = tmp_path / "reversed"
+    res = run(RUN / "lc-drive-15s.yaml", "-o", out, "--set", "post.imu.axes=[x,-y,-z]")
+    assert res.exit_code == 1, res.output
+    got = json.loads((out / "summary.json").read_text())
+    assert got["results"]["post_motion_heading_course_deg"] > 170.0
+    assert got["passed"] is False
+    report = " ".join((out / "run-ekf.txt").read_text().split())  # the report wraps lines
+    assert "the alignment from the motion failed: the forward heading is 175." in report
+    assert "deg) from the GNSS course over the" in report
