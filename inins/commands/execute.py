@@ -239,6 +239,11 @@ def summarize(command, loaded, seed, result, module=None):
     from inins.io.summary import build_summary
 
     checks = evaluate_checks(loaded, result, declared_names(module, loaded))
+    built_in = getattr(module, "built_in_checks", None)
+    if built_in is not None:  # the command's own verdicts, e.g. an alignment gone wrong
+        from inins.scenario.checks import evaluate_checks as evaluate
+
+        checks += evaluate(built_in(loaded.model, result.results), result.results, result.truth)
     return build_summary(
         command, inins.__version__, loaded.source, seed, result.results, result.truth, checks
     )
@@ -254,10 +259,12 @@ def write_outputs(command, module, loaded, seed, outdir, makers=None, progress=N
     from inins.io.diskspace import disk_full_error, is_disk_full
 
     makers = makers or {}
-    files = getattr(module, "FILES", {})  # {name: function(result) -> text}, optional
+    files = output_files(module, loaded)
     names = (*makers, *files, f"{command}.h5", f"{command}.txt", "summary.json")
-    # a folder holds one run's files: an earlier run's figures not drawn now are removed
-    group = AtomicGroup(outdir, names, stale=getattr(module, "FIGURES", {}))
+    # a folder holds one run's files: an earlier run's figures (or files) not written now
+    # are removed
+    stale = {*getattr(module, "FIGURES", {}), *getattr(module, "OPTIONAL_FILES", ())}
+    group = AtomicGroup(outdir, names, stale=stale)
     current = [outdir / f"{command}.h5"]
     try:
         with group:
@@ -272,6 +279,14 @@ def write_outputs(command, module, loaded, seed, outdir, makers=None, progress=N
         raise
     paths = tuple(outdir / n for n in names if n in group.files)
     return Execution(summary, paths, result, group.interrupted)
+
+
+def output_files(module, loaded):
+    """The command's extra text files, ``{name: function(result) -> text}``: its ``FILES``,
+    or ``FILES(scenario)`` where they depend on the scenario (an export it asks for);
+    ``OPTIONAL_FILES`` names every file it may write (removed when not written)."""
+    files = getattr(module, "FILES", {})
+    return files(loaded.model) if callable(files) else files
 
 
 def _write_all(command, module, loaded, seed, group, makers, progress, current):
@@ -301,7 +316,7 @@ def _write_all(command, module, loaded, seed, group, makers, progress, current):
             group.stale.add(name)
             if reason:
                 notes.append(f"figure {name} not drawn: {reason}")
-    for name, text in getattr(module, "FILES", {}).items():
+    for name, text in output_files(module, loaded).items():
         current[0] = group[name].path
         group[name].tmp.write_text(text(result), encoding="utf-8")
     report = build_report(

@@ -102,9 +102,10 @@ def run_solution(scenario):
     so no mapping of the IMU tick onto GNSS time would cover the drive)."""
     # imported here: the RINEX path (the default) needs neither these readers nor what
     # they import
+    from inins.ekf.gnss_time import solution_on_gps_time
     from inins.io import post_inputs
 
-    sol = post_inputs.read_gnss(scenario.solution_gnss)
+    sol = solution_on_gps_time(post_inputs.read_gnss(scenario.solution_gnss), "solution_gnss")
     imu = post_inputs.read_imu(scenario.solution_imu)
     imu_units.check_against_gnss(imu, sol, scenario.solution_imu.axes)
     span_g = float(sol.time[-1] - sol.time[0])

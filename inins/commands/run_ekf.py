@@ -18,7 +18,7 @@ from dataclasses import replace
 import numpy as np
 
 from inins.calibration.imu_model import compensate
-from inins.commands import run_ekf_figures, run_ekf_post, run_ekf_report
+from inins.commands import run_ekf_figures, run_ekf_post, run_ekf_post_export, run_ekf_report
 from inins.commands._compensation import scenario_terms
 from inins.core import strapdown
 from inins.core.units import ARCSEC, DEG, DPH
@@ -37,6 +37,10 @@ from inins.scenario.run_ekf import RunEkfScenario
 
 SCENARIO_MODEL = RunEkfScenario
 FIGURES = run_ekf_figures.FIGURES
+FILES = run_ekf_post_export.files
+"""The exports a ``post:`` section asks for (``post.export``)."""
+OPTIONAL_FILES = run_ekf_post_export.OPTIONAL_FILES
+built_in_checks = run_ekf_post.built_in_checks
 
 
 def run(scenario, seed, *, sink=None, progress=None):

@@ -22,7 +22,7 @@ from inins.calibration.imu_model import compensate
 from inins.commands import run_ekf_post_report
 from inins.commands._compensation import scenario_terms
 from inins.core.units import DEG, UG
-from inins.ekf import post, scoring
+from inins.ekf import gnss_time, motion_check, post, scoring
 from inins.io import imu_units, post_inputs, scratch
 from inins.results import CommandResult, Series
 from inins.scenario.si.run_ekf_post import loose_config, post_settings
@@ -42,6 +42,10 @@ RESULT_NAMES = (
     "post_time_fit_residual_rms_s",
     "post_clock_rate_ppm",
     "post_clock_rate_sigma_ppm",
+    "post_clock_rate_t",
+    "post_clock_rate_threshold",
+    "post_clock_rate_applied",
+    "post_time_offset_ref_s",
     "post_time_offset_state_s",
     "post_time_offset_state_sigma_s",
     "post_initial_heading_deg",
@@ -60,6 +64,10 @@ RESULT_NAMES = (
     "post_tilt_diff_max_deg",
     "post_filter_wall_s",
     "post_smoother_wall_s",
+    "post_start_gps_week",
+    "post_start_gps_sow_s",
+    "post_motion_heading_course_deg",
+    "post_motion_heading_course_max_deg",
 )
 """Results of a ``post:`` run (null where not applicable)."""
 
@@ -68,7 +76,8 @@ def read(p):
     """The files of the ``post:`` section ``p``: (GNSS solutions, IMU log, reference Euler
     angles or None); the IMU's units and axes checked against the solutions
     (:func:`inins.io.imu_units.check_against_gnss`)."""
-    gnss, imu = post_inputs.read_gnss(p.gnss), post_inputs.read_imu(p.imu)
+    gnss = gnss_time.solution_on_gps_time(post_inputs.read_gnss(p.gnss))
+    imu = post_inputs.read_imu(p.imu)
     imu_units.check_against_gnss(imu, gnss, p.imu.axes, **imu_units.post_settings(p))
     return gnss, imu, post_inputs.read_reference_euler(p.gnss)
 
@@ -128,13 +137,63 @@ def run(scenario, seed, *, sink=None, progress=None):
     done = filter_and_smooth(prepared, config, settings.smooth)
     scores, attitude = score(gnss, prepared, done, settings)
     out = _results(prepared, done, scores, attitude)
-    report = run_ekf_post_report.report(p, out, scores, prepared.fit, prepared.t0, prepared.outages)
+    warnings = ()
+    if p.init == "motion":
+        out, warnings = _motion_heading(p, settings, prepared, done, config, out)
+    start = gnss_time.absolute_start(float(gnss.time[0]))
+    attrs = {"states": config.n, "coupling_mode": p.coupling_mode}
+    if start is not None:
+        out.update(post_start_gps_week=start.week, post_start_gps_sow_s=start.sow)
+        attrs |= {"time_origin_gps_week": start.week, "time_origin_gps_sow": start.sow}
+        attrs["time_origin_utc"] = start.utc or ""
+    report = run_ekf_post_report.report(
+        p, out, scores, prepared.fit, prepared.t0, prepared.outages, start
+    )
     return CommandResult(
         command="run-ekf",
         results=out,
         datasets=_datasets(p, gnss, prepared, done, scores, attitude),
-        attrs={"post": {"states": config.n, "coupling_mode": p.coupling_mode}},
+        attrs={"post": attrs},
         report=report,
+        warnings=warnings,
+    )
+
+
+def built_in_checks(scenario, results):
+    """The run's own verdict (a failed one exits 1 like a scenario check): after an
+    alignment from the motion, the forward heading within ``motion_heading_bound_deg``
+    of the GNSS course (:mod:`inins.ekf.motion_check`)."""
+    p = scenario.post
+    if p is None or results.get("post_motion_heading_course_deg") is None:
+        return []
+    return [f"post_motion_heading_course_deg < {p.motion_heading_bound_deg:g}"]
+
+
+def _motion_heading(p, settings, prepared, done, config, out):
+    """The heading-course check of the first minute of motion: results and a warning
+    with the figures when it fails."""
+    start = prepared.t0 + settings.static_window[1]
+    forward_b = config.c_vb().T @ np.array([1.0, 0.0, 0.0])
+    sol = prepared.solution
+    hc = motion_check.heading_course(
+        done.time, done.forward.quat, forward_b, sol.time, sol.lla, settings.motion_speed, start
+    )
+    if hc is None:
+        return out, ()
+    out = out | {
+        "post_motion_heading_course_deg": hc.median / DEG,
+        "post_motion_heading_course_max_deg": hc.max / DEG,
+    }
+    if hc.median / DEG < p.motion_heading_bound_deg:
+        return out, ()
+    a, b = (v - prepared.t0 for v in hc.window)
+    return out, (
+        f"the alignment from the motion failed: the forward heading is {hc.median / DEG:.1f} "
+        f"deg (median; largest {hc.max / DEG:.1f} deg) from the GNSS course over the "
+        f"{hc.epochs} epochs faster than {p.motion_speed_mps:g} m/s in {a:.0f}-{b:.0f} s "
+        f"from the run start, above the bound motion_heading_bound_deg "
+        f"{p.motion_heading_bound_deg:g} deg (a start in motion? wrong imu.axes or "
+        "mounting_deg?)",
     )
 
 
@@ -168,10 +227,18 @@ def _results(prepared, done, scores, attitude):
         out.update(
             post_time_offset_fit_s=fit.offset,
             post_time_offset_fit_sigma_s=run_ekf_post_report.null(fit.offset_sigma),
-            post_clock_rate_ppm=fit.rate * 1e6,
+            post_time_offset_ref_s=fit.t_ref_gnss,
             post_time_fit_residual_rms_s=fit.residual_rms(),
-            post_clock_rate_sigma_ppm=run_ekf_post_report.null(fit.rate_sigma * 1e6),
+            post_clock_rate_applied=fit.model != "constant",
         )
+        test = fit.rate_test
+        if test is not None:  # the line's rate, applied or not (the test's figures)
+            out.update(
+                post_clock_rate_ppm=test.rate * 1e6,
+                post_clock_rate_sigma_ppm=run_ekf_post_report.null(test.sigma * 1e6),
+                post_clock_rate_t=test.t,
+                post_clock_rate_threshold=test.threshold,
+            )
     if done.offset is not None:
         out["post_time_offset_state_s"], out["post_time_offset_state_sigma_s"] = done.offset
     for key, prefix in (("fwd", "fwd"), ("sm", "sm")):
@@ -183,7 +250,9 @@ def _results(prepared, done, scores, attitude):
     return out
 
 
-def _solution_series(key, s, what):
+def _solution_series(key, time, s, what):
+    """A solution's series, on GNSS time as ``post/time`` says (:mod:`inins.ekf.gnss_time`)."""
+    s = gnss_time.on_gnss_time(time, s)
     return {
         f"post/{key}/lla": Series(s.lla, "rad, rad, m", "", f"{what} solution (IMU)"),
         f"post/{key}/vel_n": Series(s.vel, "m/s", "n", f"{what} velocity"),
@@ -199,16 +268,20 @@ def _datasets(p, gnss, prepared, done, scores, attitude):
     ref_sel = gnss.q == p.reference_q
     d = {
         "post/time": Series(
-            done.time, "s", "", "filter epoch, GNSS time from the file's first epoch"
+            done.time,
+            "s",
+            "",
+            "GNSS time from the solution file's first epoch (attributes of post: its GPS "
+            "week, seconds of week and UTC); every solution is at these times",
         )
     }
-    d |= _solution_series("forward", done.forward, "forward")
+    d |= _solution_series("forward", done.time, done.forward, "forward")
     d["post/innovation"] = Series(
         done.innovation, "m, m/s", "n", "pos N E D, vel N E D innovations"
     )
     d["post/innovation_variance"] = Series(done.variance, "m^2, m^2/s^2", "n", "their variances")
     if done.smoothed is not None:
-        d |= _solution_series("smoothed", done.smoothed, "smoothed")
+        d |= _solution_series("smoothed", done.time, done.smoothed, "smoothed")
     d["post/reference/time"] = Series(
         gnss.time[ref_sel] - gnss.time[0], "s", "", f"reference epochs (Q={p.reference_q})"
     )

@@ -32,13 +32,14 @@ def _shade(ax, result):
 
 
 def _antenna_of(ds, key, lever):
-    off = ds.get(f"post/{key}/time_offset")
+    """The antenna positions of solution ``key`` (on GNSS time as stored, so no
+    time-offset shift: :mod:`inins.ekf.gnss_time`)."""
     return loose.antenna_positions(
         ds[f"post/{key}/quat_nb"].data,
         ds[f"post/{key}/lla"].data,
         lever,
         ds[f"post/{key}/vel_n"].data,
-        None if off is None else off.data,
+        None,
     )
 
 

@@ -20,7 +20,30 @@ def _fmt(v, spec=".3g"):
     return "n/a" if v is None else format(v, spec)
 
 
-def report(p, out, scores, fit, t0, wins):
+def _time_mapping(fit, out):
+    """The time-mapping lines: the mapping at its reference instant, the rate test."""
+    rate = "" if fit.model == "constant" else f" {fit.rate * 1e6:+.0f} ppm x (t - T)"
+    lines = [
+        f"time mapping (turn-rate fit, {fit.model}, {len(fit.lags)} windows): GNSS = IMU tick "
+        f"+ {fit.offset:.4f} s{rate} (1-sigma {_fmt(out['post_time_offset_fit_sigma_s'])} s) "
+        f"at GNSS time T = {fit.t_ref_gnss:.1f} s from the first epoch; window lags scatter "
+        f"{1e3 * out['post_time_fit_residual_rms_s']:.0f} ms RMS about it"
+    ]
+    test = fit.rate_test
+    if test is not None:
+        verdict = "significant" if test.significant else "not significant"
+        verdict += ", applied" if fit.model != "constant" else ", not applied"
+        lines.append(
+            f"clock rate of the line {test.rate * 1e6:.0f} ppm (1-sigma {test.sigma * 1e6:.0f}): "
+            f"t = {test.t:.2f} against {test.threshold:.2f} (two-sided, false alarm "
+            f"{test.alpha:g}, {test.dof} dof): {verdict}"
+        )
+    return lines
+
+
+def report(p, out, scores, fit, t0, wins, start=None):
+    """The report's text; ``start`` the :class:`~inins.ekf.gnss_time.AbsoluteTime` of the
+    first epoch, or None."""
     lines = [
         f"loosely coupled post-processing of {p.gnss.file.name} + {p.imu.file.name}: "
         f"{out['post_epochs']} epochs, {out['post_gnss_used']} GNSS updates, "
@@ -41,14 +64,19 @@ def report(p, out, scores, fit, t0, wins):
         f"; {out['post_stationary_epochs']} stationary epochs; mounting "
         f"{list(p.aiding.mounting_deg)} deg",
     ]
-    if fit is not None:
+    if start is None:
         lines.append(
-            f"time mapping (turn-rate fit, {len(fit.lags)} windows): GNSS = IMU + "
-            f"{fit.offset:.4f} s (1-sigma {_fmt(out['post_time_offset_fit_sigma_s'])} s), rate "
-            f"{fit.rate * 1e6:.0f} ppm (1-sigma {_fmt(out['post_clock_rate_sigma_ppm'], '.0f')}); "
-            f"window lags scatter {1e3 * out['post_time_fit_residual_rms_s']:.0f} ms RMS about "
-            "the line"
+            "times are the solution file's from its first epoch (its tags are not absolute "
+            "GPS time: no start date); every output is on them"
         )
+    else:
+        lines.append(
+            f"times are GNSS time from the solution file's first epoch: GPS week {start.week}, "
+            f"{start.sow:.3f} s of week = {start.utc or 'UTC unknown (leap seconds)'}; every "
+            "output is on it"
+        )
+    if fit is not None:
+        lines += _time_mapping(fit, out)
     if out["post_time_offset_state_s"] is not None:
         lines.append(
             f"residual time-offset state: {1e3 * out['post_time_offset_state_s']:.1f} ms "

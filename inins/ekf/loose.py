@@ -66,6 +66,9 @@ class LooseConfig:
         Estimate the GNSS-minus-IMU time offset as a state.
     time_offset_sigma : float
         Its initial 1-sigma (s).
+    time_offset_walk : float
+        Its random-walk density (s/sqrt(s)); 1e-6 (2e-5 s over 500 s) keeps it a
+        constant.
     gate_probability : float
         Chi-square(1) gate of each scalar row.
     window : int
@@ -89,6 +92,7 @@ class LooseConfig:
     sigma0: np.ndarray | None = None
     time_offset: bool = False
     time_offset_sigma: float = 0.5
+    time_offset_walk: float = 1e-6
     gate_probability: float = 0.9999
     window: int = 1
     nhc_sigma: float = 0.0
@@ -125,6 +129,8 @@ class LooseConfig:
         object.__setattr__(self, "mounting", mount)
         if not 0.0 < self.time_offset_sigma < 100.0:
             raise InputError("time offset sigma must be in (0, 100) s", key="time_offset_sigma")
+        if not 0.0 <= self.time_offset_walk < 1.0:
+            raise InputError("time offset walk must be in [0, 1) s/sqrt(s)", key="time_offset_walk")
 
     @property
     def n_base(self):
@@ -159,8 +165,17 @@ class LooseConfig:
         return rotation.mat_from_euler(*self.mounting)
 
     def noise(self):
-        """Densities in the order of :func:`inins.ekf.step.propagate` (clock PSDs zero)."""
-        return np.concatenate([self.arw, self.vrw, self.accel_bias_rw, self.gyro_bias_rw, [0, 0]])
+        """Densities in the order of :func:`inins.ekf.step.propagate` (clock PSDs zero),
+        then the time offset's random-walk density (s/sqrt(s))."""
+        return np.concatenate(
+            [
+                self.arw,
+                self.vrw,
+                self.accel_bias_rw,
+                self.gyro_bias_rw,
+                [0, 0, self.time_offset_walk],
+            ]
+        )
 
 
 @dataclass(frozen=True, eq=False)

@@ -30,8 +30,9 @@ LooseModel = namedtuple(
 """Settings: IMU interval ``dt`` (s), ``window`` (samples averaged for ``f_b``,
 ``omega_b``), ``feedback``, the gate ``threshold``, ``n_base`` (15 or 24), the time-offset
 state ``td`` (-1: none), ``keep`` (n_base,) the states' indices in EKF26, the ``noise``
-densities of :meth:`LooseConfig.noise`, the ``lever`` arm (3,) m, ``c_vb`` (3, 3) and
-``aid_sigma`` [nhc, zupt, zaru, odometer] (:func:`inins.ekf.aiding.vehicle_update`)."""
+densities of :meth:`LooseConfig.noise` (the time offset's random walk last), the
+``lever`` arm (3,) m, ``c_vb`` (3, 3) and ``aid_sigma`` [nhc, zupt, zaru, odometer]
+(:func:`inins.ekf.aiding.vehicle_update`)."""
 LooseEpochs = namedtuple("LooseEpochs", "end frac pos var vel var_vel use stationary odometer")
 """A block's epochs (m,): ``end`` samples of the block up to the epoch's boundary
 (increasing), ``frac`` ``t_k`` minus that boundary (s), the solution's ECEF ``pos`` (m, 3)
@@ -66,7 +67,7 @@ def _propagate(state, model, mid, rates, dt_k, Phi, work):
             F[i, j] = Ff[keep[i], keep[j]]
             Qc[i, j] = Qf[keep[i], keep[j]]
     if model.td >= 0:
-        Qc[model.td, model.td] = 1e-12
+        Qc[model.td, model.td] = noise[14] * noise[14]
     kernels.discretize(F, Qc, dt_k, Phi, Qd)
     kernels.predict(x, state.P, Phi, Qd)
 

@@ -38,13 +38,16 @@ from inins.exceptions import InputError
 @dataclass(frozen=True)
 class TimeSettings:
     """IMU time -> GNSS time (s): ``fit`` the turn-rate fit in windows of ``window``
-    searching lags within ``search`` (a line, or ``piecewise``), else the constant
-    ``offset``; ``state``: the filter estimates a residual offset."""
+    searching lags within ``search`` (``model`` of :func:`inins.ekf.timeoffset.fit_clock`:
+    a constant offset unless the rate passes its test at the false-alarm probability
+    ``alpha``), else the constant ``offset``; ``state``: the filter estimates a residual
+    offset."""
 
     fit: bool = True
     window: float = 60.0
     search: float = 10.0
-    piecewise: bool = False
+    model: str = "auto"
+    alpha: float = 0.01
     offset: float = 0.0
     state: bool = True
 
@@ -196,7 +199,8 @@ def map_time(imu_time, yaw_rate, gnss_time, vel, settings, start, min_speed):
         course,
         windows,
         search=(-settings.search, settings.search),
-        piecewise=settings.piecewise,
+        model=settings.model,
+        alpha=settings.alpha,
     )
     return fit.to_gnss(imu_time), fit
 

@@ -109,3 +109,33 @@ def leap_seconds_at(week, sow):
     dates = np.array([d for d, _ in LEAP_SECONDS], dtype="datetime64[ns]")
     k = int(np.searchsorted(dates, when, side="right"))
     return 0 if k == 0 else LEAP_SECONDS[k - 1][1]
+
+
+UNIX_GPS_EPOCH_S = 315964800.0
+"""Unix time (UTC seconds since 1970-01-01, no leap seconds) of the GPS epoch 1980-01-06."""
+
+
+def leap_seconds_of_utc(utc_seconds):
+    """GPS - UTC (s) of UTC instants counted in seconds since 1980-01-06 00:00 UTC (a
+    UTC day 86,400 s): :data:`LEAP_SECONDS` at each instant's UTC date, NaN before the
+    GPS epoch or after :data:`LEAP_KNOWN_UNTIL` (not known here).
+
+    Parameters
+    ----------
+    utc_seconds : array_like (m,)
+
+    Returns
+    -------
+    ndarray (m,) float
+    """
+    t = np.asarray(utc_seconds, float)
+    epoch = np.datetime64("1980-01-06", "s")
+    dates = np.array([d for d, _ in LEAP_SECONDS], "datetime64[s]")
+    starts = (dates - epoch).astype(float)
+    values = np.array([0.0] + [float(v) for _, v in LEAP_SECONDS])
+    leap = values[np.searchsorted(starts, t, side="right")]
+    until = float(
+        (np.datetime64(LEAP_KNOWN_UNTIL, "s") + np.timedelta64(1, "D") - epoch).astype(float)
+    )
+    leap[~((t >= 0.0) & (t < until))] = np.nan
+    return leap

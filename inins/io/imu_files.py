@@ -109,12 +109,17 @@ def _parse_block(block, width, path):
     raise InputError("unreadable rows", source=path, line=block[0][0])
 
 
-def read_csv_numbers(path, what="a CSV of numbers"):
-    """``(array (n, k), line (n,))`` of a header-less numeric CSV (blank lines skipped)."""
+def read_csv_numbers(path, what="a CSV of numbers", header=None):
+    """``(array (n, k), line (n,))`` of a numeric CSV (blank lines skipped); with a list
+    ``header`` its first line is a header row of column names, stripped, stored there."""
     path = str(path)
     parts, numbers, block, width = [], [], [], None
     for n, text in textlines.lines(path, what=what):
         if not text.strip():
+            continue
+        if header is not None and width is None:
+            header.extend(name.strip() for name in text.split(","))
+            width = len(header)
             continue
         if width is None:
             width = len(text.split(","))
@@ -140,6 +145,21 @@ def _column(index, width, key, path):
     return index
 
 
+def _named(columns, header, key, path):
+    """Column names of the header row (and 0-based indices) as indices; an unknown name
+    is bad input naming the file, its header line and ``key``."""
+    out = []
+    for c in columns:
+        if isinstance(c, str):
+            if c not in header:
+                raise InputError(
+                    f"column {c!r} not in the header {header}", source=path, line=1, key=key
+                )
+            c = header.index(c)
+        out.append(int(c))
+    return out
+
+
 def read_imu_rates_csv(
     path,
     accel_columns,
@@ -152,15 +172,25 @@ def read_imu_rates_csv(
     odometer_column=None,
     odometer_scale=1.0,
 ):
-    """Read a header-less numeric CSV of IMU rates (one sample a row).
+    """Read a numeric CSV of IMU rates (one sample a row).
 
-    ``axes``: for body x, y, z the IMU axis (``"-x"``: minus IMU x). Bad input: rows
-    with the wrong number of fields or non-numbers, a column outside the row, and the
-    rules of :mod:`inins.io.imu_checks` (file and line named).
+    Columns are 0-based indices, or names of a header row: where any column is given
+    by name the file's first line is that header row. ``axes``: for body x, y, z the IMU
+    axis (``"-x"``: minus IMU x). Bad input: an unknown column name, rows with the wrong
+    number of fields or non-numbers, a column outside the row, and the rules of
+    :mod:`inins.io.imu_checks` (file and line named).
     """
     path = str(path)
     index, sign = axis_map(axes)
-    a, line = read_csv_numbers(path, "an IMU log (CSV of numbers)")
+    named = [*accel_columns, *gyro_columns, time_column, odometer_column]
+    header = [] if any(isinstance(c, str) for c in named) else None
+    a, line = read_csv_numbers(path, "an IMU log (CSV of numbers)", header)
+    if header is not None:
+        accel_columns = _named(accel_columns, header, "accel_columns", path)
+        gyro_columns = _named(gyro_columns, header, "gyro_columns", path)
+        time_column = _named([time_column], header, "time_column", path)[0]
+        if odometer_column is not None:
+            odometer_column = _named([odometer_column], header, "odometer_column", path)[0]
     if a.shape[0] < 2:
         last = int(line[-1]) if line.size else 1
         raise InputError(f"{a.shape[0]} IMU rows, at least 2 needed", source=path, line=last)

@@ -20,9 +20,11 @@ def read_gnss(g):
     if g.format == "mat":
         cols = {k: int(v) for k, v in g.columns.items()}
         return sf.read_solution_mat(
-            g.file, g.mat_variable, cols, g.angle_unit, g.sigma_m, g.sigma_vel_mps
+            g.file, g.mat_variable, cols, g.angle_unit, g.sigma_m, g.sigma_vel_mps, g.time_system
         )
-    return sf.read_solution_csv(g.file, g.columns, g.angle_unit, g.time_scale_s)
+    return sf.read_solution_csv(
+        g.file, g.columns, g.angle_unit, g.time_scale_s, time_system=g.time_system
+    )
 
 
 def read_imu(i):

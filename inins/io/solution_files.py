@@ -9,7 +9,8 @@ column). Text is read a line at a time, each line parsed as it comes
 (:mod:`inins.io.textlines`): junk is refused at its first line.
 
 RTKLIB ``.pos`` (``rnx2rtkp``/``rtkpost`` output): ``%`` comment lines, the last of
-which names the columns. Time is ``GPST`` as ``yyyy/mm/dd hh:mm:ss.sss`` or as
+which names the columns. Time is ``GPST`` (or ``UTC``: leap seconds added from the
+date, :class:`SolutionFile` ``time_system``) as ``yyyy/mm/dd hh:mm:ss.sss`` or as
 ``week  seconds``; position as ``latitude(deg) longitude(deg) height(m)`` (or
 ``latitude(d'")`` is refused) or ``x-ecef(m) y-ecef(m) z-ecef(m)``; then ``Q`` (1 fix,
 2 float, 3 SBAS, 4 DGPS, 5 single, 6 PPP), ``ns``, the sigmas ``sdn sde sdu`` (or
@@ -20,6 +21,7 @@ to NED keeping the diagonal; the cross terms (``sdne`` ...) are not used.
 
 import array
 import csv
+import dataclasses
 import datetime
 import math
 from dataclasses import dataclass
@@ -86,7 +88,9 @@ _KNOWN = set(_LLH + _XYZ) | {
 
 @dataclass(frozen=True, eq=False)
 class SolutionFile:
-    """A GNSS solution file in SI units (module docstring); ``line`` (m,) 1-based lines."""
+    """A GNSS solution file in SI units (module docstring); ``line`` (m,) 1-based lines;
+    ``time_system`` ``gps``, or ``utc`` for UTC tags counted on the GPS grid (the leap
+    seconds not yet added)."""
 
     path: str
     time: np.ndarray
@@ -96,6 +100,7 @@ class SolutionFile:
     sigma_vel: np.ndarray
     q: np.ndarray
     line: np.ndarray
+    time_system: str = "gps"
 
     def __len__(self):
         return self.time.size
@@ -108,6 +113,7 @@ class SolutionFile:
             self.sigma_vel[mask],
             self.q[mask],
             self.line[mask],
+            self.time_system,
         )
 
 
@@ -162,9 +168,28 @@ def _pos_time(r, path, n):
         ) from None
 
 
+TIME_SYSTEMS = ("gps", "utc", "unix")
+"""Time tags a solution file may have: GPS seconds since the GPS epoch; UTC seconds
+counted on that grid (``.pos`` with a ``UTC`` header); Unix time (UTC seconds since
+1970-01-01). A reader keeps UTC tags on the GPS grid (:attr:`SolutionFile.time_system`
+``utc``); the leap seconds of their date are added by
+:func:`inins.ekf.gnss_time.solution_on_gps_time`."""
+UNIX_GPS_EPOCH_S = 315964800.0
+"""Unix time of the GPS epoch 1980-01-06 00:00 UTC (s)."""
+
+
+def _grid(time, system):
+    """Tags of ``system`` counted from 1980-01-06 (s), and their scale (gps or utc)."""
+    if system == "unix":
+        return time - UNIX_GPS_EPOCH_S, "utc"
+    return time, system
+
+
 def _pos_header(path, n, names):
-    if names[0] != "GPST":
-        raise InputError(f"time system {names[0]!r}: only GPST is supported", source=path, line=n)
+    if names[0] not in ("GPST", "UTC"):
+        raise InputError(
+            f"time system {names[0]!r}: only GPST and UTC are supported", source=path, line=n
+        )
     for c in names[1:]:
         if c not in _KNOWN:
             raise InputError(f"unknown column {c!r}", source=path, line=n, key=c)
@@ -190,7 +215,7 @@ def _is_float(v):
 def _pos_rows(path):
     """``(header line, columns, values (m, k), time (m,), lines (m,))`` of a .pos file,
     each row parsed as it is read."""
-    header, cols, width, n = None, None, None, 0
+    header, cols, width, n, system = None, None, None, 0, "gps"
     values, times, lines = array.array("d"), array.array("d"), array.array("q")
     for n, text in textlines.lines(path, what="an RTKLIB .pos file"):
         s = text.strip()
@@ -200,6 +225,7 @@ def _pos_rows(path):
             if header is None and ("GPST" in s or "UTC" in s or "JST" in s):
                 header = n
                 cols = _pos_header(path, n, s[1:].split())
+                system = "utc" if s[1:].split()[0] == "UTC" else "gps"
                 width = 2 + len(cols)
             continue
         if header is None:
@@ -215,13 +241,13 @@ def _pos_rows(path):
     if not times:
         raise InputError("no solution epochs", source=path, line=max(n, 1))
     m = len(times)
-    return header, cols, np.frombuffer(values).reshape(m, -1), np.frombuffer(times), lines
+    return header, cols, np.frombuffer(values).reshape(m, -1), np.frombuffer(times), lines, system
 
 
 def read_rtklib_pos(path):
     """Read an RTKLIB ``.pos`` solution file (module docstring) -> :class:`SolutionFile`."""
     path = str(path)
-    hline, cols, values, time, lines = _pos_rows(path)
+    hline, cols, values, time, lines, system = _pos_rows(path)
     col = {c: values[:, i] for i, c in enumerate(cols)}
 
     def need(*names_):
@@ -255,7 +281,8 @@ def read_rtklib_pos(path):
         if "sdvx" in col:
             svel = _ned_sigma(lla, need("sdvx", "sdvy", "sdvz"))
     _other_fields(col, path, np.asarray(lines))
-    return checked(path, time, lla, sig, vel, svel, need("Q")[:, 0], np.asarray(lines))
+    sol = checked(path, time, lla, sig, vel, svel, need("Q")[:, 0], np.asarray(lines))
+    return dataclasses.replace(sol, time_system=system)
 
 
 _OTHER_FIELDS = {
@@ -395,7 +422,9 @@ def _csv_keys(columns):
     }
 
 
-def read_solution_csv(path, columns, angle_unit="deg", time_scale=1.0, time_offset=0.0):
+def read_solution_csv(
+    path, columns, angle_unit="deg", time_scale=1.0, time_offset=0.0, time_system="gps"
+):
     """Read a CSV with a header row of column names.
 
     Parameters
@@ -407,7 +436,9 @@ def read_solution_csv(path, columns, angle_unit="deg", time_scale=1.0, time_offs
         ``q`` optional (``q`` absent: every epoch 1); :func:`role_problem`.
     angle_unit : "deg" or "rad"
     time_scale, time_offset : float
-        GPS seconds since the GPS epoch = ``time_offset + time_scale * value``.
+        Seconds of ``time_system`` = ``time_offset + time_scale * value``.
+    time_system : str
+        :data:`TIME_SYSTEMS` (:func:`gps_seconds`).
     """
     path = str(path)
     _roles(columns, True, "columns")
@@ -428,12 +459,15 @@ def read_solution_csv(path, columns, angle_unit="deg", time_scale=1.0, time_offs
     if line.size == 0:
         raise InputError("no data rows", source=path, line=2)
     get = {r: values[:, k] for k, r in enumerate(order)}
-    get["time"] = time_offset + time_scale * get["time"]
+    get["time"], scale = _grid(time_offset + time_scale * get["time"], time_system)
     rows = RowNames(path, line=line, keys=_csv_keys(columns))
-    return _solution(path, get, set(order), angle_unit, rows, line)
+    sol = _solution(path, get, set(order), angle_unit, rows, line)
+    return dataclasses.replace(sol, time_system=scale)
 
 
-def read_solution_mat(path, variable, columns, angle_unit="rad", sigma=None, sigma_vel=None):
+def read_solution_mat(
+    path, variable, columns, angle_unit="rad", sigma=None, sigma_vel=None, time_system="gps"
+):
     """Solutions from a 2-D array in a .mat file: ``columns`` role -> 0-based column index
     (roles and their rule as :data:`CSV_ROLES`, :func:`role_problem`; ECEF ``x y z``
     too); constant ``sigma`` (m) / ``sigma_vel`` (m/s) where the array has no sigma
@@ -445,8 +479,10 @@ def read_solution_mat(path, variable, columns, angle_unit="rad", sigma=None, sig
     values = matfile.columns(a, [columns[r] for r in order], path, variable, "post.gnss.columns")
     get = {r: values[:, k] for k, r in enumerate(order)}
     line = np.arange(1, a.shape[0] + 1)
+    get["time"], scale = _grid(get["time"], time_system)
     rows = RowNames(path, base=1, keys=dict.fromkeys(TEXT_KEYS, variable))
-    return _solution(path, get, set(order), angle_unit, rows, line, sigma, sigma_vel)
+    sol = _solution(path, get, set(order), angle_unit, rows, line, sigma, sigma_vel)
+    return dataclasses.replace(sol, time_system=scale)
 
 
 def read_mat_columns(path, variable, cols, key):

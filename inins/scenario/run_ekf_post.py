@@ -18,6 +18,8 @@ from inins.scenario.validation import KeyPathError
 AxisName = Literal["x", "-x", "y", "-y", "z", "-z"]
 Column = Annotated[int, Field(ge=0)]
 """A 0-based column index."""
+ColumnRef = Column | Annotated[str, Field(min_length=1)]
+"""A 0-based column index, or a CSV header row's column name."""
 _AXIS_MATRIX = {"x": (0, 1), "-x": (0, -1), "y": (1, 1), "-y": (1, -1), "z": (2, 1), "-z": (2, -1)}
 
 
@@ -38,8 +40,9 @@ def _axes_problem(axes):
 
 
 class ImuLog(Section):
-    """IMU log: a CSV of rates, one sample a row, no header (columns by 0-based index), or
-    a 2-D array of increments in a .mat file."""
+    """IMU log: a CSV of rates, one sample a row (columns by 0-based index, or by name
+    from the header row the file then starts with), or a 2-D array of increments in a
+    .mat file."""
 
     file: InputFile = Field(description="IMU file (.csv, .csv.gz or .mat), relative to this file")
     format: Literal["csv", "mat", "recorded"] = Field(
@@ -49,13 +52,17 @@ class ImuLog(Section):
         "file (import-flight format: solution; columns, units and axes already applied)",
     )
     mat_variable: str = Field("mimu", description="mat: the array's name")
-    accel_columns: tuple[Column, Column, Column] = Field(
-        (0, 1, 2), description="0-based columns of the accelerometer x, y, z"
+    accel_columns: tuple[ColumnRef, ColumnRef, ColumnRef] = Field(
+        (0, 1, 2),
+        description="columns of the accelerometer x, y, z: 0-based indices, or csv header "
+        "names (column)",
     )
-    gyro_columns: tuple[Column, Column, Column] = Field(
-        (3, 4, 5), description="0-based columns of the gyro x, y, z"
+    gyro_columns: tuple[ColumnRef, ColumnRef, ColumnRef] = Field(
+        (3, 4, 5), description="columns of the gyro x, y, z: 0-based or header names (column)"
     )
-    time_column: int = Field(6, ge=0, description="0-based column of the sample time")
+    time_column: ColumnRef = Field(
+        6, description="column of the sample time: 0-based or a header name (column)"
+    )
     time_scale_s: PositiveFloat = Field(
         1e-3, description="seconds per unit of the time column (s); 1e-3 for a millisecond tick"
     )
@@ -70,8 +77,10 @@ class ImuLog(Section):
     rate_hz: PositiveFloat = Field(
         100.0, le=2000.0, description="uniform rate the rates are resampled to (Hz)"
     )
-    odometer_column: int | None = Field(
-        None, ge=0, description="0-based column of a wheel-odometer forward speed, if any"
+    odometer_column: ColumnRef | None = Field(
+        None,
+        description="column of a wheel-odometer forward speed, if any: 0-based or a header "
+        "name (column)",
     )
     odometer_scale_mps: PositiveFloat = Field(
         1.0, description="speed per unit of the odometer column (m/s)"
@@ -82,6 +91,13 @@ class ImuLog(Section):
         problem = _axes_problem(self.axes)
         if problem:
             raise KeyPathError(("axes",), problem)
+        if self.format == "mat":
+            for key in ("accel_columns", "gyro_columns", "time_column"):
+                value = getattr(self, key)
+                if any(
+                    isinstance(c, str) for c in (value if isinstance(value, tuple) else [value])
+                ):
+                    raise KeyPathError((key,), "mat: 0-based column indices, no names")
         used = {}
         named = [("accel_columns", c) for c in self.accel_columns]
         named += [("gyro_columns", c) for c in self.gyro_columns]
@@ -130,6 +146,12 @@ class GnssFile(Section):
     time_scale_s: PositiveFloat = Field(
         1.0, description="csv: seconds per unit of the time column (s)"
     )
+    time_system: Literal["gps", "utc", "unix"] = Field(
+        "gps",
+        description="csv, mat: what the time column counts: gps seconds since 1980-01-06 "
+        "(GPS time); utc seconds on that grid; unix: UTC seconds since 1970-01-01 (UTC: the "
+        "leap seconds of the date added; a .pos file says UTC in its header) (s)",
+    )
     q_flags: list[int] = Field(
         [1, 2], min_length=1, description="quality flags used (RTKLIB 1 fix, 2 float, 5 single)"
     )
@@ -161,6 +183,10 @@ class GnssFile(Section):
                     raise KeyPathError(("columns", role), "csv: a column name of the header")
         elif self.columns:
             raise KeyPathError(("columns",), f"format {self.format}: no columns to map")
+        if self.time_system != "gps" and self.format not in ("csv", "mat"):
+            raise KeyPathError(
+                ("time_system",), f"format {self.format}: its time system is in the file"
+            )
         if self.attitude_columns is not None:
             if self.format != "mat":
                 raise KeyPathError(("attitude_columns",), "only a .mat array has them")
@@ -175,18 +201,28 @@ class GnssFile(Section):
 
 
 class TimeMapping(Section):
-    """IMU time -> GNSS time: a line fitted to the turn-rate lag, then a state."""
+    """IMU time -> GNSS time: a constant offset fitted to the turn-rate lag (a rate only
+    when the data demand it), then a residual offset state."""
 
     fit: Literal["none", "turn_rate"] = Field(
         "turn_rate",
         description="turn_rate: lag of the IMU yaw rate against the GNSS course rate in "
-        "windows, a line (offset, rate) through them; none: IMU time is GNSS time minus "
-        "the first GNSS epoch plus offset_s",
+        "windows, the mapping fitted through them (model); none: IMU time is GNSS time "
+        "minus the first GNSS epoch plus offset_s",
     )
-    model: Literal["line", "piecewise"] = Field(
-        "line",
-        description="turn_rate: a line through the window lags, or the lags interpolated "
-        "(outlier windows dropped) for a mapping that steps",
+    model: Literal["auto", "constant", "line", "piecewise"] = Field(
+        "auto",
+        description="turn_rate: auto: a constant offset unless the line's clock rate "
+        "passes its t test at rate_false_alarm; constant; line (offset and rate); "
+        "piecewise: the window lags interpolated (outlier windows dropped) for a mapping "
+        "that steps",
+    )
+    rate_false_alarm: float = Field(
+        0.01,
+        gt=0.0,
+        lt=0.5,
+        description="model auto: probability that a zero clock rate is taken for one "
+        "(two-sided t test of the fitted rate) (1)",
     )
     offset_s: float = Field(
         0.0, description="fit none: GNSS time (from the first epoch) of IMU time 0 (s)"
@@ -195,6 +231,14 @@ class TimeMapping(Section):
     search_s: PositiveFloat = Field(10.0, le=600.0, description="turn_rate: lags searched, +-(s)")
     state: bool = Field(True, description="estimate a residual constant offset as a state")
     state_sigma_s: PositiveFloat = Field(0.05, le=10.0, description="its initial 1-sigma (s)")
+    state_walk_s_rts: NonNegFloat = Field(
+        1e-3,
+        lt=1.0,
+        description="its random-walk density: how far it may wander, 1e-3 is 22 ms over "
+        "500 s (on the lc-drive the estimates of the four scenarios then spread by 6 ms "
+        "std against an 8 ms 1-sigma; 1e-6, a constant, gave 35 ms against 1.8 ms) "
+        "(s/sqrt(s))",
+    )
 
 
 class Outages(Section):
@@ -312,6 +356,13 @@ class PostProcess(Section):
         description="motion: level on static_window_s, heading from the first motion; "
         "reference: attitude and velocity of the file's first epoch (gnss.attitude_columns)",
     )
+    motion_heading_bound_deg: PositiveFloat = Field(
+        10.0,
+        le=180.0,
+        description="init motion: the forward heading may differ from the GNSS course by "
+        "this much (median over the first minute faster than motion_speed_mps after the "
+        "static window) before the run fails its check, exit 1 (deg)",
+    )
     init_heading_error_deg: float = Field(
         0.0, description="reference init: heading error added on purpose (deg), a convergence test"
     )
@@ -330,6 +381,12 @@ class PostProcess(Section):
     outages: Outages = Field(default_factory=Outages)
     reference_q: int = Field(
         1, description="quality flag of the epochs the outages are scored against (1: fix)"
+    )
+    export: list[Literal["csv", "pos", "geojson"]] = Field(
+        [],
+        description="trajectory files written beside the results, forward and smoothed with "
+        "their 1-sigma, on GNSS time: csv (GPS week/seconds and UTC columns), pos (RTKLIB), "
+        "geojson (a LineString per solution) (file formats)",
     )
 
     @model_validator(mode="after")

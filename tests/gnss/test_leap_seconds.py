@@ -33,3 +33,25 @@ def test_one_second_at_a_time_and_unknown_after_the_table():
     assert (np.diff(dates) > np.timedelta64(0, "D")).all()
     week, sow = gpstime.from_calendar(2031, 1, 1, 0, 0, 0.0)
     assert timescales.leap_seconds_at(week, sow) is None
+
+
+def test_leap_seconds_of_utc_by_date():
+    """UTC instants counted from 1980-01-06 on the GPS grid: 17 s on 2016-12-31T23:59:59,
+    18 s from 2017-01-01T00:00:00 UTC (the table's own dates, exact at the step), 0 at
+    the GPS epoch, NaN before it and after the table's known date."""
+
+    def utc(*cal):
+        week, sow = gpstime.from_calendar(*cal)
+        return week * 604800.0 + sow
+
+    got = timescales.leap_seconds_of_utc(
+        [
+            utc(2016, 12, 31, 23, 59, 59),
+            utc(2017, 1, 1, 0, 0, 0),
+            0.0,
+            -1.0,
+            utc(2030, 1, 1, 0, 0, 0),
+        ]
+    )
+    assert got[:3].tolist() == [17.0, 18.0, 0.0]
+    assert np.isnan(got[3]) and np.isnan(got[4])
