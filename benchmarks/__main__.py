@@ -34,9 +34,11 @@ QUICK_AWARE = (
     "bench_ekf_post",
     "bench_gnss",
     "bench_whole",
+    "bench_ekf_length",
 )
 """Modules whose ``run(quick=True)`` drops their long parts (the 4-h EKF stream, the
-sweep throughput runs, the chunked sensor-error pass)."""
+sweep throughput runs, the chunked sensor-error pass; run-ekf over 5 min / 30 min / 2 h
+instead of 10 min / 1 h / 4 h / 24 h)."""
 TARGETS = (  # (figure path, relation, target, what)
     ("bench_strapdown.free_hour_200hz_msamples_per_s", ">=", 12.0, "strapdown free, M samples/s"),
     ("bench_strapdown.fixed_hour_200hz_msamples_per_s", ">=", 20.0, "strapdown fixed, M samples/s"),
@@ -116,6 +118,13 @@ TARGETS = (  # (figure path, relation, target, what)
     ("bench_whole.spp_cpu_over_rnx2rtkp", "<=", 1.0, "ABPO SPP process CPU / rnx2rtkp's"),
     ("bench_whole.run_ekf_1h_cpu_over_floor", "<=", 1.5, "run-ekf 1-h process CPU / floor"),
     ("bench_gnss.read_obs_24h_1hz_values_per_s", ">=", 1e6, "24-h 1-Hz RINEX 3 read, values/s"),
+    (
+        "bench_ekf_length.rss_longest_over_shortest",
+        "<=",
+        1.5,
+        "run-ekf RSS 24h / 10min (quick 2h / 5min)",
+    ),
+    ("bench_ekf_length.cpu_per_hour_spread", "<=", 1.10, "run-ekf CPU per flight hour max/min"),
 )
 MODULES = (
     "bench_strapdown",
@@ -128,6 +137,7 @@ MODULES = (
     "bench_noise",
     "bench_ekf_post",
     "bench_whole",
+    "bench_ekf_length",
 )
 
 

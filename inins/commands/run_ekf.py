@@ -10,6 +10,10 @@ Recorded: :func:`inins.io.flight_layout.read_flight` (import-flight output) or
 window and the velocity-heading initialisation (:func:`inins.ekf.sources.velocity_heading`).
 With ``compensation: FILE`` the recorded increments (and post's uniform-grid ones) are
 compensated by :func:`inins.calibration.imu_model.compensate` before the filter.
+
+Memory: the filter keeps no covariance per epoch (NEES scored batch by batch as it
+runs, :mod:`inins.ekf.filter`); with ``filter.smoother: rts`` the forward store and the
+smoothed covariances are temporary memory maps (:func:`inins.io.scratch.memmap_store`).
 """
 
 import math
@@ -29,6 +33,7 @@ from inins.ekf.filter import run_filter
 from inins.ekf.tight_store import TightStore
 from inins.exceptions import InputError
 from inins.gnss import broadcast, constellation, ephemeris, glonass, gpstime, measurements
+from inins.io import scratch
 from inins.io.flight_layout import read_flight
 from inins.io.resources import configs_root
 from inins.io.rinex_nav import read_nav, read_navigation
@@ -47,12 +52,13 @@ def run(scenario, seed, *, sink=None, progress=None):
     """Run the filter on the scenario's flight or recording."""
     if scenario.post is not None:  # loosely coupled post-processing of a drive
         return run_ekf_post.run(scenario, seed, sink=sink, progress=progress)
-    store = TightStore() if scenario.filter.smoother == "rts" else None
-    if scenario.data is not None:
-        result, info = _recorded(scenario, store)
-    else:
-        result, info = _simulated(scenario, seed, progress, store)
-    sm = None if store is None else smoother.smooth(store.run())
+    with scratch.memmap_store() as maps:  # a smoother's store and its output: on disk
+        store = TightStore(maps) if scenario.filter.smoother == "rts" else None
+        if scenario.data is not None:
+            result, info = _recorded(scenario, store)
+        else:
+            result, info = _simulated(scenario, seed, progress, store)
+        sm = None if store is None else smoother.smooth(store.run(), maps)
     smoothed = run_ekf_report.tight_smoothed(result, sm, scenario.filter.outages_s)
     summary = result.summary()
     if result.heading_error.size and np.any(result.time >= scenario.filter.turning_from_s):
@@ -184,7 +190,10 @@ def _simulated(scenario, seed, progress=None, store=None):
         progress,
     )
     result = _checked(
-        lambda: run_filter(config, initial, 0.0, stream, errors, store=store), "gnss.mask_deg"
+        lambda: run_filter(
+            config, initial, 0.0, stream, errors, store=store, capacity=math.floor(plan.duration)
+        ),
+        "gnss.mask_deg",
     )
     bias = dict(zip("GREC", np.zeros(4), strict=True)) | dict(gs.system_bias_m)
     info = {

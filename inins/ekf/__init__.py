@@ -11,8 +11,8 @@ Pure numerics: imports only ``inins.core`` and ``inins.gnss``.
 - :mod:`inins.ekf.config` — :class:`~inins.ekf.config.FilterConfig` (EKF1/EKF2,
   FF/FB, noise, gating, dither window, outages), :class:`~inins.ekf.config.EpochInput`.
 - :mod:`inins.ekf.filter` — :func:`~inins.ekf.filter.run_filter`, the streaming run;
-  :class:`~inins.ekf.filter.EpochLog`, what it records per epoch;
-  :func:`~inins.ekf.scoring.truth_errors`, the errors against truth after the run.
+  :class:`~inins.ekf.epoch_log.EpochLog`, what it records per epoch;
+  :func:`~inins.ekf.scoring.epoch_errors`, the errors against truth, batch by batch.
 - :mod:`inins.ekf.sources` — epoch streams: a simulated flight through the GNSS
   layer's receiver simulation, a recording; levelling and the velocity-heading
   initialisation of a recording.

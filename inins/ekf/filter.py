@@ -44,29 +44,32 @@ Python glue of one call per block cost as much as the arithmetic;
 ``tests/ekf/test_fused_epoch.py`` holds it bit for bit to that loop). The epochs run
 :data:`BATCH` at a time through one call of :func:`inins.ekf.fused.epochs` (its
 arguments a few packed records: a call costs some microseconds through numba's
-dispatcher, against some 33 us of arithmetic an epoch). The log goes into preallocated
-arrays, doubled when full.
+dispatcher, against some 33 us of arithmetic an epoch). The kernel writes a batch into
+reused buffers; its rows are copied into the run's log (arrays doubled when full).
 
 With truth (simulation) the output error, the heading error and the NEES of all
-states are computed after the run (:func:`inins.ekf.scoring.truth_errors`), vectorised
-over the epochs; the navigation states estimate the INS error, so their estimation
-error is minus the output error.
+states are computed batch by batch as the run goes (:func:`inins.ekf.scoring.epoch_errors`,
+vectorised over the batch's epochs), from the batch's ``P``, which is then dropped: the
+run keeps no ``P`` (memory flat in flight length beyond the output rows) unless the
+caller hands it an array for them (``covariance``) or a smoother's store. The
+navigation states estimate the INS error, so their estimation error is minus the output
+error.
 """
 
+import functools
 import itertools
 import operator
 import time as _time
-from dataclasses import dataclass
 
 import numpy as np
 
 from inins.core.satellites import LETTERS
 from inins.core.stats import chi2_ppf
 from inins.core.strapdown import FreeInertial
-from inins.ekf import fused, scoring, step
+from inins.ekf import epoch_log, fused, scoring, step
 from inins.ekf.config import Coupling
 from inins.ekf.kernels import NAV
-from inins.ekf.result import EkfResult, Innovations
+from inins.ekf.result import EkfResult
 from inins.exceptions import InputError
 
 SUB_STEPS = 10
@@ -77,8 +80,6 @@ RATE_CHANGE = 5.0 * np.pi / 180.0
 within a second, ~100 deg/s, is far above)."""
 FORCE_CHANGE = 2.0
 """m/s^2: a change of ``f_b`` within an interval beyond this splits the propagation."""
-LOG_CAPACITY = 256
-"""Epochs the log holds before it first doubles (8 innovation rows per epoch)."""
 BATCH = 32
 """Epochs per call of the compiled :func:`inins.ekf.fused.epochs` (one with a smoother's store)."""
 _GNSS_ARRAYS = operator.attrgetter(
@@ -119,148 +120,6 @@ def correct(quat, vel, lla, dx):
         np.asarray(dx, float),
         *out,
     )
-    return out
-
-
-@dataclass
-class EpochLog:
-    """What a run records, ``m`` epochs (:func:`run_filter` fills it after the run).
-
-    Attributes
-    ----------
-    time : ndarray, shape (m,)
-        The time the logged state refers to (s): the PPS, or the arrival (naive pairing).
-    gnss_time : ndarray, shape (m,)
-        The measurement epoch (PPS) (s).
-    quat, vel, lla : ndarray, shapes (m, 4), (m, 3), (m, 3)
-        Output solution after the update.
-    state, sigma, cumulative : ndarray, shape (m, n)
-        Error-state estimate (sensor totals), its 1-sigma, FB cumulative corrections.
-    covariance : ndarray, shape (j, n, n)
-        ``P`` after the update of the ``j`` epochs that carry truth (NEES).
-    truth : list of TruthEpoch
-    n_sats, n_used, n_rejected : ndarray, shape (m,), int
-    coasted : ndarray, shape (m,), bool
-    nis, update_s : ndarray, shape (m,)
-    measurements : Innovations
-        Every scalar measurement processed.
-    """
-
-    time: np.ndarray
-    gnss_time: np.ndarray
-    quat: np.ndarray
-    vel: np.ndarray
-    lla: np.ndarray
-    state: np.ndarray
-    sigma: np.ndarray
-    cumulative: np.ndarray
-    covariance: np.ndarray
-    truth: list
-    n_sats: np.ndarray
-    n_used: np.ndarray
-    n_rejected: np.ndarray
-    coasted: np.ndarray
-    nis: np.ndarray
-    update_s: np.ndarray
-    measurements: Innovations
-
-    def innovations(self):
-        """:class:`~inins.ekf.result.Innovations` of every scalar measurement processed."""
-        return self.measurements
-
-
-class _Log:
-    """The arrays :func:`inins.ekf.fused.epochs` writes its log into, grown by doubling."""
-
-    def __init__(self, n):
-        self.n = n
-        capacity = LOG_CAPACITY
-        self.flog = np.zeros((capacity, fused.LOG_STATE + 3 * n))
-        self.ilog = np.zeros((capacity, 4), np.int64)
-        self.cov = np.zeros((0, n, n))
-        self.inn_f = np.zeros((8 * capacity, 2))
-        self.inn_i = np.zeros((8 * capacity, 4), np.int64)
-        self.rows = 0  # innovation rows written
-        self.truth = []  # (epoch index, TruthEpoch)
-        self.update_s = []
-        self._sizes()
-
-    def _sizes(self):
-        self._record = None  # the arrays may be new
-        self.capacity, self.row_capacity = self.flog.shape[0], self.inn_f.shape[0]
-        self.cov_capacity = self.cov.shape[0]
-
-    def full(self, index, rows, cov):
-        """True unless there is room for epoch ``index``, ``rows`` more innovation rows
-        and, if ``cov``, its ``P``."""
-        return (
-            index >= self.capacity
-            or self.rows + rows > self.row_capacity
-            or (cov and index >= self.cov_capacity)
-        )
-
-    def reserve(self, index, rows, cov):
-        """Room for epoch ``index``, ``rows`` more innovation rows, and its ``P`` if ``cov``."""
-        if index >= self.capacity:
-            self.flog, self.ilog = _grown(self.flog, index), _grown(self.ilog, index)
-        if self.rows + rows > self.row_capacity:
-            self.inn_f = _grown(self.inn_f, self.rows + rows)
-            self.inn_i = _grown(self.inn_i, self.rows + rows)
-        if cov and index >= self.cov_capacity:
-            self.cov = _grown(self.cov, index)
-        self._sizes()
-
-    def record(self):
-        """The arrays of :data:`inins.ekf.fused.Log`, a plain tuple (after :meth:`reserve`,
-        which may replace them)."""
-        if self._record is None:
-            self._record = (self.flog, self.ilog, self.cov, self.inn_f, self.inn_i)
-        return self._record
-
-    def epochs(self):
-        """The :class:`EpochLog` of the epochs written (views of the filled rows)."""
-        m, n = len(self.update_s), self.n
-        f, i = self.flog[:m], self.ilog[:m]
-        inn_f, inn_i = self.inn_f[: self.rows], self.inn_i[: self.rows]
-
-        def col(first, width):
-            return f[:, first : first + width]
-
-        return EpochLog(
-            time=f[:, fused.LOG_TIME],
-            gnss_time=f[:, fused.LOG_GNSS_TIME],
-            quat=col(fused.LOG_QUAT, 4),
-            vel=col(fused.LOG_VEL, 3),
-            lla=col(fused.LOG_LLA, 3),
-            state=col(fused.LOG_STATE, n),
-            sigma=col(fused.LOG_STATE + n, n),
-            cumulative=col(fused.LOG_STATE + 2 * n, n),
-            covariance=self.cov[[index for index, _ in self.truth]],
-            truth=[truth for _, truth in self.truth],
-            n_sats=i[:, fused.N_SATS],
-            n_used=i[:, fused.N_USED],
-            n_rejected=i[:, fused.N_REJECTED],
-            coasted=i[:, fused.COASTED].astype(bool),
-            nis=f[:, fused.LOG_NIS],
-            update_s=np.array(self.update_s),
-            measurements=Innovations(
-                inn_i[:, 0].copy(),
-                inn_i[:, 1].copy(),
-                inn_i[:, 2].astype(np.int8),
-                inn_f[:, 0].copy(),
-                inn_f[:, 1].copy(),
-                inn_i[:, 3].astype(bool),
-            ),
-        )
-
-
-def _grown(array, index):
-    """``array`` with its first axis doubled until it holds ``index`` (zeros appended)."""
-    size = max(array.shape[0], 1)
-    while size <= index:
-        size *= 2
-    out = np.zeros((size, *array.shape[1:]), array.dtype)
-    out[: array.shape[0]] = array
     return out
 
 
@@ -353,13 +212,18 @@ def _store(store, row, run, time, feedback):
     )
 
 
-def run_filter(config, initial, t0, epochs, true_sensor=None, store=None):
+def run_filter(
+    config, initial, t0, epochs, true_sensor=None, store=None, covariance=None, capacity=None
+):
     """Run the tightly coupled filter over a stream of epochs (module docstring).
 
     Each epoch is the compiled :func:`inins.ekf.fused.epoch` (strapdown, propagation,
     update, feedback and the epoch's log), :data:`BATCH` epochs per call of
-    :func:`inins.ekf.fused.epochs`; this loop only gathers the epochs' fields, makes
-    room in the log and hands a smoother's store its record (then one epoch per call).
+    :func:`inins.ekf.fused.epochs` into reused batch buffers; this loop only gathers
+    the epochs' fields, copies each batch's rows into the run's log, scores the batch
+    against its truth (the NEES from the batch's ``P``, which is then dropped: memory
+    does not grow with ``P``) and hands a smoother's store its record (then one epoch
+    per call).
 
     Parameters
     ----------
@@ -370,14 +234,20 @@ def run_filter(config, initial, t0, epochs, true_sensor=None, store=None):
         Time of ``initial`` (s), on the IMU time axis of the epochs.
     epochs : iterable of inins.ekf.config.EpochInput
         Consecutive chunks, PPS times increasing; consumed once (may be a generator).
-        With truth (:class:`~inins.ekf.config.TruthEpoch`) the run is scored after
-        it (:func:`inins.ekf.scoring.truth_errors`); with the naive pairing the truth
-        needs its ``at_arrival``.
+        With truth (:class:`~inins.ekf.config.TruthEpoch`) each batch is scored as the
+        run goes (:func:`inins.ekf.scoring.epoch_errors`); with the naive pairing the
+        truth needs its ``at_arrival``.
     true_sensor : inins.core.imu.SensorErrors, optional
         Constant true sensor errors, for the NEES of the sensor states when the
         epochs carry truth.
     store : inins.ekf.tight_store.TightStore, optional
         Records what an RTS smoother needs per epoch.
+    covariance : ndarray (k, n, n), optional
+        Takes ``P`` after the update of each epoch (``k`` at least the epochs; the
+        caller's array, e.g. memory-mapped): only where ``P`` itself is wanted.
+    capacity : int, optional
+        The epochs expected: the log is allocated for them at once (no array copied
+        as it grows; more epochs grow it by doubling).
 
     Returns
     -------
@@ -391,16 +261,21 @@ def run_filter(config, initial, t0, epochs, true_sensor=None, store=None):
     cfg = config
     keep = store is not None
     run = _Run(config, initial, t0, keep)
-    log = _Log(run.n)
+    size = 1 if keep else BATCH  # a smoother's store takes each epoch's record
+    buffers, log = epoch_log.Buffers(run.n, size), epoch_log.Log(run.n, covariance, capacity)
+    scorer = functools.partial(
+        scoring.epoch_errors,
+        true_sensor=true_sensor,
+        layout=cfg.layout,
+        pps_storage=cfg.pps_storage,
+        systems=cfg.systems,
+    )
     wall = 0.0  # the filter's own time: producing the epochs (simulation, file) is not counted
     clock = _Clock(t0)
-    # a smoother's store takes each epoch's record: one epoch per call
-    for batch in _batches(epochs, 1 if keep else BATCH):
+    for batch in _batches(epochs, size):
         start_wall = _time.perf_counter()
-        first = len(log.update_s)
-        b = _Batch(batch, cfg, clock, first)
-        if log.full(first + b.size - 1, 2 * b.sat_starts[-1], bool(b.truths)):
-            log.reserve(first + b.size - 1, 2 * b.sat_starts[-1], bool(b.truths))
+        first = log.m
+        b = _Batch(batch, cfg, clock, covariance is not None)
         tick = _time.perf_counter()
         written = fused.epochs(
             run.packed[0],
@@ -414,28 +289,24 @@ def run_filter(config, initial, t0, epochs, true_sensor=None, store=None):
             b.flags,
             b.sats,
             b.sat_starts,
-            log.record(),
-            first,
-            log.rows,
+            buffers.record(2 * b.sat_starts[-1]),
+            0,
+            0,
         )
         if written < 0:
             _refuse_systems(batch[-1 - written].gnss, run.model.bias_columns, cfg.systems)
-        log.update_s += [(_time.perf_counter() - tick) / b.size] * b.size
         run.nav.count += b.starts[-1]
-        log.rows += written
-        log.truth += b.truths
+        log.take(buffers, b.size, written, (_time.perf_counter() - tick) / b.size)
         if keep:
-            _store(store, log.flog[first], run, clock.t_prev, b.fed_back)
+            _store(store, buffers.flog[0], run, clock.t_prev, b.fed_back)
         wall += _time.perf_counter() - start_wall
+        log.score(buffers, first, b.truths, scorer)  # not the filter's time
     epochs_log = log.epochs()
     if epochs_log.n_sats.size and epochs_log.n_sats.max() == 0:
         raise InputError("no satellites above the mask in any epoch of the run", key="gnss")
     result = EkfResult.from_log(cfg, epochs_log, clock.t_end - t0, wall)
-    if epochs_log.truth and len(epochs_log.truth) == epochs_log.time.size:
-        result = scoring.truth_errors(
-            result, epochs_log, true_sensor, pps_storage=cfg.pps_storage, systems=cfg.systems
-        )
-    return result
+    truth = log.truth()
+    return result if truth is None else result.with_truth(*truth)
 
 
 class _Clock:
@@ -450,7 +321,7 @@ class _Clock:
 class _Batch:
     """A batch of epochs gathered into the arrays :func:`inins.ekf.fused.epochs` takes."""
 
-    def __init__(self, batch, cfg, clock, first):
+    def __init__(self, batch, cfg, clock, keep_all):
         pps, outages = cfg.pps_storage, bool(cfg.outages)
         times, flags, samples, satellites, truths = [], [], [0], [0], []
         increments, satellite_arrays = ([], []), []
@@ -464,14 +335,14 @@ class _Batch:
             coasted = k == 0 or (outages and cfg.in_outage(t_k))
             truth = ep.truth is not None
             times += (t_state, t_k, t_state - clock.t_prev, tau)
-            flags += (p, coasted, not clock.ready, truth)
+            flags += (p, coasted, not clock.ready, truth or keep_all)
             samples.append(samples[-1] + length)
             satellites.append(satellites[-1] + k)
             increments[0].append(ep.dtheta)
             increments[1].append(ep.dv)
             satellite_arrays.append(_GNSS_ARRAYS(gnss))
             if truth:
-                truths.append((first + j, ep.truth))
+                truths.append((j, ep.truth))
             clock.ready = clock.ready or not coasted
             clock.t_prev, clock.t_end = t_state, arrival
         self.size = len(batch)

@@ -131,12 +131,12 @@ class EkfResult:
 
     @classmethod
     def from_log(cls, config, log, flight_time, wall_time):
-        """Stack what the run recorded (an :class:`inins.ekf.filter.EpochLog`); no truth
+        """Stack what the run recorded (an :class:`inins.ekf.epoch_log.EpochLog`); no truth
         errors yet (:meth:`with_truth`)."""
         n = len(config.layout)
 
-        def stack(values, shape, dtype=float):
-            return np.array(values, dtype=dtype).reshape((len(values), *shape))
+        def stack(values, shape, dtype=float):  # the log's arrays as they are (no copy)
+            return np.asarray(values, dtype=dtype).reshape((len(values), *shape))
 
         return cls(
             config.model.value,

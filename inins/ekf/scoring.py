@@ -247,19 +247,57 @@ def _true_biases(truths, names, systems):
 
 
 def truth_errors(result, log, true_sensor=None, *, pps_storage=True, systems="G"):
-    """The result with its errors against truth: output error, heading error, NEES.
-
-    Vectorised over the epochs, after the run. The navigation truth is the one at
-    ``result.time`` (the PPS, or the arrival with the naive pairing: the truth's
-    ``at_arrival``); the clock truth the one at the measurement epoch.
+    """The result with its errors against truth (:func:`epoch_errors` over all its epochs).
 
     Parameters
     ----------
     result : inins.ekf.result.EkfResult
-    log : inins.ekf.filter.EpochLog
-        With one :class:`~inins.ekf.config.TruthEpoch` and ``P`` per epoch.
+    log
+        With ``truth``, one :class:`~inins.ekf.config.TruthEpoch` per epoch, and
+        ``covariance``, the ``P`` of each (m, n, n).
+    true_sensor, pps_storage, systems
+        As :func:`epoch_errors`.
+
+    Returns
+    -------
+    inins.ekf.result.EkfResult
+    """
+    err, heading, nees = epoch_errors(
+        (result.quat_nb, result.vel_n, result.lla, result.state),
+        log.truth,
+        log.covariance,
+        true_sensor,
+        layout=result.layout,
+        pps_storage=pps_storage,
+        systems=systems,
+    )
+    return result.with_truth(err, heading, nees)
+
+
+def epoch_errors(solution, truths, covariance, true_sensor=None, *, layout, pps_storage, systems):
+    """Output error, heading error and NEES of ``k`` epochs against their truth.
+
+    Vectorised over the epochs: :func:`inins.ekf.filter.run_filter` calls it on each
+    batch of epochs as the run goes (their ``P`` then dropped), so that no epoch's
+    ``P`` is kept. The navigation truth is the one at the logged time (the PPS, or the
+    arrival with the naive pairing: the truth's ``at_arrival``); the clock truth the
+    one at the measurement epoch. The navigation states estimate the INS error: their
+    estimation error is minus the output error; sensor and clock states estimate the
+    quantity itself. ``NEES = e^T P^-1 e`` over all ``n`` states.
+
+    Parameters
+    ----------
+    solution : (ndarray (k, 4), ndarray (k, 3), ndarray (k, 3), ndarray (k, n))
+        Output ``quat_nb``, ``vel_n`` (m/s), ``lla`` (rad, rad, m) and the error-state
+        estimate (sensor totals) of each epoch.
+    truths : sequence of inins.ekf.config.TruthEpoch
+        One per epoch.
+    covariance : ndarray (k, n, n)
+        ``P`` after each epoch's update.
     true_sensor : inins.core.imu.SensorErrors, optional
         Constant true sensor errors: with them the NEES of all states.
+    layout : inins.core.error_model.StateLayout
+        The filter's states.
     pps_storage : bool
     systems : str
         The filter's systems (:class:`~inins.ekf.config.FilterConfig`), the first the
@@ -267,9 +305,14 @@ def truth_errors(result, log, true_sensor=None, *, pps_storage=True, systems="G"
 
     Returns
     -------
-    inins.ekf.result.EkfResult
+    nav_error : ndarray (k, 9)
+        Position (NED m), velocity (m/s), phi (rad): output minus truth.
+    heading_error : ndarray (k,)
+        Heading minus true heading (rad), wrapped to [-pi, pi).
+    nees : ndarray (k,) or (0,)
+        (0,) without ``true_sensor``.
     """
-    truths = log.truth
+    quat, vel, lla, state = solution
     if not pps_storage:
         if any(t.at_arrival is None for t in truths):
             raise ValueError("the naive pairing is scored with the truth at the data arrival")
@@ -279,11 +322,11 @@ def truth_errors(result, log, true_sensor=None, *, pps_storage=True, systems="G"
     mat_true = np.array([v[0] for v in nav]).reshape(-1, 3, 3)
     vel_true = np.array([v[1] for v in nav]).reshape(-1, 3)
     lla_true = np.array([v[2] for v in nav]).reshape(-1, 3)
-    mat_est = rotation.mat_from_quat(result.quat_nb)
+    mat_est = rotation.mat_from_quat(quat)
     err = np.concatenate(
         [
-            error_model.position_error_ned(result.lla, lla_true),
-            result.vel_n - vel_true,
+            error_model.position_error_ned(lla, lla_true),
+            vel - vel_true,
             error_model.attitude_error(mat_est, mat_true),
         ],
         axis=1,
@@ -291,33 +334,38 @@ def truth_errors(result, log, true_sensor=None, *, pps_storage=True, systems="G"
     heading = rotation.euler_from_mat(mat_est)[:, 2] - rotation.euler_from_mat(mat_true)[:, 2]
     nees = np.zeros(0)
     if true_sensor is not None:
-        n = result.state.shape[1]
-        clock = np.array([[t.clock_bias, t.clock_drift] for t in truths]).reshape(-1, 2)
-        base = n - len(_bias_names(result.layout))
-        biases = _true_biases(truths, _bias_names(result.layout), systems)
-        if biases is not None:
-            clock[:, 0] += biases[:, 0]  # the clock carries the reference system's bias
-        true = np.concatenate(
-            [
-                np.zeros((len(truths), 9)),
-                np.tile(
-                    np.concatenate([true_sensor.accel_bias, true_sensor.gyro_bias]),
-                    (len(truths), 1),
-                ),
-                clock,
-                np.tile(
-                    np.concatenate([true_sensor.accel_misalignment, true_sensor.gyro_misalignment]),
-                    (len(truths), 1),
-                ),
-            ],
-            axis=1,
-        )[:, :base]
-        if biases is not None:
-            true = np.concatenate([true, biases[:, 1:]], axis=1)
-        # the navigation states estimate the INS error: their estimation error is minus
-        # the output error; sensor and clock states estimate the quantity itself
-        e = result.state - true
+        true = _true_states(truths, true_sensor, layout, systems)
+        e = state - true
         e[:, :9] = -err
-        P = np.array(log.covariance)
-        nees = np.einsum("mi,mi->m", e, np.linalg.solve(P, e[..., None])[..., 0])
-    return result.with_truth(err, rotation.wrap_angle(heading), nees)
+        nees = np.einsum("mi,mi->m", e, np.linalg.solve(covariance, e[..., None])[..., 0])
+    return err, rotation.wrap_angle(heading), nees
+
+
+def _true_states(truths, true_sensor, layout, systems):
+    """(k, n) true values of the filter's states: zero navigation error, the constant
+    sensor errors, the clock (with the reference system's bias) and the inter-system
+    biases of each epoch."""
+    n = len(layout.names)
+    clock = np.array([[t.clock_bias, t.clock_drift] for t in truths]).reshape(-1, 2)
+    base = n - len(_bias_names(layout))
+    biases = _true_biases(truths, _bias_names(layout), systems)
+    if biases is not None:
+        clock[:, 0] += biases[:, 0]  # the clock carries the reference system's bias
+    true = np.concatenate(
+        [
+            np.zeros((len(truths), 9)),
+            np.tile(
+                np.concatenate([true_sensor.accel_bias, true_sensor.gyro_bias]),
+                (len(truths), 1),
+            ),
+            clock,
+            np.tile(
+                np.concatenate([true_sensor.accel_misalignment, true_sensor.gyro_misalignment]),
+                (len(truths), 1),
+            ),
+        ],
+        axis=1,
+    )[:, :base]
+    if biases is not None:
+        true = np.concatenate([true, biases[:, 1:]], axis=1)
+    return true

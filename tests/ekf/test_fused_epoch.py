@@ -194,12 +194,13 @@ def test_smoother_store(flight, coupling):
 
 def test_log_grown_by_doubling(flight, monkeypatch):
     """A log that starts with room for one epoch (and 8 innovation rows) doubles its
-    arrays as the run goes: the result is the one of a log with room from the start."""
-    from inins.ekf import filter as ekf_filter
+    arrays as the run goes: the result is the one of a log with room from the start
+    (the epochs given as its capacity)."""
+    from inins.ekf import epoch_log
 
     config, initial, epochs = flight
-    want = run_filter(config, initial, 0.0, epochs, ERRORS)
-    monkeypatch.setattr(ekf_filter, "LOG_CAPACITY", 1)
+    want = run_filter(config, initial, 0.0, epochs, ERRORS, capacity=len(epochs))
+    monkeypatch.setattr(epoch_log, "LOG_CAPACITY", 1)
     got = run_filter(config, initial, 0.0, epochs, ERRORS)
     _assert_results_agree(got, want)
 
