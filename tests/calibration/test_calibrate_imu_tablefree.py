@@ -215,5 +215,5 @@ def test_the_first_heading_is_found_at_any_azimuth(monkeypatch):
     sim, rec = _mems_record(**{"simulate.table.base_azimuth_deg": 130.0})
     fit = tablefree.calibrate(*_inputs(sim, rec, False), DETECTOR, lat=rec.lla[0])
     assert abs((np.degrees(fit.heading) - 130.0 + 180.0) % 360.0 - 180.0) < 0.01
-    start = [x for x in starts if x.size == 13][0][12]  # 9 matrix terms, bias, heading
+    start = next(x for x in starts if x.size == 13)[12]  # 9 matrix terms, bias, heading
     assert abs((np.degrees(start) - 130.0 + 180.0) % 360.0 - 180.0) < 5.0
