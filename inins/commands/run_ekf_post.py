@@ -16,13 +16,16 @@ The run is read -> prepare -> filter -> smooth -> score -> write, each step a ca
 6. write: results in lab units, datasets and the report (:mod:`run_ekf_post_report`).
 """
 
+import dataclasses
+import math
+
 import numpy as np
 
 from inins.calibration.imu_model import compensate
 from inins.commands import run_ekf_post_report
 from inins.commands._compensation import scenario_terms
 from inins.core.units import DEG, UG
-from inins.ekf import post, scoring
+from inins.ekf import gate, post, scoring
 from inins.io import imu_units, post_inputs, scratch
 from inins.results import CommandResult, Series
 from inins.scenario.si.run_ekf_post import loose_config, post_settings
@@ -53,6 +56,9 @@ RESULT_NAMES = (
     "post_gyro_bias_y_dph",
     "post_gyro_bias_z_dph",
     "post_stationary_epochs",
+    "post_gnss_rejected",
+    "post_gnss_reinit",
+    "post_reference_screened",
     "post_heading_diff_mean_deg",
     "post_heading_diff_std_deg",
     "post_sm_heading_diff_mean_deg",
@@ -66,11 +72,26 @@ RESULT_NAMES = (
 
 def read(p):
     """The files of the ``post:`` section ``p``: (GNSS solutions, IMU log, reference Euler
-    angles or None); the IMU's units and axes checked against the solutions
-    (:func:`inins.io.imu_units.check_against_gnss`)."""
+    angles or None, the spikes); the IMU's units and axes checked against the solutions
+    (:func:`inins.io.imu_units.check_against_gnss`). Epochs whose position is a spike
+    (:func:`inins.ekf.gate.solution_spikes`, the outlier gate's bound) are left out, and a
+    velocity spike's velocity, before anything uses them: the spikes' times (s from the
+    file's first epoch) as (position, velocity)."""
     gnss, imu = post_inputs.read_gnss(p.gnss), post_inputs.read_imu(p.imu)
+    reference = post_inputs.read_reference_euler(p.gnss)
+    limit = gate.bound(p.outlier_gate.probability, p.outlier_gate.sigma_scale)
+    pos, vel = gate.solution_spikes(
+        gnss.time, gnss.lla, gnss.sigma_ned, gnss.vel_ned, gnss.sigma_vel, limit
+    )
+    found = (gnss.time[pos] - gnss.time[0], gnss.time[vel & ~pos] - gnss.time[0])
+    if vel.any():
+        nan = np.where(vel[:, None], np.nan, 1.0)
+        gnss = dataclasses.replace(gnss, vel_ned=gnss.vel_ned * nan, sigma_vel=gnss.sigma_vel * nan)
+    if pos.any():
+        gnss = gnss.select(~pos)
+        reference = None if reference is None else reference[~pos]
     imu_units.check_against_gnss(imu, gnss, p.imu.axes, **imu_units.post_settings(p))
-    return gnss, imu, post_inputs.read_reference_euler(p.gnss)
+    return gnss, imu, reference, found
 
 
 def compensation(scenario):
@@ -90,18 +111,31 @@ def filter_and_smooth(prepared, config, smooth):
         return post.solutions(fwd, sm, wall_f, wall_s)
 
 
-def score(gnss, prepared, done, settings):
+def score(gnss, prepared, done, settings, limit=math.inf):
     """Outage scores against the reference epochs of ``gnss`` (dict ``fwd``/``sm`` ->
-    :class:`~inins.ekf.outages.OutageScore`) and attitude differences against the
-    reference attitude (dict, empty without one)."""
+    :class:`~inins.ekf.outages.OutageScore`), attitude differences against the
+    reference attitude (dict, empty without one), and the times (s) of the reference
+    epochs left out: those the outlier gate (bound ``limit``) rejects
+    (:func:`inins.ekf.scoring.screen_references`)."""
     sel = gnss.q == settings.reference_q
+    ref_time, ref_lla = gnss.time[sel] - gnss.time[0], gnss.lla[sel]
     solutions = {"fwd": done.forward} | ({"sm": done.smoothed} if done.smoothed else {})
+    keep = scoring.screen_references(
+        done.time,
+        done.smoothed or done.forward,
+        settings.lever_arm,
+        ref_time,
+        ref_lla,
+        gnss.sigma_ned[sel] ** 2,
+        limit,
+        done.rejected[:, 0] | done.rejected[:, 1],
+    )
     scores = scoring.outage_scores(
         done.time,
         solutions,
         settings.lever_arm,
-        gnss.time[sel] - gnss.time[0],
-        gnss.lla[sel],
+        ref_time[keep],
+        ref_lla[keep],
         prepared.outages,
         prepared.t0,
         (settings.reference_q, str(gnss.path)),
@@ -115,20 +149,33 @@ def score(gnss, prepared, done, settings):
             prepared.reference_attitude,
             prepared.t0 + settings.score_from,
         )
-    return scores, attitude
+    return scores, attitude, ref_time[~keep]
 
 
 def run(scenario, seed, *, sink=None, progress=None):
     """Post-process the scenario's drive (module docstring)."""
     p = scenario.post
-    gnss, imu, reference = read(p)
+    gnss, imu, reference, found = read(p)
     settings = post_settings(p)
     prepared = post.prepare(gnss, imu, settings, reference, compensation(scenario))
     config = loose_config(p, prepared.dt, settings.lever_arm)
     done = filter_and_smooth(prepared, config, settings.smooth)
-    scores, attitude = score(gnss, prepared, done, settings)
+    limit = gate.bound(config.outlier_probability, config.outlier_sigma_scale)
+    scores, attitude, screened = score(gnss, prepared, done, settings, limit)
     out = _results(prepared, done, scores, attitude)
-    report = run_ekf_post_report.report(p, out, scores, prepared.fit, prepared.t0, prepared.outages)
+    out["post_reference_screened"] = int(screened.size)
+    out["post_gnss_rejected"] += int(found[0].size + found[1].size)
+    gated = run_ekf_post_report.Gated(
+        limit,
+        done.time[done.rejected.any(axis=1)] - prepared.t0,
+        done.time[done.reinit] - prepared.t0,
+        screened - prepared.t0,
+        found[0] - prepared.t0,
+        found[1] - prepared.t0,
+    )
+    report = run_ekf_post_report.report(
+        p, out, scores, prepared.fit, prepared.t0, prepared.outages, gated
+    )
     return CommandResult(
         command="run-ekf",
         results=out,
@@ -141,7 +188,8 @@ def run(scenario, seed, *, sink=None, progress=None):
 def _results(prepared, done, scores, attitude):
     """The flat results (lab units) of a run."""
     out = dict.fromkeys(RESULT_NAMES)
-    nis = done.innovation[:, :3] ** 2 / done.variance[:, :3]
+    used = ~(done.rejected[:, 0] | done.reinit)  # the fixes the filter took as they came
+    nis = done.innovation[used, :3] ** 2 / done.variance[used, :3]
     out.update(
         post_epochs=int(done.time.size),
         post_gnss_used=done.used,
@@ -150,6 +198,8 @@ def _results(prepared, done, scores, attitude):
         post_nis_pos_mean=float(np.nanmean(nis)) if np.isfinite(nis).any() else None,
         post_filter_wall_s=done.filter_wall_s,
         post_stationary_epochs=done.stationary,
+        post_gnss_rejected=int(np.sum(done.rejected.any(axis=1))),
+        post_gnss_reinit=int(np.sum(done.reinit)),
         post_smoother_wall_s=done.smoother_wall_s,
     )
     for key, prefix in (("fwd", ""), ("sm", "sm_")):
