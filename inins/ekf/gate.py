@@ -1,5 +1,6 @@
-"""The outlier gate of the loosely coupled filter's GNSS fixes (spec §6b), and the same
-test applied to the reference epochs of the outage scores.
+"""The outlier gate of the loosely coupled filter's GNSS fixes (spec §6b), the same
+bound screening a solution series for spikes before the filter (:func:`spikes`) and
+the reference epochs of the outage scores (:func:`screen`).
 
 A fix is a measurement vector: the antenna position (3 rows) or velocity (3 rows) of one
 solution epoch. With its innovation ``y`` (measured minus predicted), rows ``H`` and
@@ -12,7 +13,7 @@ the fix when ``NIS > k^2 chi2_3^-1(p)``: the chi-square(3) quantile of the accep
 probability ``p`` (the tight mode's ``gate_probability`` convention, there per scalar row
 with 1 degree of freedom), the innovation covariance tested scaled by ``k^2``
 (``sigma_scale``: 1 tests against the filter's own ``S``; a real MEMS filter on RTK
-fixes predicts its innovations up to some 30 times too small, see the scenario docs).
+fixes predicts its innovations up to 28 times too small, spec §6b).
 
 A gate alone rejects forever after a genuine jump of the solutions (a new datum, a wrong
 fix the receiver keeps): after ``reinit_after`` consecutive rejected epochs the next fix
