@@ -68,6 +68,8 @@ RESULT_NAMES = (
     "post_smoother_wall_s",
 )
 """Results of a ``post:`` run (null where not applicable)."""
+SPIKE_Q = -1
+"""The quality flag a position spike is given (:func:`read`): neither used nor a reference."""
 
 
 def read(p):
@@ -75,8 +77,9 @@ def read(p):
     angles or None, the spikes); the IMU's units and axes checked against the solutions
     (:func:`inins.io.imu_units.check_against_gnss`). Epochs whose position is a spike
     (:func:`inins.ekf.gate.solution_spikes`, the outlier gate's bound) are left out, and a
-    velocity spike's velocity, before anything uses them: the spikes' times (s from the
-    file's first epoch) as (position, velocity)."""
+    velocity spike's velocity, before anything uses them (a position spike keeps its row
+    under the quality flag :data:`SPIKE_Q`, which no scenario selects): the spikes' times
+    (s from the file's first epoch) as (position, velocity)."""
     gnss, imu = post_inputs.read_gnss(p.gnss), post_inputs.read_imu(p.imu)
     reference = post_inputs.read_reference_euler(p.gnss)
     limit = gate.bound(p.outlier_gate.probability, p.outlier_gate.sigma_scale)
@@ -87,10 +90,10 @@ def read(p):
     if vel.any():
         nan = np.where(vel[:, None], np.nan, 1.0)
         gnss = dataclasses.replace(gnss, vel_ned=gnss.vel_ned * nan, sigma_vel=gnss.sigma_vel * nan)
-    if pos.any():
-        gnss = gnss.select(~pos)
-        reference = None if reference is None else reference[~pos]
-    imu_units.check_against_gnss(imu, gnss, p.imu.axes, **imu_units.post_settings(p))
+    checked = gnss.select(~pos) if pos.any() else gnss
+    imu_units.check_against_gnss(imu, checked, p.imu.axes, **imu_units.post_settings(p))
+    if pos.any():  # kept in the record (its time axis and rows), under no quality flag
+        gnss = dataclasses.replace(gnss, q=np.where(pos, SPIKE_Q, gnss.q))
     return gnss, imu, reference, found
 
 
