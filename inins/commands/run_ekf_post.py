@@ -16,13 +16,16 @@ The run is read -> prepare -> filter -> smooth -> score -> write, each step a ca
 6. write: results in lab units, datasets and the report (:mod:`run_ekf_post_report`).
 """
 
+import dataclasses
+import math
+
 import numpy as np
 
 from inins.calibration.imu_model import compensate
 from inins.commands import run_ekf_post_report
 from inins.commands._compensation import scenario_terms
 from inins.core.units import DEG, UG
-from inins.ekf import gnss_time, motion_check, post, scoring
+from inins.ekf import gate, gnss_time, motion_check, post, scoring
 from inins.io import imu_units, post_inputs, scratch
 from inins.results import CommandResult, Series
 from inins.scenario.si.run_ekf_post import loose_config, post_settings
@@ -57,6 +60,9 @@ RESULT_NAMES = (
     "post_gyro_bias_y_dph",
     "post_gyro_bias_z_dph",
     "post_stationary_epochs",
+    "post_gnss_rejected",
+    "post_gnss_reinit",
+    "post_reference_screened",
     "post_heading_diff_mean_deg",
     "post_heading_diff_std_deg",
     "post_sm_heading_diff_mean_deg",
@@ -70,16 +76,35 @@ RESULT_NAMES = (
     "post_motion_heading_course_max_deg",
 )
 """Results of a ``post:`` run (null where not applicable)."""
+SPIKE_Q = -1
+"""The quality flag a position spike is given (:func:`read`): neither used nor a reference."""
 
 
 def read(p):
     """The files of the ``post:`` section ``p``: (GNSS solutions, IMU log, reference Euler
-    angles or None); the IMU's units and axes checked against the solutions
-    (:func:`inins.io.imu_units.check_against_gnss`)."""
+    angles or None, the spikes); the IMU's units and axes checked against the solutions
+    (:func:`inins.io.imu_units.check_against_gnss`). The solution times are GPS time
+    (:func:`inins.ekf.gnss_time.solution_on_gps_time`). Epochs whose position is a spike
+    (:func:`inins.ekf.gate.solution_spikes`, the outlier gate's bound) are left out, and a
+    velocity spike's velocity, before anything uses them (a position spike keeps its row
+    under the quality flag :data:`SPIKE_Q`, which no scenario selects): the spikes' times
+    (s from the file's first epoch) as (position, velocity)."""
     gnss = gnss_time.solution_on_gps_time(post_inputs.read_gnss(p.gnss))
     imu = post_inputs.read_imu(p.imu)
-    imu_units.check_against_gnss(imu, gnss, p.imu.axes, **imu_units.post_settings(p))
-    return gnss, imu, post_inputs.read_reference_euler(p.gnss)
+    reference = post_inputs.read_reference_euler(p.gnss)
+    limit = gate.bound(p.outlier_gate.probability, p.outlier_gate.sigma_scale)
+    pos, vel = gate.solution_spikes(
+        gnss.time, gnss.lla, gnss.sigma_ned, gnss.vel_ned, gnss.sigma_vel, limit
+    )
+    found = (gnss.time[pos] - gnss.time[0], gnss.time[vel & ~pos] - gnss.time[0])
+    if vel.any():
+        nan = np.where(vel[:, None], np.nan, 1.0)
+        gnss = dataclasses.replace(gnss, vel_ned=gnss.vel_ned * nan, sigma_vel=gnss.sigma_vel * nan)
+    checked = gnss.select(~pos) if pos.any() else gnss
+    imu_units.check_against_gnss(imu, checked, p.imu.axes, **imu_units.post_settings(p))
+    if pos.any():  # kept in the record (its time axis and rows), under no quality flag
+        gnss = dataclasses.replace(gnss, q=np.where(pos, SPIKE_Q, gnss.q))
+    return gnss, imu, reference, found
 
 
 def compensation(scenario):
@@ -99,18 +124,31 @@ def filter_and_smooth(prepared, config, smooth):
         return post.solutions(fwd, sm, wall_f, wall_s)
 
 
-def score(gnss, prepared, done, settings):
+def score(gnss, prepared, done, settings, limit=math.inf):
     """Outage scores against the reference epochs of ``gnss`` (dict ``fwd``/``sm`` ->
-    :class:`~inins.ekf.outages.OutageScore`) and attitude differences against the
-    reference attitude (dict, empty without one)."""
+    :class:`~inins.ekf.outages.OutageScore`), attitude differences against the
+    reference attitude (dict, empty without one), and the times (s) of the reference
+    epochs left out: those the outlier gate (bound ``limit``) rejects
+    (:func:`inins.ekf.scoring.screen_references`)."""
     sel = gnss.q == settings.reference_q
+    ref_time, ref_lla = gnss.time[sel] - gnss.time[0], gnss.lla[sel]
     solutions = {"fwd": done.forward} | ({"sm": done.smoothed} if done.smoothed else {})
+    keep = scoring.screen_references(
+        done.time,
+        done.smoothed or done.forward,
+        settings.lever_arm,
+        ref_time,
+        ref_lla,
+        gnss.sigma_ned[sel] ** 2,
+        limit,
+        done.rejected[:, 0] | done.rejected[:, 1],
+    )
     scores = scoring.outage_scores(
         done.time,
         solutions,
         settings.lever_arm,
-        gnss.time[sel] - gnss.time[0],
-        gnss.lla[sel],
+        ref_time[keep],
+        ref_lla[keep],
         prepared.outages,
         prepared.t0,
         (settings.reference_q, str(gnss.path)),
@@ -124,19 +162,30 @@ def score(gnss, prepared, done, settings):
             prepared.reference_attitude,
             prepared.t0 + settings.score_from,
         )
-    return scores, attitude
+    return scores, attitude, ref_time[~keep]
 
 
 def run(scenario, seed, *, sink=None, progress=None):
     """Post-process the scenario's drive (module docstring)."""
     p = scenario.post
-    gnss, imu, reference = read(p)
+    gnss, imu, reference, found = read(p)
     settings = post_settings(p)
     prepared = post.prepare(gnss, imu, settings, reference, compensation(scenario))
     config = loose_config(p, prepared.dt, settings.lever_arm)
     done = filter_and_smooth(prepared, config, settings.smooth)
-    scores, attitude = score(gnss, prepared, done, settings)
+    limit = gate.bound(config.outlier_probability, config.outlier_sigma_scale)
+    scores, attitude, screened = score(gnss, prepared, done, settings, limit)
     out = _results(prepared, done, scores, attitude)
+    out["post_reference_screened"] = int(screened.size)
+    out["post_gnss_rejected"] += int(found[0].size + found[1].size)
+    gated = run_ekf_post_report.Gated(
+        limit,
+        done.time[done.rejected.any(axis=1)] - prepared.t0,
+        done.time[done.reinit] - prepared.t0,
+        screened - prepared.t0,
+        found[0] - prepared.t0,
+        found[1] - prepared.t0,
+    )
     warnings = ()
     if p.init == "motion":
         out, warnings = _motion_heading(p, settings, prepared, done, config, out)
@@ -147,7 +196,7 @@ def run(scenario, seed, *, sink=None, progress=None):
         attrs |= {"time_origin_gps_week": start.week, "time_origin_gps_sow": start.sow}
         attrs["time_origin_utc"] = start.utc or ""
     report = run_ekf_post_report.report(
-        p, out, scores, prepared.fit, prepared.t0, prepared.outages, start
+        p, out, scores, prepared.fit, prepared.t0, prepared.outages, start, gated
     )
     return CommandResult(
         command="run-ekf",
@@ -200,7 +249,8 @@ def _motion_heading(p, settings, prepared, done, config, out):
 def _results(prepared, done, scores, attitude):
     """The flat results (lab units) of a run."""
     out = dict.fromkeys(RESULT_NAMES)
-    nis = done.innovation[:, :3] ** 2 / done.variance[:, :3]
+    used = ~(done.rejected[:, 0] | done.reinit)  # the fixes the filter took as they came
+    nis = done.innovation[used, :3] ** 2 / done.variance[used, :3]
     out.update(
         post_epochs=int(done.time.size),
         post_gnss_used=done.used,
@@ -209,6 +259,8 @@ def _results(prepared, done, scores, attitude):
         post_nis_pos_mean=float(np.nanmean(nis)) if np.isfinite(nis).any() else None,
         post_filter_wall_s=done.filter_wall_s,
         post_stationary_epochs=done.stationary,
+        post_gnss_rejected=int(np.sum(done.rejected.any(axis=1))),
+        post_gnss_reinit=int(np.sum(done.reinit)),
         post_smoother_wall_s=done.smoother_wall_s,
     )
     for key, prefix in (("fwd", ""), ("sm", "sm_")):

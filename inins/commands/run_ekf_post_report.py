@@ -1,6 +1,7 @@
 """The text report of a run-ekf post-processing run (``post:``)."""
 
 import math
+from typing import NamedTuple
 
 import numpy as np
 
@@ -41,9 +42,49 @@ def _time_mapping(fit, out):
     return lines
 
 
-def report(p, out, scores, fit, t0, wins, start=None):
+class Gated(NamedTuple):
+    """What the outlier gate did: its ``limit`` on a fix's NIS (inf: no gate) and the
+    times (s from the run start) of the epochs the filter ``rejected``, of those that
+    re-initialised it (``reinit``), of the reference epochs not scored (``screened``) and
+    of the position and velocity spikes left out before the filter (``spikes``,
+    ``vel_spikes``)."""
+
+    limit: float
+    rejected: np.ndarray
+    reinit: np.ndarray
+    screened: np.ndarray
+    spikes: np.ndarray
+    vel_spikes: np.ndarray
+
+
+def _times(t, most=12):
+    shown = ", ".join(f"{v:.2f}" for v in t[:most])
+    return shown + (f", ... ({len(t) - most} more)" if len(t) > most else "")
+
+
+def _gate_lines(p, out, gated):
+    g = p.outlier_gate
+    if not math.isfinite(gated.limit):
+        return ["outlier gate off (post.outlier_gate.probability: 1): every fix used"]
+    when = lambda t: f" at {_times(t)} s" if len(t) else ""  # noqa: E731
+    lines = [
+        f"outlier gate: a fix fails when its NIS exceeds {gated.limit:.4g} (chi-square(3) at "
+        f"{g.probability:g}, sigma x{g.sigma_scale:g}); {out['post_gnss_rejected']} epochs "
+        "rejected: spikes (failing against the epochs before and after, left out before the "
+        f"filter) {len(gated.spikes)}" + when(gated.spikes) + f", velocity spikes "
+        f"{len(gated.vel_spikes)}" + when(gated.vel_spikes) + ", by the filter's innovation "
+        f"{len(gated.rejected)}" + when(gated.rejected),
+        f"re-initialisations from the solution (after {g.reinit_after} rejected epochs): "
+        f"{out['post_gnss_reinit']}" + when(gated.reinit),
+        "reference epochs not scored (they fail the gate): "
+        f"{out['post_reference_screened']}" + when(gated.screened),
+    ]
+    return lines
+
+
+def report(p, out, scores, fit, t0, wins, start=None, gated=None):
     """The report's text; ``start`` the :class:`~inins.ekf.gnss_time.AbsoluteTime` of the
-    first epoch, or None."""
+    first epoch, or None; ``gated`` what the outlier gate did (:class:`Gated`), or None."""
     lines = [
         f"loosely coupled post-processing of {p.gnss.file.name} + {p.imu.file.name}: "
         f"{out['post_epochs']} epochs, {out['post_gnss_used']} GNSS updates, "
@@ -64,6 +105,8 @@ def report(p, out, scores, fit, t0, wins, start=None):
         f"; {out['post_stationary_epochs']} stationary epochs; mounting "
         f"{list(p.aiding.mounting_deg)} deg",
     ]
+    if gated is not None:
+        lines += _gate_lines(p, out, gated)
     if start is None:
         lines.append(
             "times are the solution file's from its first epoch (its tags are not absolute "

@@ -10,9 +10,11 @@ rows block by block are spec §6b:
 - Propagation once per GNSS epoch, ``F`` of EKF26 at the mid-interval INS state.
 - Update at the INS state after the IMU sample boundary nearest the solution's tag,
   ``lag = t_k - t_b + dt_g`` before it: the antenna position and velocity rows and the
-  vehicle aiding (:mod:`inins.ekf.rows`, :mod:`inins.ekf.aiding`), scalar Joseph
-  updates gated on chi-square(1); the NED sigmas taken as uncorrelated (RTKLIB's
-  ``sdne``, ``sdeu``, ``sdun`` are not used).
+  vehicle aiding (:mod:`inins.ekf.rows`, :mod:`inins.ekf.aiding`): each fix (position,
+  velocity) through the outlier gate of :mod:`inins.ekf.gate` (chi-square(3), with a
+  re-initialisation after ``reinit_after`` rejected epochs), then scalar Joseph updates
+  gated on chi-square(1); the NED sigmas taken as uncorrelated (RTKLIB's ``sdne``,
+  ``sdeu``, ``sdun`` are not used).
 - FB: the correction into the INS state and the sensor compensation, the states reset
   (``dt_g`` never: a parameter of the model). FF: the INS runs free, the output is
   ``nav (-) x``.
@@ -31,7 +33,7 @@ import numpy as np
 
 from inins.core import earth, error_model, rotation, stats
 from inins.core.error_model import EKF26, GROUPS, NAV15, TIME_OFFSET, StateLayout
-from inins.ekf import aiding, loose_kernel, step
+from inins.ekf import aiding, gate, loose_kernel, step
 from inins.ekf.kernels import NAV
 from inins.ekf.smoother import ForwardRecord, correct_many, default_store
 from inins.exceptions import InputError
@@ -70,7 +72,13 @@ class LooseConfig:
         Its random-walk density (s/sqrt(s)); 1e-6 (2e-5 s over 500 s) keeps it a
         constant.
     gate_probability : float
-        Chi-square(1) gate of each scalar row.
+        Chi-square(1) gate of each scalar row (1: none).
+    outlier_probability, outlier_sigma_scale : float
+        The outlier gate of each position and velocity fix (:mod:`inins.ekf.gate`): the
+        chi-square(3) acceptance probability (1: no gate) and the scale (>= 1) of the
+        innovation sigma tested against.
+    reinit_after : int
+        Consecutive rejected epochs after which a failing fix re-initialises (>= 1).
     window : int
         Samples averaged for ``f_b``, ``omega_b`` of the model and the lever-arm rate.
     nhc_sigma, zupt_sigma, zaru_sigma, odometer_sigma : float
@@ -94,6 +102,9 @@ class LooseConfig:
     time_offset_sigma: float = 0.5
     time_offset_walk: float = 1e-6
     gate_probability: float = 0.9999
+    outlier_probability: float = 0.999999
+    outlier_sigma_scale: float = 10.0
+    reinit_after: int = 10
     window: int = 1
     nhc_sigma: float = 0.0
     odometer_sigma: float = 0.0
@@ -122,6 +133,12 @@ class LooseConfig:
         object.__setattr__(self, "sigma0", sig)
         if not 0.5 < self.gate_probability <= 1.0:
             raise InputError("gate probability must be in (0.5, 1]", key="gate_probability")
+        if not 0.5 < self.outlier_probability <= 1.0:
+            raise InputError("gate probability must be in (0.5, 1]", key="outlier_probability")
+        if not 1.0 <= self.outlier_sigma_scale <= 1e3:
+            raise InputError("sigma scale must be in [1, 1000]", key="outlier_sigma_scale")
+        if not 1 <= self.reinit_after <= 100_000:
+            raise InputError("reinit_after must be in [1, 100000] epochs", key="reinit_after")
         for name in ("nhc_sigma", "zupt_sigma", "zaru_sigma", "odometer_sigma"):
             if not 0.0 <= getattr(self, name) < 100.0:
                 raise InputError("aiding sigma must be in [0, 100) (0: off)", key=name)
@@ -241,7 +258,9 @@ class LooseRun(ForwardRecord):
     smoother's :class:`~inins.ekf.smoother.ForwardRecord` and ``config``;
     ``innovation``, ``variance`` (m, 6), ``accepted`` (m, 6) per pos N/E/D, vel N/E/D
     row; ``used`` (m,) bool; ``aided`` (m, 9) accepted vehicle rows (NHC y, z, ZUPT N,
-    E, D, ZARU x, y, z, odometer); ``stationary`` (m,) the flag.
+    E, D, ZARU x, y, z, odometer); ``stationary`` (m,) the flag; the outlier gate's
+    ``nis`` (m, 2) of the position and velocity fixes (NaN: none), ``rejected`` (m, 2)
+    the fixes it rejected, ``reinit`` (m,) the re-initialising epochs (:mod:`inins.ekf.gate`).
     """
 
     config: LooseConfig
@@ -251,6 +270,9 @@ class LooseRun(ForwardRecord):
     used: np.ndarray
     aided: np.ndarray
     stationary: np.ndarray
+    nis: np.ndarray
+    rejected: np.ndarray
+    reinit: np.ndarray
 
     def output(self):
         """Forward navigation output ``N+ (-) (x - r)`` (quat, vel, lla), sensor estimates
@@ -273,6 +295,7 @@ _STORED = {
     "Phi": None,
     "innovation": 6,
     "variance": 6,
+    "nis": 2,
 }
 """The float arrays of a run per epoch: width, or None for ``n`` (``x``, ``r``) and
 ``(n, n)`` (the matrices)."""
@@ -339,6 +362,8 @@ def _model(cfg):
         lever=cfg.lever_arm,
         c_vb=cfg.c_vb(),
         aid_sigma=np.array([cfg.nhc_sigma, cfg.zupt_sigma, cfg.zaru_sigma, cfg.odometer_sigma]),
+        bound=gate.bound(cfg.outlier_probability, cfg.outlier_sigma_scale),
+        reinit_after=int(cfg.reinit_after),
     )
 
 
@@ -415,8 +440,9 @@ def run_loose(
     m, n = time.size, cfg.n
     shapes = _shapes(m, n)
     out = {k: store(k, s) for k, s in shapes.items()}
-    for name, width in (("accepted", 6), ("aided", 9), ("stationary", None)):
+    for name, width in (("accepted", 6), ("aided", 9), ("stationary", None), ("rejected", 2)):
         out[name] = store(name, (m,) if width is None else (m, width), np.bool_)
+    out["reinit"] = store("reinit", (m,), np.bool_)
     ins = step.Ins(
         initial.quat_nb.copy(),
         initial.vel_n.copy(),
@@ -430,6 +456,7 @@ def run_loose(
         comp=np.zeros(15),
         times=np.array([t0, 0.0]),  # the first epoch propagates from t0
         count=np.array([initial.count], np.int64),
+        rejected=np.zeros(1, np.int64),
     )
     model = _model(cfg)
     sample0 = 0
@@ -455,6 +482,9 @@ def run_loose(
             s=buf["variance"],
             acc=np.zeros((hi - lo, 6), np.bool_),
             aid=np.zeros((hi - lo, 9), np.bool_),
+            nis=buf["nis"],
+            rejected=np.zeros((hi - lo, 2), np.bool_),
+            reinit=np.zeros(hi - lo, np.bool_),
         )
         loose_kernel.run_block(
             np.ascontiguousarray(dtheta, float),
@@ -469,6 +499,8 @@ def run_loose(
             out[k][lo:hi] = v
         out["accepted"][lo:hi] = log.acc
         out["aided"][lo:hi] = log.aid
+        out["rejected"][lo:hi] = log.rejected
+        out["reinit"][lo:hi] = log.reinit
         out["stationary"][lo:hi] = stat
         sample0 = last
     return LooseRun(config=cfg, time=time, used=ep.use, n_sensors=cfg.n_base - NAV, **out)

@@ -15,35 +15,42 @@ from collections import namedtuple
 import numpy as np
 
 from inins.core import jit, strapdown
-from inins.ekf import aiding, kernels, step
+from inins.ekf import aiding, gate, kernels, step
 from inins.ekf import rows as ekf_rows
-from inins.ekf.kernels import BA, NAV
+from inins.ekf.kernels import BA, NAV, POS, VEL
 
-LooseState = namedtuple("LooseState", "x P comp times count")
+LooseState = namedtuple("LooseState", "x P comp times count rejected")
 """The filter's state, updated in place: ``x`` (n,), ``P`` (n, n), the FB sensor
 compensation ``comp`` (15,), ``times`` (2,) the time of the last epoch (``-inf`` before
 the first: no propagation then) and of the block's sample 0 (s), ``count`` (1,) int the
-IMU samples integrated."""
+IMU samples integrated, ``rejected`` (1,) int the consecutive epochs whose fix the
+outlier gate rejected."""
 LooseModel = namedtuple(
-    "LooseModel", "dt window feedback threshold n_base td keep noise lever c_vb aid_sigma"
+    "LooseModel",
+    "dt window feedback threshold n_base td keep noise lever c_vb aid_sigma bound reinit_after",
 )
 """Settings: IMU interval ``dt`` (s), ``window`` (samples averaged for ``f_b``,
-``omega_b``), ``feedback``, the gate ``threshold``, ``n_base`` (15 or 24), the time-offset
-state ``td`` (-1: none), ``keep`` (n_base,) the states' indices in EKF26, the ``noise``
-densities of :meth:`LooseConfig.noise` (the time offset's random walk last), the
-``lever`` arm (3,) m, ``c_vb`` (3, 3) and ``aid_sigma`` [nhc, zupt, zaru, odometer]
-(:func:`inins.ekf.aiding.vehicle_update`)."""
+``omega_b``), ``feedback``, the per-row gate ``threshold``, ``n_base`` (15 or 24), the
+time-offset state ``td`` (-1: none), ``keep`` (n_base,) the states' indices in EKF26, the
+``noise`` densities of :meth:`LooseConfig.noise` (the time offset's random walk last), the
+``lever`` arm (3,) m, ``c_vb`` (3, 3), ``aid_sigma`` [nhc, zupt, zaru, odometer]
+(:func:`inins.ekf.aiding.vehicle_update`), the outlier gate's ``bound`` on a fix's NIS
+(inf: none) and ``reinit_after`` (epochs) (:mod:`inins.ekf.gate`)."""
 LooseEpochs = namedtuple("LooseEpochs", "end frac pos var vel var_vel use stationary odometer")
 """A block's epochs (m,): ``end`` samples of the block up to the epoch's boundary
 (increasing), ``frac`` ``t_k`` minus that boundary (s), the solution's ECEF ``pos`` (m, 3)
 m and NED variances ``var`` (m^2), its NED ``vel`` (m, 3) (NaN: none) and ``var_vel``,
 ``use`` (bool: not coasted), ``stationary`` (bool), the ``odometer`` speed (m/s, NaN:
 none)."""
-LooseLog = namedtuple("LooseLog", "quat vel lla comp x r P P_pred Phi y s acc aid")
+LooseLog = namedtuple(
+    "LooseLog", "quat vel lla comp x r P P_pred Phi y s acc aid nis rejected reinit"
+)
 """Per epoch of a block (module docstring): ``N_k+`` (quat, vel, lla), ``comp``, ``x``,
 ``r``, ``P``, ``P_pred``, ``Phi``; the innovations ``y``, their variances ``s`` and
 gate verdicts ``acc`` (m, 6) of the rows pos N, E, D, vel N, E, D (NaN / False when
-unused); ``aid`` (m, 9) the accepted vehicle rows."""
+unused); ``aid`` (m, 9) the accepted vehicle rows; the outlier gate's ``nis`` (m, 2) of
+the position and velocity fixes (NaN: none), ``rejected`` (m, 2) the fixes it rejected
+and ``reinit`` (m,) the epochs that re-initialised (:mod:`inins.ekf.gate`)."""
 
 
 @jit.njit(cache=True)
@@ -76,19 +83,57 @@ def _propagate(state, model, mid, rates, dt_k, Phi, work):
 def _gnss_update(ins, state, model, ep, k, rates, log):
     """The solution of epoch ``k`` at the INS state after its boundary (``rates`` the
     averaged ``omega_b``, ``f_b`` there): antenna position rows, and velocity rows where
-    it has a velocity (:mod:`inins.ekf.rows`), gated scalar updates."""
+    it has a velocity (:mod:`inins.ekf.rows`); each fix through the outlier gate, then
+    gated scalar updates; after ``reinit_after`` rejected epochs a failing epoch
+    re-initialises the states its fixes measure (:mod:`inins.ekf.gate`)."""
     x, td = state.x, model.td
     ant = step.antenna(ins.quat, ins.vel, ins.lla, x, rates[0], model.lever)
     lag = ep.frac[k] + (x[td] if td >= 0 else 0.0)
     y, H, r = ekf_rows.antenna_position_rows(ant, ep.pos[k], ep.var[k], x, td, lag)
+    log.nis[k, 0] = gate.nis(state.P, H, y, r)
+    log.nis[k, 1] = np.nan
+    fail = log.nis[k, 0] > model.bound
+    log.rejected[k, 0] = fail
+    log.rejected[k, 1] = False
     if math.isfinite(ep.vel[k, 0]):
         # the acceleration carries the velocity over the lag: C_nb (f_b - ba) + g
         f_n = ant.mat_nb @ (rates[1] - x[BA : BA + 3])
         yv, Hv, rv = ekf_rows.antenna_velocity_rows(ant, ep.vel[k], ep.var_vel[k], f_n, x, td, lag)
+        log.nis[k, 1] = gate.nis(state.P, Hv, yv, rv)
+        log.rejected[k, 1] = log.nis[k, 1] > model.bound
         y, H, r = np.concatenate((y, yv)), np.vstack((H, Hv)), np.concatenate((r, rv))
     m = y.shape[0]
     acc, yy, ss = np.zeros(m, np.bool_), np.empty(m), np.empty(m)
-    kernels.sequential_update(x, state.P, H, y, r, model.threshold, acc, yy, ss)
+    if not (log.rejected[k, 0] or log.rejected[k, 1]):
+        state.rejected[0] = 0
+        kernels.sequential_update(x, state.P, H, y, r, model.threshold, acc, yy, ss)
+    else:
+        for i in range(m):  # the prior innovation of every row, for the record
+            yy[i] = y[i]
+            ss[i] = r[i] + H[i] @ state.P @ H[i]
+        if state.rejected[0] >= model.reinit_after:
+            states = np.empty(m, np.int64)
+            for i in range(m):  # position rows on POS, velocity rows on VEL
+                states[i] = POS + i if i < 3 else VEL + i - 3
+            gate.reinitialise(x, state.P, log.P_pred[k], H, y, r, states)
+            acc[:] = True
+            log.rejected[k, 0] = False
+            log.rejected[k, 1] = False
+            log.reinit[k] = True
+            state.rejected[0] = 0
+        else:
+            state.rejected[0] += 1
+            keep = np.zeros(m, np.bool_)  # the rows of the fix that passed, if any
+            for i in range(m):
+                keep[i] = not log.rejected[k, 0 if i < 3 else 1]
+            if keep.any():
+                ok = np.flatnonzero(keep)
+                a2, y2, s2 = np.zeros(ok.size, np.bool_), np.empty(ok.size), np.empty(ok.size)
+                kernels.sequential_update(
+                    x, state.P, H[ok], y[ok], r[ok], model.threshold, a2, y2, s2
+                )
+                for j in range(ok.size):
+                    acc[ok[j]], yy[ok[j]], ss[ok[j]] = a2[j], y2[j], s2[j]
     log.y[k, :m] = yy
     log.s[k, :m] = ss
     log.acc[k, :m] = acc
@@ -176,6 +221,9 @@ def run_block(dtheta, dv, ins, state, ep, model, log):
         log.y[k].fill(np.nan)
         log.s[k].fill(np.nan)
         log.acc[k].fill(False)
+        log.nis[k].fill(np.nan)
+        log.rejected[k].fill(False)
+        log.reinit[k] = False
         if ep.use[k]:
             _gnss_update(ins, state, model, ep, k, rates, log)
         sig = model.aid_sigma

@@ -411,7 +411,8 @@ class PostRun:
     ``innovation``, ``variance`` (m, 6) of the position and velocity rows; ``used``
     GNSS updates and ``stationary`` epochs (counts); ``offset`` (estimate, 1-sigma) s of
     the time-offset state (the smoothed one at the start, else the last forward one),
-    or None; wall times (s)."""
+    or None; wall times (s); the outlier gate's ``rejected`` (m, 2) position and velocity
+    fixes and ``reinit`` (m,) re-initialising epochs (:mod:`inins.ekf.gate`)."""
 
     time: np.ndarray
     forward: Solution
@@ -423,6 +424,8 @@ class PostRun:
     offset: tuple | None
     filter_wall_s: float
     smoother_wall_s: float | None
+    rejected: np.ndarray
+    reinit: np.ndarray
 
 
 def solutions(run, sm, filter_wall_s, smoother_wall_s=None):
@@ -452,4 +455,6 @@ def solutions(run, sm, filter_wall_s, smoother_wall_s=None):
         offset=offset,
         filter_wall_s=filter_wall_s,
         smoother_wall_s=smoother_wall_s,
+        rejected=np.array(run.rejected),
+        reinit=np.array(run.reinit),
     )

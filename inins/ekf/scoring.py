@@ -19,7 +19,7 @@ import numpy as np
 
 from inins.core import error_model, rotation
 from inins.core.satellites import LETTERS
-from inins.ekf import loose, outages, recorded
+from inins.ekf import gate, loose, outages, recorded
 from inins.exceptions import InputError
 
 
@@ -110,6 +110,51 @@ def outage_scores(time, solutions, lever_arm, ref_time, ref_lla, windows, t0=0.0
         antenna = loose.antenna_positions(s.quat, s.lla, lever_arm, s.vel, s.offset)
         out[name] = outages.score(time[hit], antenna[hit], None, ref, None, windows)
     return out
+
+
+def screen_references(time, solution, lever_arm, ref_time, ref_lla, ref_var, limit, rejected):
+    """Reference epochs fit to score against: those the outlier gate would pass
+    (:func:`inins.ekf.gate.screen`).
+
+    A reference epoch at a solution epoch is tested against that epoch's antenna position
+    (``solution``, :class:`inins.ekf.post.Solution`: the smoothed one where there is one,
+    which no unused epoch has moved), with the variance of both per axis; one whose
+    position fix the filter's gate rejected (``rejected`` (m,) bool at ``time``) fails
+    too. ``limit`` the gate's bound on the NIS (inf: nothing screened).
+
+    Parameters
+    ----------
+    time : ndarray (m,)
+        Solution epochs (s).
+    solution : inins.ekf.post.Solution
+    lever_arm : ndarray (3,)
+        Antenna minus IMU, body axes (m).
+    ref_time, ref_lla, ref_var : ndarray (r,), (r, 3), (r, 3)
+        Reference epochs (s), antenna positions and NED variances (m^2).
+    limit : float
+    rejected : ndarray (m,) bool
+
+    Returns
+    -------
+    ndarray (r,) bool
+        True for the reference epochs kept.
+    """
+    keep = np.ones(ref_time.size, bool)
+    if not math.isfinite(limit) or not ref_time.size or not time.size:
+        return keep
+    idx, hit = reference_hits(time, ref_time)
+    at = idx[hit]
+    antenna = loose.antenna_positions(
+        solution.quat[at],
+        solution.lla[at],
+        lever_arm,
+        solution.vel[at],
+        None if solution.offset is None else solution.offset[at],
+    )
+    diff = error_model.position_error_ned(ref_lla[hit], antenna)
+    var = ref_var[hit] + solution.sigma[at, :3] ** 2
+    keep[hit] = ~(gate.screen(diff, var, limit) | rejected[at])
+    return keep
 
 
 @dataclass(frozen=True)

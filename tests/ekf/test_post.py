@@ -123,3 +123,26 @@ def test_attitude_differences_are_estimate_minus_reference():
     assert d.heading_mean == pytest.approx(0.5 * DEG, abs=1e-12)
     assert d.heading_std == pytest.approx(0.0, abs=1e-12)
     assert d.tilt_mean_max == pytest.approx(0.2 * DEG, abs=1e-12)
+
+
+def test_reference_epochs_failing_the_gate_are_not_scored():
+    """References on the solution (0.1 m sigma each) but epoch 12 10 m off (NIS 5000 over
+    the default bound 3066) and epoch 14 4 m off (800): 12 is dropped, 14 kept; epoch 30
+    the filter rejected is dropped too; with the gate off (bound inf) every one is kept."""
+    from inins.ekf import gate
+
+    t = np.arange(0.0, 40.0)
+    lla = error_model.lla_offset(np.broadcast_to(LLA0, (40, 3)), np.zeros((40, 3)))
+    off = np.zeros((40, 3))
+    off[12, 0], off[14, 1] = 10.0, 4.0
+    ref = error_model.lla_offset(lla, off)
+    quat = np.tile(rotation.quat_from_mat(np.eye(3)), (40, 1))
+    sol = Solution(quat, np.zeros((40, 3)), lla, np.zeros((40, 6)), np.full((40, 15), 0.1), None)
+    rejected = np.zeros(40, bool)
+    rejected[30] = True
+    var = np.full((40, 3), 0.01)
+    limit = gate.bound(0.999999, 10.0)
+    keep = scoring.screen_references(t, sol, np.zeros(3), t, ref, var, limit, rejected)
+    assert np.flatnonzero(~keep).tolist() == [12, 30]
+    everything = scoring.screen_references(t, sol, np.zeros(3), t, ref, var, np.inf, rejected)
+    assert everything.all()
