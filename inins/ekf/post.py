@@ -55,12 +55,14 @@ class TimeSettings:
 @dataclass(frozen=True)
 class OutageSettings:
     """Outage windows (s from the run start): every ``every`` for ``length`` from
-    ``first`` (None: ``every``), and explicit ``windows``."""
+    ``first`` (None: ``every``), at most ``count`` of them (None: as many as fit), and
+    explicit ``windows``."""
 
     every: float | None = None
     length: float | None = None
     first: float | None = None
     windows: tuple = ()
+    count: int | None = None
 
 
 @dataclass(frozen=True, eq=False)
@@ -276,7 +278,7 @@ def outage_windows(settings, t0, t_end):
         first = None if settings.first is None else t0 + settings.first
         wins += outages.periodic_windows(
             t0, t_end, settings.every, settings.length, first, key="post.outages"
-        )
+        )[: settings.count]
     if settings.windows:
         wins += outages.check_windows(
             [(t0 + a, t0 + b) for a, b in settings.windows], t0, t_end, key="post.outages.windows"

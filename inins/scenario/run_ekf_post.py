@@ -8,7 +8,7 @@ solution file). Lab units at this edge (deg, deg/h, ug, ppm); SI inside.
 
 from typing import Annotated, Literal
 
-from pydantic import Field, model_validator
+from pydantic import Field, PositiveInt, model_validator
 
 from inins.scenario.base import InputFile
 from inins.scenario.base import ScenarioSection as Section
@@ -248,6 +248,11 @@ class Outages(Section):
     length_s: PositiveFloat | None = Field(None, description="length of each outage (s)")
     first_s: NonNegFloat | None = Field(
         None, description="start of the first, from the run start (s); default every_s"
+    )
+    count: PositiveInt | None = Field(
+        None,
+        description="at most this many periodic outages, e.g. 11 of 15 s every 45 s from "
+        "40 s, a peer's placement; default as many as fit (1)",
     )
     windows: list[tuple[float, float]] = Field(
         [], description="explicit windows [start, end) (s, from the run start)"

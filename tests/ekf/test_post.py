@@ -84,6 +84,10 @@ def test_outage_windows_from_the_run_start():
         (300.0, 310.0),
         (340.0, 355.0),
     )
+    # a peer's placement: 15 s every three outage lengths from 40 s, eleven of them
+    peer = post.OutageSettings(every=45.0, length=15.0, first=40.0, count=11)
+    wins = post.outage_windows(peer, 0.0, 1000.0)
+    assert len(wins) == 11 and wins[0] == (40.0, 55.0) and wins[-1] == (490.0, 505.0)
 
 
 def _solution(lla, quat):

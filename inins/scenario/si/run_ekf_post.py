@@ -78,7 +78,7 @@ def post_settings(p):
         init_reference=p.init == "reference",
         init_heading_error=p.init_heading_error_deg * DEG,
         lever_arm=np.asarray(p.lever_arm_m, float),
-        outages=post.OutageSettings(o.every_s, o.length_s, o.first_s, tuple(o.windows)),
+        outages=post.OutageSettings(o.every_s, o.length_s, o.first_s, tuple(o.windows), o.count),
         stationary_windows=None
         if p.aiding.stationary_windows_s is None
         else tuple(p.aiding.stationary_windows_s),
