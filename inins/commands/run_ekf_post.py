@@ -132,8 +132,8 @@ def score(gnss, prepared, done, settings):
 def run(scenario, seed, *, sink=None, progress=None):
     """Post-process the scenario's drive (module docstring)."""
     p = scenario.post
+    ref = run_ekf_post_reference.read(p.reference)  # a bad reference before the long reads
     gnss, imu, reference = read(p)
-    ref = run_ekf_post_reference.read(p.reference)
     settings = post_settings(p)
     prepared = post.prepare(gnss, imu, settings, reference, compensation(scenario))
     config = loose_config(p, prepared.dt, settings.lever_arm)

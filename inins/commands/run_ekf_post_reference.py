@@ -141,7 +141,8 @@ def report_lines(r, out):
             if v[0] is not None:
                 cells.append(f"{key} {' / '.join(_f(x) for x in v)}")
         if cells:
-            lines.append(f"  {q} error ({unit}): " + "; ".join(cells))
+            shown = "m/s" if unit == "mps" else unit
+            lines.append(f"  {q} error ({shown}): " + "; ".join(cells))
     if out["post_ref_fwd_heading_mean_deg"] is not None:
         lines.append(
             f"  heading error mean (solution minus reference): forward "

@@ -115,7 +115,7 @@ def read_reference_csv(path, columns, angle_unit="deg", time_scale=1.0, time_sys
     get["time"], scale = sf._grid(time_scale * get["time"], time_system)
     rows = RowNames(path, line=line, keys=sf._csv_keys(columns))
     have = set(order) - set(ATTITUDE)
-    sol = sf._solution(path, get, have, angle_unit, rows, line, sigma=1.0)
+    sol = sf._solution(path, get, have, angle_unit, rows, line, sigma=1.0, sigma_vel=1.0)
     euler = _euler(get, columns, angle_unit, rows)
     return ReferenceFile(dataclasses.replace(sol, time_system=scale), euler)
 
@@ -128,7 +128,7 @@ def read_reference_mat(
     path = str(path)
     pos = {r: int(c) for r, c in columns.items() if r not in ATTITUDE}
     sol = sf.read_solution_mat(
-        path, variable, pos, angle_unit, 1.0, None, time_system, key=_KEY, time_scale=time_scale
+        path, variable, pos, angle_unit, 1.0, 1.0, time_system, key=_KEY, time_scale=time_scale
     )
     att = [r for r in ATTITUDE if r in columns]
     if not att:
