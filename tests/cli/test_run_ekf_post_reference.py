@@ -2,6 +2,7 @@
 reference trajectory derived from its own RTK fixes (UTC time tags, a known 1 m north
 offset), and a bad reference file (exit 2 naming file and line)."""
 
+import importlib.util
 import json
 
 import h5py
@@ -75,7 +76,8 @@ def scenario(tmp_path, ref):
 @pytest.fixture(scope="module")
 def scored(tmp_path_factory):
     path = tmp_path_factory.mktemp("lc15-reference")
-    out = run(scenario(path, reference_csv(path / "ref.csv")), "-o", path / "out")
+    plot = ["--plot"] if importlib.util.find_spec("matplotlib") else []
+    out = run(scenario(path, reference_csv(path / "ref.csv")), "-o", path / "out", *plot)
     assert out.exit_code == 0, out.output
     return path / "out"
 
@@ -112,6 +114,9 @@ def test_reference_offset_moves_the_scores_by_it(scored):
     assert fwd_shifted == pytest.approx(r["post_fwd_drift_hor_rms_m"], abs=NORTH_M + 0.01)
     report = (scored / "run-ekf.txt").read_text()
     assert "against the reference trajectory ref.csv" in report
+    if importlib.util.find_spec("matplotlib"):
+        for name in ("trajectory", "horizontal-error"):
+            assert (scored / f"run-ekf-post-{name}.png").stat().st_size > 10_000
 
 
 def _bad(tmp_path, kind):
