@@ -148,3 +148,24 @@ def test_bad_reference_exit_2_naming_file_and_line(tmp_path, kind, expect):
     for text in expect:
         assert text in out.stderr, out.stderr
     assert not (tmp_path / "out").exists() or list((tmp_path / "out").iterdir()) == []
+
+
+@pytest.mark.parametrize(
+    ("edit", "expect"),
+    [
+        (("vel_u: vu}", "vel_u: vu, sigma_n: s}"), ["post.reference.columns.sigma_n"]),
+        (("vel_u: vu}", "vel_u: vu, roll: r}"), ["post.reference.columns.heading", "alone"]),
+        (("format: csv", "format: rtklib"), ["post.reference.columns", "no columns"]),
+        (("time_system: unix", "time_system: tai"), ["post.reference.time_system"]),
+        (("lever_arm_m: [0.0, -0.05, 0.0]", "lever_arm_m: [0.0, 500, 0.0]"), ["lever_arm_m"]),
+        (("time_system: unix", "time_system: unix\n    colour: red"), ["post.reference.colour"]),
+    ],
+)
+def test_bad_reference_section_exit_2_naming_the_key(tmp_path, edit, expect):
+    """A wrong ``post.reference`` section is refused when the scenario is loaded."""
+    path = scenario(tmp_path, reference_csv(tmp_path / "ref.csv"))
+    path.write_text(path.read_text().replace(*edit))
+    out = run(path, "-o", tmp_path / "out")
+    assert out.exit_code == 2, out.output
+    for text in expect:
+        assert text in out.stderr, out.stderr
