@@ -48,7 +48,9 @@ def test_constant_offset_gives_that_rms_and_only_epochs_in_the_span():
     (within 1 mm: linear interpolation of a straight line), the error's north component
     -1 m (solution minus reference), vertical 0 (within 1 mm); the 60 reference epochs
     inside [0, 60) s only."""
-    sc = reference_scoring.reference_errors(T, _drive(T), np.zeros(3), REF_T, _reference(REF_T, 1.0))
+    sc = reference_scoring.reference_errors(
+        T, _drive(T), np.zeros(3), REF_T, _reference(REF_T, 1.0)
+    )
     assert sc.time.size == 60 and sc.time[0] == pytest.approx(0.37)
     np.testing.assert_allclose(sc.pos_ned[:, 0], -1.0, atol=1e-3)
     s = sc.stats()
