@@ -12,7 +12,8 @@ The run is read -> prepare -> filter -> smooth -> score -> write, each step a ca
 4. smooth (:func:`inins.ekf.post.smooth`, RTS);
 5. score (:mod:`inins.ekf.scoring`): antenna positions of the forward and smoothed
    solutions against the reference epochs (quality flag ``reference_q`` of the file)
-   in the outage windows, the attitude against a reference attitude;
+   in the outage windows, the attitude against a reference attitude; with a
+   ``reference:`` section, against that trajectory too (:mod:`run_ekf_post_reference`);
 6. write: results in lab units, datasets and the report (:mod:`run_ekf_post_report`).
 """
 
@@ -22,7 +23,7 @@ import math
 import numpy as np
 
 from inins.calibration.imu_model import compensate
-from inins.commands import run_ekf_post_report
+from inins.commands import run_ekf_post_reference, run_ekf_post_report
 from inins.commands._compensation import scenario_terms
 from inins.core.units import DEG, UG
 from inins.ekf import gate, gnss_time, motion_check, post, scoring
@@ -74,6 +75,7 @@ RESULT_NAMES = (
     "post_start_gps_sow_s",
     "post_motion_heading_course_deg",
     "post_motion_heading_course_max_deg",
+    *run_ekf_post_reference.NAMES,
 )
 """Results of a ``post:`` run (null where not applicable)."""
 SPIKE_Q = -1
@@ -168,6 +170,7 @@ def score(gnss, prepared, done, settings, limit=math.inf):
 def run(scenario, seed, *, sink=None, progress=None):
     """Post-process the scenario's drive (module docstring)."""
     p = scenario.post
+    ref = run_ekf_post_reference.read(p.reference)  # a bad reference before the long reads
     gnss, imu, reference, found = read(p)
     settings = post_settings(p)
     prepared = post.prepare(gnss, imu, settings, reference, compensation(scenario))
@@ -175,7 +178,8 @@ def run(scenario, seed, *, sink=None, progress=None):
     done = filter_and_smooth(prepared, config, settings.smooth)
     limit = gate.bound(config.outlier_probability, config.outlier_sigma_scale)
     scores, attitude, screened = score(gnss, prepared, done, settings, limit)
-    out = _results(prepared, done, scores, attitude)
+    ref_scores = run_ekf_post_reference.score(ref, p.reference, gnss, prepared, done)
+    out = _results(prepared, done, scores, attitude) | run_ekf_post_reference.results(ref_scores)
     out["post_reference_screened"] = int(screened.size)
     out["post_gnss_rejected"] += int(found[0].size + found[1].size)
     gated = run_ekf_post_report.Gated(
@@ -198,10 +202,12 @@ def run(scenario, seed, *, sink=None, progress=None):
     report = run_ekf_post_report.report(
         p, out, scores, prepared.fit, prepared.t0, prepared.outages, start, gated
     )
+    report = "\n".join([report, *run_ekf_post_reference.report_lines(p.reference, out)])
     return CommandResult(
         command="run-ekf",
         results=out,
-        datasets=_datasets(p, gnss, prepared, done, scores, attitude),
+        datasets=_datasets(p, gnss, prepared, done, scores, attitude)
+        | run_ekf_post_reference.datasets(ref, p.reference, gnss, ref_scores),
         attrs={"post": attrs},
         report=report,
         warnings=warnings,

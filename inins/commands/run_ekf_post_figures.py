@@ -1,5 +1,7 @@
 """run-ekf figures of a post-processing run (``post:``), each named for what it shows:
-the track against the reference fixes, the horizontal error with its 3-sigma, the
+the track against the reference fixes (and the ``post.reference`` trajectory where the
+scenario gives one), the horizontal error with its 3-sigma (and against that
+trajectory), the
 sensor estimates with their 3-sigma, the innovations with theirs, and the attitude
 against a reference attitude where the solution file gives one. Outage windows are
 shaded in every figure over time."""
@@ -62,6 +64,9 @@ def trajectory(result, path):
     fig, ax = plt.subplots(figsize=(7, 7), layout="constrained")
     e, n = _local(ref, origin)
     ax.plot(e, n, ".", ms=2, color="0.5", label="reference fixes")
+    if REF_LLA in ds:
+        e_r, n_r = _local(ds[REF_LLA].data, origin)
+        ax.plot(e_r, n_r, "-", lw=0.8, color="k", label="reference trajectory")
     lever = ds["post/lever_arm"].data
     for key, style in SOLUTIONS:
         if f"post/{key}/lla" in ds:
@@ -85,6 +90,22 @@ def beyond_3_sigma(err, sigma):
     if err.size == 0:
         return float("nan")
     return float(np.mean(err > 3.0 * sigma))
+
+
+REF_LLA = "post/reference_trajectory/lla"
+"""The ``post.reference`` trajectory's positions, where the scenario gives one."""
+
+
+def _against_reference(ax, ds, key, color):
+    """The horizontal error of solution ``key`` against the ``post.reference``
+    trajectory (its point), where the run has one."""
+    name = f"post/reference_trajectory/{key}/pos_error_ned"
+    if name not in ds:
+        return
+    d = ds[name].data
+    t = ds[f"post/reference_trajectory/{key}/time"].data
+    ax.plot(t, np.hypot(d[:, 0], d[:, 1]), "-.", color=color, lw=0.7,
+            label=f"{key} against the reference trajectory")  # fmt: skip
 
 
 def horizontal_error(result, path):
@@ -112,6 +133,7 @@ def horizontal_error(result, path):
         (line,) = ax.plot(t[hit], err, lw=0.8, label=f"{key} error")
         ax.plot(t[hit], 3 * sig_h, ":", color=line.get_color(), lw=0.9, label=f"{key} 3 sigma")
         beyond.append(f"{key} {100 * beyond_3_sigma(err, sig_h):.1f} %")
+        _against_reference(ax, ds, key, line.get_color())
     ax.set_yscale("log")
     ax.set_title(f"epochs beyond 3 sigma: {', '.join(beyond)} (0.01 % if honest)", fontsize=9)
     ax.set_xlabel("time from the first GNSS epoch (s)")

@@ -466,20 +466,30 @@ def read_solution_csv(
 
 
 def read_solution_mat(
-    path, variable, columns, angle_unit="rad", sigma=None, sigma_vel=None, time_system="gps"
+    path,
+    variable,
+    columns,
+    angle_unit="rad",
+    sigma=None,
+    sigma_vel=None,
+    time_system="gps",
+    *,
+    key="post.gnss",
+    time_scale=1.0,
 ):
     """Solutions from a 2-D array in a .mat file: ``columns`` role -> 0-based column index
     (roles and their rule as :data:`CSV_ROLES`, :func:`role_problem`; ECEF ``x y z``
     too); constant ``sigma`` (m) / ``sigma_vel`` (m/s) where the array has no sigma
-    columns. Rows are named 1-based (as MATLAB counts) with the variable."""
+    columns; seconds = ``time_scale`` times the time column. Rows are named 1-based (as
+    MATLAB counts) with the variable; ``key`` the scenario section in messages."""
     path = str(path)
-    _roles(columns, sigma is None, "post.gnss.columns")
-    a = matfile.mat_array(path, variable, "post.gnss.mat_variable", min_rows=2)
+    _roles(columns, sigma is None, f"{key}.columns")
+    a = matfile.mat_array(path, variable, f"{key}.mat_variable", min_rows=2)
     order = list(columns)
-    values = matfile.columns(a, [columns[r] for r in order], path, variable, "post.gnss.columns")
+    values = matfile.columns(a, [columns[r] for r in order], path, variable, f"{key}.columns")
     get = {r: values[:, k] for k, r in enumerate(order)}
     line = np.arange(1, a.shape[0] + 1)
-    get["time"], scale = _grid(get["time"], time_system)
+    get["time"], scale = _grid(time_scale * get["time"], time_system)
     rows = RowNames(path, base=1, keys=dict.fromkeys(TEXT_KEYS, variable))
     sol = _solution(path, get, set(order), angle_unit, rows, line, sigma, sigma_vel)
     return dataclasses.replace(sol, time_system=scale)

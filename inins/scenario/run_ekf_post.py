@@ -12,6 +12,7 @@ from pydantic import Field, PositiveInt, model_validator
 
 from inins.scenario.base import InputFile
 from inins.scenario.base import ScenarioSection as Section
+from inins.scenario.run_ekf_reference import ReferenceTrajectory
 from inins.scenario.types import LeverArm, MountingAngles, NonNegFloat, PositiveFloat, Sigma
 from inins.scenario.validation import KeyPathError
 
@@ -423,6 +424,11 @@ class PostProcess(Section):
     outages: Outages = Field(default_factory=Outages)
     reference_q: int = Field(
         1, description="quality flag of the epochs the outages are scored against (1: fix)"
+    )
+    reference: ReferenceTrajectory | None = Field(
+        None,
+        description="an independent reference trajectory the forward and smoothed "
+        "solutions are scored against, besides the reference_q epochs (section)",
     )
     export: list[Literal["csv", "pos", "geojson"]] = Field(
         [],
