@@ -16,7 +16,10 @@ def _leftovers():
     return sorted(Path(tempfile.gettempdir()).glob("inins-simulation-*"))
 
 
-def test_spilled_and_in_memory_records_give_identical_results(monkeypatch):
+def test_spilled_and_in_memory_records_give_identical_results(monkeypatch, tmp_path):
+    # a temporary folder of this test's own: another process's spilled simulation (a
+    # second test worker) never shows in the count
+    monkeypatch.setattr(tempfile, "tempdir", str(tmp_path))
     before = _leftovers()
     cases = (
         (
