@@ -97,24 +97,10 @@ def read_reference_csv(path, columns, angle_unit="deg", time_scale=1.0, time_sys
     ReferenceFile
     """
     path = str(path)
-    head = sf._csv_header(path)
-    for role, name in columns.items():
-        if name not in head:
-            raise InputError(
-                f"column {name!r} (for {role}) not in the header {head}",
-                source=path,
-                line=1,
-                key=f"{_KEY}.columns.{role}",
-            )
-    order = list(columns)
-    index = [head.index(columns[r]) for r in order]
-    values, line = sf._csv_rows(path, index, {head.index(columns[r]): columns[r] for r in order})
-    if line.size == 0:
-        raise InputError("no data rows", source=path, line=2)
-    get = {r: values[:, k] for k, r in enumerate(order)}
+    get, line = sf.named_columns(path, columns, f"{_KEY}.columns")
     get["time"], scale = sf._grid(time_scale * get["time"], time_system)
     rows = RowNames(path, line=line, keys=sf._csv_keys(columns))
-    have = set(order) - set(ATTITUDE)
+    have = set(columns) - set(ATTITUDE)
     sol = sf._solution(path, get, have, angle_unit, rows, line, sigma=1.0, sigma_vel=1.0)
     euler = _euler(get, columns, angle_unit, rows)
     return ReferenceFile(dataclasses.replace(sol, time_system=scale), euler)

@@ -397,6 +397,27 @@ def _csv_rows(path, head_index, roles):
     return np.frombuffer(values).reshape(m, len(head_index)), np.asarray(lines, np.int64)
 
 
+def named_columns(path, columns, key):
+    """The columns ``{role: header name}`` of a CSV file with a header row, as
+    ``({role: values (m,)}, line numbers (m,))``; a name not in the header, or no data
+    row, is bad input naming the file and the scenario ``key`` (``key.role``)."""
+    head = _csv_header(path)
+    for role, name in columns.items():
+        if name not in head:
+            raise InputError(
+                f"column {name!r} (for {role}) not in the header {head}",
+                source=path,
+                line=1,
+                key=f"{key}.{role}",
+            )
+    order = list(columns)
+    index = [head.index(columns[r]) for r in order]
+    values, line = _csv_rows(path, index, {head.index(columns[r]): columns[r] for r in order})
+    if line.size == 0:
+        raise InputError("no data rows", source=path, line=2)
+    return {r: values[:, k] for k, r in enumerate(order)}, line
+
+
 def _csv_header(path):
     try:
         for _, text in textlines.lines(path, what="a CSV solution file"):
@@ -444,24 +465,10 @@ def read_solution_csv(
     _roles(columns, True, "columns")
     if angle_unit not in ("deg", "rad"):
         raise InputError("angle unit must be deg or rad", key="angle_unit")
-    head = _csv_header(path)
-    for role, name in columns.items():
-        if name not in head:
-            raise InputError(
-                f"column {name!r} (for {role}) not in the header {head}",
-                source=path,
-                line=1,
-                key=f"columns.{role}",
-            )
-    order = list(columns)
-    index = [head.index(columns[r]) for r in order]
-    values, line = _csv_rows(path, index, {head.index(columns[r]): columns[r] for r in order})
-    if line.size == 0:
-        raise InputError("no data rows", source=path, line=2)
-    get = {r: values[:, k] for k, r in enumerate(order)}
+    get, line = named_columns(path, columns, "columns")
     get["time"], scale = _grid(time_offset + time_scale * get["time"], time_system)
     rows = RowNames(path, line=line, keys=_csv_keys(columns))
-    sol = _solution(path, get, set(order), angle_unit, rows, line)
+    sol = _solution(path, get, set(columns), angle_unit, rows, line)
     return dataclasses.replace(sol, time_system=scale)
 
 
